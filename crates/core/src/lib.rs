@@ -1,0 +1,12 @@
+//! Shared types of gearcomp that several capabilities agree on.
+//!
+//! * [`model`]: the thermal model file format. `gearcomp fit` (identification) writes it,
+//!   the compensation engine (`gearcomp-thermal`) loads and runs it. It is the one
+//!   contract between identification and the runtime; change it only additively.
+//! * [`fsio`]: writing output files atomically, so a crash never leaves a half-written file.
+
+pub mod error;
+pub mod fsio;
+pub mod model;
+
+pub use error::{CoreError, Result};

@@ -1,0 +1,437 @@
+//! The thermal model file: the contract between identification (`gearcomp fit`) and the
+//! compensation engine (`gearcomp-thermal`, `gearcomp replay`, `gearcomp serve`).
+//!
+//! # Format
+//! A TOML (or JSON) document, `format = "gearcomp-thermal-model/1"`. It holds one
+//! [`AxisModel`] per compensated axis. Each axis offset is
+//!
+//! ```text
+//! offset_um = δM + δT
+//! δM = intercept + Σ coefficient_i · transform_i(channel_i)          (machine error)
+//! δT = shrink(Ta − Tb),  Ta = intercept + Σ a_i · transform_i(t_i)    (workpiece, optional)
+//! ```
+//!
+//! The machine part is a multiple linear regression (seed 003 eqs. (3)–(5); seed 001's
+//! Cz = Kd·T + α and Cz = Kz·(A − B) are special cases of it). The workpiece part is the
+//! dry-hobbing thermal shrink of seed 003 eq. (7), exact form (7*) of
+//! `docs/conventions.md`.
+//!
+//! # Conventions fixed by the project
+//! * Offsets are in µm. A positive offset **increases** the centre distance between tool
+//!   and workpiece (hob withdrawn): it is what the engine adds to the axis command
+//!   (Z′ = Z + Cz) or to the scale reading (D′ = D + Cz), per axis configuration.
+//! * Channels are referred to by name; the engine maps names to its sensor channels.
+//! * Transforms run at the engine's sample instants:
+//!   - [`Transform::Value`]: the channel's current (averaged) value;
+//!   - [`Transform::FirstOrderLag`]: y ← y + (1 − e^(−Δt/τ))·(u − y), started at the first
+//!     sample (exact discretisation of τ·ẏ + y = u for a piecewise-constant input);
+//!   - [`Transform::Delay`]: the value `delay_s` ago, linearly interpolated between samples;
+//!     until that much history exists, the oldest value held.
+//!   - [`Transform::Rate`]: the time derivative of the channel in unit/s, estimated as the
+//!     difference of the first-order-lagged value over `tau_s` (a filtered derivative:
+//!     (u − y_lag)/τ), which captures heating versus cooling direction.
+
+use crate::error::{CoreError, Result};
+use serde::{Deserialize, Serialize};
+
+/// The `format` string this build reads and writes.
+pub const MODEL_FORMAT: &str = "gearcomp-thermal-model/1";
+
+/// A complete thermal model file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Always [`MODEL_FORMAT`].
+    pub format: String,
+    /// Short name of the model, shown in reports and the dashboard.
+    pub name: String,
+    /// Free text: machine, test, date.
+    #[serde(default)]
+    pub description: String,
+    /// One model per compensated axis.
+    pub axes: Vec<AxisModel>,
+    /// How the model was made (data, split, errors), for the record.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// The offset model of one axis: machine error plus optional workpiece shrink.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisModel {
+    /// Axis the offset is applied to, e.g. "X" (radial infeed / centre distance).
+    pub axis: String,
+    /// Name of the measured quantity the model predicts, e.g. "ch5_um".
+    #[serde(default)]
+    pub target: String,
+    /// The machine's thermal error δM in µm.
+    pub machine: LinearModel,
+    /// The workpiece thermal shrink δT (dry cutting), if compensated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub workpiece: Option<WorkpieceShrink>,
+}
+
+/// y = intercept + Σ coefficient·transform(channel).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearModel {
+    /// Constant term, in the output unit (µm for δM, °C for a temperature model).
+    pub intercept: f64,
+    /// The regression terms.
+    #[serde(default)]
+    pub terms: Vec<Term>,
+}
+
+/// One regression term.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Term {
+    /// Channel name as the engine and the data files know it, e.g. "t3_c".
+    pub channel: String,
+    /// Output unit per unit of the transformed input (e.g. µm/°C).
+    pub coefficient: f64,
+    /// How the channel is turned into the regressor.
+    #[serde(default)]
+    pub transform: Transform,
+}
+
+/// How a channel's samples become a regressor (see the module docs for exact semantics).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Transform {
+    /// The current averaged value.
+    #[default]
+    Value,
+    /// First-order lag with time constant `tau_s` (s).
+    FirstOrderLag {
+        /// Time constant in seconds, > 0.
+        tau_s: f64,
+    },
+    /// The value `delay_s` seconds ago.
+    Delay {
+        /// Delay in seconds, ≥ 0.
+        delay_s: f64,
+    },
+    /// Filtered time derivative (u − lag_τ(u))/τ in unit per second.
+    Rate {
+        /// Filter time constant in seconds, > 0.
+        tau_s: f64,
+    },
+}
+
+/// Workpiece thermal-shrink compensation for dry cutting (seed 003, eq. (7)).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorkpieceShrink {
+    /// Workpiece temperature right after cutting, Ta in °C (seed 003 regression).
+    pub temperature: LinearModel,
+    /// Design (measuring-room) temperature Tb in °C.
+    pub design_temp_c: f64,
+    /// Linear expansion coefficient of the workpiece material in 1/K (steel ≈ 11.5e-6).
+    pub expansion_per_k: f64,
+    /// The gear being cut.
+    pub gear: ShrinkGear,
+    /// Radius at which the cooled tooth thickness is made right.
+    #[serde(default)]
+    pub reference: ReferenceRadius,
+    /// Exact involute form or its first-order approximation.
+    #[serde(default)]
+    pub method: ShrinkMethod,
+}
+
+/// Gear data needed by the shrink formula; degrees at this interface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShrinkGear {
+    /// Normal module m_n in mm.
+    pub normal_module_mm: f64,
+    /// Normal pressure angle α_n in degrees.
+    pub pressure_angle_deg: f64,
+    /// Number of teeth z.
+    pub teeth: u32,
+    /// Helix angle β in degrees (0 for spur).
+    #[serde(default)]
+    pub helix_angle_deg: f64,
+    /// Tip diameter d_a in mm (needed for [`ReferenceRadius::Tip`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tip_diameter_mm: Option<f64>,
+}
+
+/// Reference radius of the shrink compensation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceRadius {
+    /// Reference (pitch) circle: what span and tooth-thickness measurements see.
+    #[default]
+    Pitch,
+    /// Tip circle (the literal reading of seed 003 eq. (7)).
+    Tip,
+}
+
+/// Exact or linearised shrink formula.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShrinkMethod {
+    /// δT(ρ) = (r/tan α)·[inv α*_ρ − inv α_ρ].
+    #[default]
+    Exact,
+    /// δT ≈ r·λ·ΔT·tan α_ρ / tan α.
+    FirstOrder,
+}
+
+/// Where a model came from.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// Data file(s) used.
+    #[serde(default)]
+    pub data: String,
+    /// Tool and version that wrote the file.
+    #[serde(default)]
+    pub created_by: String,
+    /// Method summary (selection, model kind).
+    #[serde(default)]
+    pub method: String,
+    /// Train RMSE per axis target in µm.
+    #[serde(default)]
+    pub train_rmse_um: Vec<f64>,
+    /// Test RMSE per axis target in µm.
+    #[serde(default)]
+    pub test_rmse_um: Vec<f64>,
+}
+
+fn invalid(field: String, value: impl ToString, expected: &str) -> CoreError {
+    CoreError::InvalidField {
+        field,
+        value: value.to_string(),
+        expected: expected.to_string(),
+    }
+}
+
+fn finite(field: String, v: f64) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(invalid(field, v, "a finite number"))
+    }
+}
+
+impl LinearModel {
+    /// Checks every number is finite and every transform parameter in range.
+    pub fn validate(&self, path: &str) -> Result<()> {
+        finite(format!("{path}.intercept"), self.intercept)?;
+        for (i, t) in self.terms.iter().enumerate() {
+            let p = format!("{path}.terms[{i}]");
+            if t.channel.trim().is_empty() {
+                return Err(invalid(format!("{p}.channel"), "\"\"", "a channel name"));
+            }
+            finite(format!("{p}.coefficient"), t.coefficient)?;
+            match t.transform {
+                Transform::Value => {}
+                Transform::FirstOrderLag { tau_s } | Transform::Rate { tau_s } => {
+                    if !(tau_s.is_finite() && tau_s > 0.0) {
+                        return Err(invalid(
+                            format!("{p}.transform.tau_s"),
+                            tau_s,
+                            "a time constant > 0 s",
+                        ));
+                    }
+                }
+                Transform::Delay { delay_s } => {
+                    if !(delay_s.is_finite() && delay_s >= 0.0) {
+                        return Err(invalid(
+                            format!("{p}.transform.delay_s"),
+                            delay_s,
+                            "a delay ≥ 0 s",
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Names of the channels this model reads, in term order, without repeats.
+    pub fn channels(&self) -> Vec<&str> {
+        let mut out: Vec<&str> = Vec::new();
+        for t in &self.terms {
+            if !out.contains(&t.channel.as_str()) {
+                out.push(&t.channel);
+            }
+        }
+        out
+    }
+}
+
+impl ModelFile {
+    /// Checks the format tag and every field's range.
+    pub fn validate(&self) -> Result<()> {
+        if self.format != MODEL_FORMAT {
+            return Err(CoreError::UnsupportedFormat {
+                found: self.format.clone(),
+                expected: MODEL_FORMAT.into(),
+            });
+        }
+        if self.axes.is_empty() {
+            return Err(invalid("axes".into(), "[]", "at least one axis model"));
+        }
+        for (i, a) in self.axes.iter().enumerate() {
+            let p = format!("axes[{i}]");
+            if a.axis.trim().is_empty() {
+                return Err(invalid(format!("{p}.axis"), "\"\"", "an axis name"));
+            }
+            a.machine.validate(&format!("{p}.machine"))?;
+            if let Some(w) = &a.workpiece {
+                let p = format!("{p}.workpiece");
+                w.temperature.validate(&format!("{p}.temperature"))?;
+                finite(format!("{p}.design_temp_c"), w.design_temp_c)?;
+                if !(w.expansion_per_k.is_finite()
+                    && w.expansion_per_k > 0.0
+                    && w.expansion_per_k < 1e-3)
+                {
+                    return Err(invalid(
+                        format!("{p}.expansion_per_k"),
+                        w.expansion_per_k,
+                        "0 < λ < 1e-3 1/K",
+                    ));
+                }
+                let g = &w.gear;
+                if !(g.normal_module_mm.is_finite() && g.normal_module_mm > 0.0) {
+                    return Err(invalid(
+                        format!("{p}.gear.normal_module_mm"),
+                        g.normal_module_mm,
+                        "> 0 mm",
+                    ));
+                }
+                if !(g.pressure_angle_deg > 0.0 && g.pressure_angle_deg < 45.0) {
+                    return Err(invalid(
+                        format!("{p}.gear.pressure_angle_deg"),
+                        g.pressure_angle_deg,
+                        "0° < α_n < 45°",
+                    ));
+                }
+                if !(g.helix_angle_deg > -60.0 && g.helix_angle_deg < 60.0) {
+                    return Err(invalid(
+                        format!("{p}.gear.helix_angle_deg"),
+                        g.helix_angle_deg,
+                        "−60° < β < 60°",
+                    ));
+                }
+                if g.teeth < 3 {
+                    return Err(invalid(format!("{p}.gear.teeth"), g.teeth, "z ≥ 3"));
+                }
+                if w.reference == ReferenceRadius::Tip && g.tip_diameter_mm.is_none() {
+                    return Err(invalid(
+                        format!("{p}.gear.tip_diameter_mm"),
+                        "missing",
+                        "a tip diameter in mm when reference = \"tip\"",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Parses and validates a TOML model file.
+    pub fn from_toml_str(text: &str) -> Result<Self> {
+        let m: ModelFile = toml::from_str(text)?;
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Parses and validates a JSON model file.
+    pub fn from_json_str(text: &str) -> Result<Self> {
+        let m: ModelFile = serde_json::from_str(text)?;
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Reads a model file; `.json` is read as JSON, anything else as TOML.
+    pub fn load(path: &std::path::Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| CoreError::Io {
+            action: "read",
+            path: path.display().to_string(),
+            source,
+        })?;
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
+            Self::from_json_str(&text)
+        } else {
+            Self::from_toml_str(&text)
+        }
+    }
+
+    /// Serialises to TOML.
+    pub fn to_toml_string(&self) -> Result<String> {
+        Ok(toml::to_string_pretty(self)?)
+    }
+
+    /// Validates, then writes the file atomically (TOML, or JSON for a `.json` path).
+    pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        self.validate()?;
+        let text = if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
+            serde_json::to_string_pretty(self)?
+        } else {
+            self.to_toml_string()?
+        };
+        crate::fsio::write_atomic(path, text.as_bytes())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"
+format = "gearcomp-thermal-model/1"
+name = "grinder Z, seed 001"
+
+[[axes]]
+axis = "Z"
+target = "z_drift_um"
+[axes.machine]
+intercept = 0.0
+[[axes.machine.terms]]
+channel = "bed_c"
+coefficient = -3.75
+[[axes.machine.terms]]
+channel = "wheelhead_c"
+coefficient = 3.75
+transform = { kind = "first_order_lag", tau_s = 600.0 }
+"#;
+
+    #[test]
+    fn parses_round_trips_and_lists_channels() {
+        let m = ModelFile::from_toml_str(EXAMPLE).unwrap();
+        assert_eq!(m.axes[0].machine.channels(), vec!["bed_c", "wheelhead_c"]);
+        assert_eq!(
+            m.axes[0].machine.terms[1].transform,
+            Transform::FirstOrderLag { tau_s: 600.0 }
+        );
+        let back = ModelFile::from_toml_str(&m.to_toml_string().unwrap()).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn rejects_wrong_format_unknown_keys_and_bad_tau() {
+        let wrong = EXAMPLE.replace("model/1", "model/9");
+        assert!(matches!(
+            ModelFile::from_toml_str(&wrong),
+            Err(CoreError::UnsupportedFormat { .. })
+        ));
+        let unknown = EXAMPLE.replace("name =", "colour = \"red\"\nname =");
+        assert!(ModelFile::from_toml_str(&unknown).is_err());
+        let bad = EXAMPLE.replace("tau_s = 600.0", "tau_s = -1.0");
+        let e = ModelFile::from_toml_str(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("axes[0].machine.terms[1].transform.tau_s"),
+            "{e}"
+        );
+        assert!(e.contains("-1"), "{e}");
+    }
+}

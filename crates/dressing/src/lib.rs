@@ -1,0 +1,1 @@
+//! gearcomp-dressing (being built).

@@ -1,0 +1,1 @@
+//! gearcomp-identify (being built).

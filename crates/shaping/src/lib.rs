@@ -1,0 +1,1 @@
+//! gearcomp-shaping (being built).

@@ -1,0 +1,1 @@
+//! gearcomp-thermal (being built).
