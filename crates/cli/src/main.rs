@@ -11,6 +11,7 @@ mod cmd_demo;
 mod cmd_dress;
 mod cmd_fit;
 mod cmd_gear;
+mod cmd_grind;
 mod cmd_replay;
 mod cmd_shape;
 
@@ -41,6 +42,9 @@ enum Command {
     Shape(cmd_shape::Args),
     /// Grinding-worm dressing: dresser design, axis corrections, worm life plan.
     Dress(cmd_dress::Args),
+    /// Generating grinding with a dressed worm: contact path, worm-to-gear mapping,
+    /// diagonal generating, ISO 1328 flank evaluation.
+    Grind(cmd_grind::Args),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +56,7 @@ fn main() -> ExitCode {
         Command::Fit(a) => cmd_fit::run(a),
         Command::Shape(a) => cmd_shape::run(a),
         Command::Dress(a) => cmd_dress::run(a),
+        Command::Grind(a) => cmd_grind::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,1 @@
+//! gearcomp-grinding (being built).
