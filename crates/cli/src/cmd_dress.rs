@@ -1,10 +1,538 @@
-//! `gearcomp dress` (under construction by its capability's issue).
+//! `gearcomp dress`: design a profile roller dresser, solve the axis corrections ΔK for a
+//! profile modification, and plan a worm's life, from a TOML description (seed 004, part 1).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use gearcomp_dressing::campaign::{plan, Correction, PlanRow, PlanSpec};
+use gearcomp_dressing::dresser::{Dresser, DresserSpec};
+use gearcomp_dressing::envelope::DressingSetup;
+use gearcomp_dressing::kinematics::{k_r, solve_bsp2, AxesBsp2, AxisCorrection, DressPose};
+use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
+use gearcomp_dressing::solve::{
+    solve_four_point, solve_three_point, FourPoint, NewtonOptions, ThreePoint,
+};
+use gearcomp_dressing::worm::{Flank, Worm};
+use gearcomp_report::{Chart, HtmlReport, Series};
+use serde::{Deserialize, Serialize};
 
 /// Options of `gearcomp dress`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    cmd: DressCmd,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum DressCmd {
+    /// Design the dresser for the new worm and show its geometry.
+    Design(Common),
+    /// Solve the axis corrections ΔK for the modification in [solve].
+    Solve(Common),
+    /// Plan every dressing of the worm's life from [plan].
+    Plan(Common),
+}
+
+#[derive(Debug, clap::Args)]
+struct Common {
+    /// TOML description ([worm], [dresser], and [solve] or [plan]).
+    config: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Write an HTML report (profile modification, contact line, ΔK per dressing).
+    #[arg(long)]
+    report: Option<PathBuf>,
+}
+
+/// Degrees at the interface, radians inside: the one conversion of this command.
+fn rad(deg: f64) -> f64 {
+    deg.to_radians()
+}
+fn deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Config {
+    worm: WormCfg,
+    dresser: DresserCfg,
+    solve: Option<SolveCfg>,
+    plan: Option<PlanCfg>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WormCfg {
+    starts: u32,
+    diameter_mm: f64,
+    normal_module_mm: f64,
+    profile_angle_deg: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DresserCfg {
+    diameter_mm: f64,
+    jacket_width_mm: f64,
+    #[serde(default)]
+    clearance_mm: f64,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum Method {
+    ThreePoint,
+    FourPoint,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SolveCfg {
+    #[serde(default = "right")]
+    flank: Flank,
+    method: Method,
+    /// Current worm diameter (default: the new worm).
+    diameter_mm: Option<f64>,
+    /// Profile crowning c on the worm (µm): targets (0, −c, 0) at 5/50/95 % (3-point).
+    crowning_um: Option<f64>,
+    /// Explicit targets [fraction of the active profile, f in µm] (3 or 4 of them).
+    points: Option<Vec<[f64; 2]>>,
+}
+
+fn right() -> Flank {
+    Flank::Right
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlanCfg {
+    #[serde(default = "right")]
+    flank: Flank,
+    diameters_mm: Vec<f64>,
+    #[serde(default = "three_point")]
+    correction: Correction,
+    #[serde(default)]
+    crowning_um: f64,
+    #[serde(default = "budget")]
+    budget_mm: f64,
+}
+
+fn three_point() -> Correction {
+    Correction::ThreePoint
+}
+fn budget() -> f64 {
+    0.1
+}
 
 /// Runs `gearcomp dress`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("gearcomp dress is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.cmd {
+        DressCmd::Design(c) => run_design(&c),
+        DressCmd::Solve(c) => run_solve(&c),
+        DressCmd::Plan(c) => run_plan(&c),
+    }
+}
+
+fn load(path: &Path) -> anyhow::Result<(Config, Worm, Dresser)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let cfg: Config =
+        toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
+    let w = &cfg.worm;
+    let worm = Worm::design(
+        w.starts,
+        w.diameter_mm,
+        w.normal_module_mm,
+        rad(w.profile_angle_deg),
+    )
+    .context("[worm]")?;
+    let dresser = Dresser::design(
+        &worm,
+        DresserSpec {
+            d_a_mm: cfg.dresser.diameter_mm,
+            jacket_width_mm: cfg.dresser.jacket_width_mm,
+            clearance_mm: cfg.dresser.clearance_mm,
+        },
+    )
+    .context("[dresser]")?;
+    Ok((cfg, worm, dresser))
+}
+
+#[derive(Debug, Serialize)]
+struct DesignOut {
+    base_radius_mm: f64,
+    base_helix_angle_deg: f64,
+    lead_mm: f64,
+    tip_radius_mm: f64,
+    root_radius_mm: f64,
+    nominal_centre_distance_mm: f64,
+    nominal_crossing_angle_deg: f64,
+    fillet_radius_mm: f64,
+    active_profile_mm: (f64, f64),
+    tip_dresser_radius_mm: f64,
+    contact_line_direction_deg: f64,
+    /// Dresser axial profile (z_A mm, R_A mm).
+    profile: Vec<(f64, f64)>,
+}
+
+fn run_design(c: &Common) -> anyhow::Result<()> {
+    let (_, worm, dresser) = load(&c.config)?;
+    let setup = DressingSetup::new(worm, dresser);
+    let fl = Flank::Right;
+    let (w_nf, w_na) = setup.active_profile(fl)?;
+    let k0 = AxisCorrection::default();
+    let side = setup.dresser.side(fl);
+    let u_end = setup.dresser.u_max();
+    let profile: Vec<(f64, f64)> = (0..=200)
+        .map(|i| {
+            let z = -u_end + 2.0 * u_end * f64::from(i) / 200.0;
+            (z, setup.dresser.profile(z).0)
+        })
+        .collect();
+    let ws: Vec<f64> = (0..=10)
+        .map(|i| w_nf + (w_na - w_nf) * f64::from(i) / 10.0)
+        .collect();
+    let line = contact_line(&setup, fl, &ws, &k0)?;
+    let (rho, _, _) = fit_contact_line(&line);
+    let out = DesignOut {
+        base_radius_mm: worm.r_b_mm,
+        base_helix_angle_deg: deg(worm.beta_b_rad),
+        lead_mm: worm.p_mm * 2.0 * std::f64::consts::PI,
+        tip_radius_mm: worm.r_a_mm,
+        root_radius_mm: worm.r_f_mm,
+        nominal_centre_distance_mm: setup.nominal.d_mm,
+        nominal_crossing_angle_deg: deg(setup.nominal.gamma_rad),
+        fillet_radius_mm: side.fillet_radius_mm,
+        active_profile_mm: (w_nf, w_na),
+        tip_dresser_radius_mm: setup.association(fl, w_na, &k0)?,
+        contact_line_direction_deg: deg(rho),
+        profile,
+    };
+    if c.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "worm: r_b {:.5} mm, beta_b {:.5} deg, lead {:.5} mm, r_a {:.3} mm, r_f {:.3} mm",
+            out.base_radius_mm,
+            out.base_helix_angle_deg,
+            out.lead_mm,
+            out.tip_radius_mm,
+            out.root_radius_mm
+        );
+        println!(
+            "uncorrected setting: d0 {:.4} mm, gamma0 {:.5} deg",
+            out.nominal_centre_distance_mm, out.nominal_crossing_angle_deg
+        );
+        println!(
+            "dresser: fillet radius {:.4} mm, dresses the tip with radius {:.5} mm",
+            out.fillet_radius_mm, out.tip_dresser_radius_mm
+        );
+        println!(
+            "active profile w = [{:.5}, {:.5}] mm; contact line direction rho_FS {:.3} deg",
+            w_nf, w_na, out.contact_line_direction_deg
+        );
+    }
+    if let Some(path) = &c.report {
+        let mut r = HtmlReport::new("gearcomp dress design");
+        r.paragraph(&format!(
+            "Dresser d_A = {} mm designed for the worm z_S = {}, d_S0 = {} mm.",
+            setup.dresser.spec.d_a_mm, worm.z_s, worm.d_s0_mm
+        ));
+        r.chart(
+            &Chart::new("Dresser axial profile", "z_A [mm]", "R_A [mm]")
+                .with(Series::line("profile", out.profile.clone())),
+        )?;
+        r.chart(
+            &Chart::new("Contact line worm-dresser (eq. 9)", "w [mm]", "b [mm]")
+                .with(Series::points("contact line", line)),
+        )?;
+        r.write(path)?;
+    }
+    Ok(())
+}
+
+#[derive(Debug, Serialize)]
+struct SolveOut {
+    method: String,
+    flank: Flank,
+    worm_diameter_mm: f64,
+    iterations: usize,
+    condition: f64,
+    dphi_s_rad: f64,
+    dgamma_deg: f64,
+    dd_mm: f64,
+    dnu_ya_mm: f64,
+    axes_bsp2: AxesOut,
+    /// (w mm, f_nFS µm) over the active profile.
+    profile_um: Vec<(f64, f64)>,
+    stretch_percent: f64,
+    opposite_flank_cut_um: f64,
+    jacket_depth_um: f64,
+    contact_line: Vec<(f64, f64)>,
+}
+
+#[derive(Debug, Serialize)]
+struct AxesOut {
+    b1_deg: f64,
+    v1_mm: f64,
+    a1_deg: f64,
+    x1_mm: f64,
+    z1_mm: f64,
+}
+
+fn axes_for(setup: &DressingSetup, dk: &AxisCorrection) -> anyhow::Result<AxesOut> {
+    let n = setup.nominal;
+    let pose = DressPose {
+        phi_s_rad: dk.dphi_s_rad,
+        nu_zs_mm: 0.0,
+        gamma_rad: n.gamma_rad + dk.dgamma_rad,
+        d_mm: n.d_mm + dk.dd_mm,
+        nu_ya_mm: n.nu_ya_mm + dk.dnu_ya_mm,
+        phi_a_rad: 0.0,
+    };
+    let reference = AxesBsp2 {
+        b1_rad: 0.0,
+        v1_mm: 0.0,
+        a1_rad: n.gamma_rad,
+        x1_mm: n.d_mm,
+        z1_mm: 0.0,
+        b3_rad: 0.0,
+    };
+    let a = solve_bsp2(&k_r(&pose), &reference)?;
+    Ok(AxesOut {
+        b1_deg: deg(a.b1_rad),
+        v1_mm: a.v1_mm,
+        a1_deg: deg(a.a1_rad),
+        x1_mm: a.x1_mm,
+        z1_mm: a.z1_mm,
+    })
+}
+
+fn run_solve(c: &Common) -> anyhow::Result<()> {
+    let (cfg, worm, dresser) = load(&c.config)?;
+    let Some(sc) = cfg.solve else {
+        bail!(
+            "{}: a [solve] table is needed for `dress solve`",
+            c.config.display()
+        );
+    };
+    let worm_now = match sc.diameter_mm {
+        Some(d) => worm.worn(d).context("[solve] diameter_mm")?,
+        None => worm,
+    };
+    let setup = DressingSetup::new(worm_now, dresser);
+    let fl = sc.flank;
+    let (w_nf, w_na) = setup.active_profile(fl)?;
+    let at = |q: f64| w_nf + q * (w_na - w_nf);
+    let points: Vec<[f64; 2]> = match (&sc.points, sc.crowning_um) {
+        (Some(p), _) => p.clone(),
+        (None, Some(cr)) if sc.method == Method::ThreePoint => {
+            vec![[0.05, 0.0], [0.5, -cr], [0.95, 0.0]]
+        }
+        _ => bail!("[solve] needs `points`, or `crowning_um` with method = \"three-point\""),
+    };
+    for p in &points {
+        if !(0.0..=1.0).contains(&p[0]) || !p[1].is_finite() || p[1].abs() > 1000.0 {
+            bail!(
+                "[solve] point {:?}: fraction must be in 0..=1 and f within ±1000 µm",
+                p
+            );
+        }
+    }
+    let k0 = AxisCorrection::default();
+    let opts = NewtonOptions::default();
+    let sol = match sc.method {
+        Method::ThreePoint => {
+            if points.len() != 3 {
+                bail!("[solve] three-point needs 3 points, got {}", points.len());
+            }
+            // The dresser radius that dresses the tip circle of the new worm keeps doing so.
+            let design = DressingSetup::new(worm, setup.dresser.clone());
+            let r_tip = design.association(fl, design.active_profile(fl)?.1, &k0)?;
+            let p = ThreePoint {
+                flank: fl,
+                w_mm: [at(points[0][0]), at(points[1][0]), at(points[2][0])],
+                f_mm: [
+                    points[0][1] * 1e-3,
+                    points[1][1] * 1e-3,
+                    points[2][1] * 1e-3,
+                ],
+                w_assoc_mm: w_na,
+                r_a_mm: r_tip,
+            };
+            solve_three_point(&setup, &p, k0, &opts)?
+        }
+        Method::FourPoint => {
+            if points.len() != 4 {
+                bail!("[solve] four-point needs 4 points, got {}", points.len());
+            }
+            let p = FourPoint {
+                flank: fl,
+                w_mm: [
+                    at(points[0][0]),
+                    at(points[1][0]),
+                    at(points[2][0]),
+                    at(points[3][0]),
+                ],
+                f_mm: [
+                    points[0][1] * 1e-3,
+                    points[1][1] * 1e-3,
+                    points[2][1] * 1e-3,
+                    points[3][1] * 1e-3,
+                ],
+            };
+            solve_four_point(&setup, &p, k0, &opts)?
+        }
+    };
+    let dk = sol.dk;
+    let ws: Vec<f64> = (0..=20).map(|i| at(f64::from(i) / 20.0)).collect();
+    let prof = setup.profile(fl, &ws, &dk)?;
+    let r1 = setup.association(fl, w_nf, &k0)?;
+    let r2 = setup.association(fl, w_na, &k0)?;
+    let w1 = setup.roll_dressed_by(fl, r1, &dk, w_nf)?;
+    let w2 = setup.roll_dressed_by(fl, r2, &dk, w_na)?;
+    let out = SolveOut {
+        method: format!("{:?}", sc.method),
+        flank: fl,
+        worm_diameter_mm: setup.worm.d_s_mm,
+        iterations: sol.iterations,
+        condition: sol.cond,
+        dphi_s_rad: dk.dphi_s_rad,
+        dgamma_deg: deg(dk.dgamma_rad),
+        dd_mm: dk.dd_mm,
+        dnu_ya_mm: dk.dnu_ya_mm,
+        axes_bsp2: axes_for(&setup, &dk)?,
+        profile_um: ws
+            .iter()
+            .zip(prof.iter())
+            .map(|(w, f)| (*w, f * 1e3))
+            .collect(),
+        stretch_percent: 100.0 * ((w2 - w1) / (w_na - w_nf) - 1.0),
+        opposite_flank_cut_um: 1e3 * setup.opposite_flank_cut(fl, &dk)?,
+        jacket_depth_um: 1e3 * setup.jacket_depth(&dk),
+        contact_line: contact_line(&setup, fl, &ws, &dk)?,
+    };
+    if c.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{} on the {:?} flank, worm d_S = {} mm: {} iterations, cond {:.3e}",
+            out.method, fl, out.worm_diameter_mm, out.iterations, out.condition
+        );
+        println!(
+            "dK: dphi_S {:.6e} rad, dgamma {:.5} deg, dd {:.5} mm, dnu_yA {:.5} mm",
+            out.dphi_s_rad, out.dgamma_deg, out.dd_mm, out.dnu_ya_mm
+        );
+        let a = &out.axes_bsp2;
+        println!("machine (5) at phi_S = 0: B1 {:.6} deg, V1 {:.4} mm, A1 {:.5} deg, X1 {:.5} mm, Z1 {:.5} mm",
+            a.b1_deg, a.v1_mm, a.a1_deg, a.x1_mm, a.z1_mm);
+        println!("{:>12} {:>10}", "w [mm]", "f [um]");
+        for (w, f) in out.profile_um.iter().step_by(2) {
+            println!("{w:>12.5} {f:>10.4}");
+        }
+        println!(
+            "stretching P_FS {:+.3} %, opposite flank cut {:.2} um, jacket {:.2} um below root",
+            out.stretch_percent, out.opposite_flank_cut_um, out.jacket_depth_um
+        );
+    }
+    if let Some(path) = &c.report {
+        let mut r = HtmlReport::new("gearcomp dress solve");
+        r.paragraph(&format!(
+            "dK = ({:.6e} rad, {:.5} deg, {:.5} mm, {:.5} mm)",
+            out.dphi_s_rad, out.dgamma_deg, out.dd_mm, out.dnu_ya_mm
+        ));
+        r.chart(
+            &Chart::new("Profile modification f_nFS", "w [mm]", "f [um]")
+                .with(Series::line("f_nFS(w; dK)", out.profile_um.clone())),
+        )?;
+        r.chart(
+            &Chart::new("Contact line worm-dresser at nu_zS = 0", "w [mm]", "b [mm]")
+                .with(Series::points("contact line", out.contact_line.clone())),
+        )?;
+        r.write(path)?;
+    }
+    Ok(())
+}
+
+fn run_plan(c: &Common) -> anyhow::Result<()> {
+    let (cfg, worm, dresser) = load(&c.config)?;
+    let Some(pc) = cfg.plan else {
+        bail!(
+            "{}: a [plan] table is needed for `dress plan`",
+            c.config.display()
+        );
+    };
+    let spec = PlanSpec {
+        flank: pc.flank,
+        diameters_mm: pc.diameters_mm,
+        correction: pc.correction,
+        crowning_mm: pc.crowning_um * 1e-3,
+        budget_mm: pc.budget_mm,
+    };
+    let rows: Vec<PlanRow> = plan(&worm, &dresser, &spec)?;
+    if c.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        println!(
+            "{:>8} {:>12} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} flags",
+            "d_S mm",
+            "dphi rad",
+            "dgam deg",
+            "dd mm",
+            "dnu mm",
+            "dev um",
+            "range um",
+            "P %",
+            "opp um",
+            "jack um"
+        );
+        for r in &rows {
+            let flags = match (r.penetration, r.undercut) {
+                (true, true) => "PENETRATION UNDERCUT",
+                (true, false) => "PENETRATION",
+                (false, true) => "UNDERCUT",
+                (false, false) => "",
+            };
+            println!("{:>8.2} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
+                r.d_s_mm, r.dk.dphi_s_rad, deg(r.dk.dgamma_rad), r.dk.dd_mm, r.dk.dnu_ya_mm,
+                r.deviation_max_um, r.deviation_range_um, 100.0 * r.stretch,
+                1e3 * r.opposite_cut_mm, 1e3 * r.jacket_depth_mm);
+        }
+    }
+    if let Some(path) = &c.report {
+        let mut r = HtmlReport::new("gearcomp dress plan");
+        let d =
+            |f: &dyn Fn(&PlanRow) -> f64| rows.iter().map(|r| (r.d_s_mm, f(r))).collect::<Vec<_>>();
+        r.chart(
+            &Chart::new(
+                "Profile deviation per dressing",
+                "d_S [mm]",
+                "max |f - target| [um]",
+            )
+            .with(Series::line("deviation", d(&|r| r.deviation_max_um))),
+        )?;
+        r.chart(
+            &Chart::new("Axis corrections per dressing", "d_S [mm]", "dK")
+                .with(Series::line("dphi_S [mrad]", d(&|r| 1e3 * r.dk.dphi_s_rad)))
+                .with(Series::line("dgamma [deg]", d(&|r| deg(r.dk.dgamma_rad))))
+                .with(Series::line("dd [10 um]", d(&|r| 100.0 * r.dk.dd_mm)))
+                .with(Series::line("dnu_yA [mm]", d(&|r| r.dk.dnu_ya_mm))),
+        )?;
+        let mut prof = Chart::new(
+            "Profile modification after each dressing",
+            "w [mm]",
+            "f - target [um]",
+        );
+        for row in &rows {
+            prof = prof.with(Series::line(
+                format!("d_S {}", row.d_s_mm),
+                row.profile.clone(),
+            ));
+        }
+        r.chart(&prof)?;
+        r.write(path)?;
+    }
+    Ok(())
 }

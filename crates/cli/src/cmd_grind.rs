@@ -1,10 +1,816 @@
-//! `gearcomp grind` (under construction by its capability's issue).
+//! `gearcomp grind`: generating grinding with a (dressed) worm, seed 004 part 2.
+//!
+//! `simulate` grinds a gear flank with a given worm modification and diagonal ratio (envelope
+//! simulation, compared with the analytic worm→gear mapping); `solve` finds the diagonal ratio
+//! and worm modification for a wanted gear modification of the line class and verifies it by
+//! simulation. Both print a table (or `--json`) and can write an HTML report with the (w, z)
+//! deviation map and the ISO 1328-1 evaluation.
+//!
+//! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
+//! lengths. They are converted in [`deg_to_rad`] / [`um_to_mm`] only.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Subcommand, ValueEnum};
+use gearcomp_grinding::contact::WormGearPair;
+use gearcomp_grinding::diagonal::{
+    diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad,
+    worm_modification_for_gear, LineMap,
+};
+use gearcomp_grinding::flank::{Flank, Hand, InvoluteGear};
+use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation};
+use gearcomp_grinding::kinematics::FeedCoupling;
+use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
+use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, Grinder, GroundFlank};
+use gearcomp_report::{Chart, HtmlReport, Series};
+use serde::Serialize;
 
 /// Options of `gearcomp grind`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    command: GrindCommand,
+}
+
+#[derive(Debug, Subcommand)]
+enum GrindCommand {
+    /// Grind a gear flank with a given worm modification and diagonal ratio.
+    Simulate(SimulateArgs),
+    /// Find the diagonal ratio and worm modification for a wanted gear modification, and
+    /// verify them by simulation.
+    Solve(SolveArgs),
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum FlankArg {
+    Right,
+    Left,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum HandArg {
+    Right,
+    Left,
+}
+
+#[derive(Debug, clap::Args)]
+struct SetupArgs {
+    /// Gear: number of teeth z2.
+    #[arg(long, default_value_t = 31)]
+    teeth: u32,
+    /// Normal module m_n in mm (gear and worm).
+    #[arg(long, default_value_t = 3.0)]
+    module_mm: f64,
+    /// Normal pressure angle in degrees (right flank; both flanks if --pressure-angle-left-deg
+    /// is not given).
+    #[arg(long, default_value_t = 20.0)]
+    pressure_angle_deg: f64,
+    /// Normal pressure angle of the left flank in degrees (asymmetric teeth).
+    #[arg(long)]
+    pressure_angle_left_deg: Option<f64>,
+    /// Gear helix angle in degrees, signed (> 0 right hand).
+    #[arg(long, default_value_t = 15.0, allow_hyphen_values = true)]
+    helix_angle_deg: f64,
+    /// Face width b in mm (the flank spans z = −b/2 … b/2).
+    #[arg(long, default_value_t = 30.0)]
+    face_width_mm: f64,
+    /// Worm: number of starts z1.
+    #[arg(long, default_value_t = 1)]
+    worm_starts: u32,
+    /// Worm reference (pitch) radius in mm.
+    #[arg(long, default_value_t = 130.0)]
+    worm_radius_mm: f64,
+    /// Worm hand.
+    #[arg(long, value_enum, default_value_t = HandArg::Right)]
+    worm_hand: HandArg,
+    /// Flank to grind.
+    #[arg(long, value_enum, default_value_t = FlankArg::Right)]
+    flank: FlankArg,
+    /// Start of the active profile (roll distance) in mm [default: w_P − 2·m_n].
+    #[arg(long)]
+    roll_start_mm: Option<f64>,
+    /// End of the active profile (roll distance) in mm [default: min(w_P + 2·m_n, tip)].
+    #[arg(long)]
+    roll_end_mm: Option<f64>,
+    /// Grid points along the profile.
+    #[arg(long, default_value_t = 25)]
+    grid_w: usize,
+    /// Grid points along the face width.
+    #[arg(long, default_value_t = 31)]
+    grid_z: usize,
+    /// Worm shift offset z_V01 in mm (selects the worm region).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    shift_offset_mm: f64,
+    /// ISO 1328-1:2013 accuracy class for the evaluation.
+    #[arg(long, default_value_t = 6)]
+    class: u8,
+    /// Print JSON instead of tables.
+    #[arg(long)]
+    json: bool,
+    /// Write an HTML report to this file.
+    #[arg(long)]
+    report: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct SimulateArgs {
+    #[command(flatten)]
+    setup: SetupArgs,
+    /// Diagonal ratio K_ZV1 (0 = axial grinding) [default: the K that maps --worm-rho-deg
+    /// onto --gear-rho-deg if that is given, else 0].
+    #[arg(long, allow_hyphen_values = true)]
+    diagonal_ratio: Option<f64>,
+    /// Gear line direction ρ_F2 in degrees used to choose K when --diagonal-ratio is absent.
+    #[arg(long, allow_hyphen_values = true)]
+    gear_rho_deg: Option<f64>,
+    /// Worm modification line direction ρ_F1 in degrees [default: axial-section estimate].
+    #[arg(long, allow_hyphen_values = true)]
+    worm_rho_deg: Option<f64>,
+    /// Worm F_C(X) coefficients in µm, µm/mm, µm/mm², … (comma separated).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    worm_c: Vec<f64>,
+    /// Worm F_L(X) coefficients (per mm of w − w_P1): µm/mm, µm/mm², …
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    worm_l: Vec<f64>,
+    /// Worm F_Q(X) coefficients (per mm² of (w − w_P1)²): µm/mm², µm/mm³, …
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    worm_q: Vec<f64>,
+}
+
+#[derive(Debug, clap::Args)]
+struct SolveArgs {
+    #[command(flatten)]
+    setup: SetupArgs,
+    /// Direction ρ_F2 of the wanted gear modification lines in degrees (0 = lead, 90 = profile).
+    #[arg(long, allow_hyphen_values = true)]
+    gear_rho_deg: f64,
+    /// Wanted F_C(X) coefficients in µm, µm/mm, µm/mm², … (comma separated).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    gear_c: Vec<f64>,
+    /// Wanted F_L(X) coefficients (per mm of w − w_P2): µm/mm, µm/mm², …
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    gear_l: Vec<f64>,
+    /// Wanted F_Q(X) coefficients (per mm² of (w − w_P2)²): µm/mm², …
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    gear_q: Vec<f64>,
+    /// Worm modification line direction ρ_F1 in degrees (dresser contact line)
+    /// [default: axial-section estimate].
+    #[arg(long, allow_hyphen_values = true)]
+    worm_rho_deg: Option<f64>,
+}
+
+/// Degrees (interface) to radians (internal): the one conversion point.
+fn deg_to_rad(deg: f64) -> f64 {
+    deg.to_radians()
+}
+
+/// Radians (internal) to degrees (interface).
+fn rad_to_deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+/// µm (interface) to mm (internal): the one conversion point.
+fn um_to_mm(um: f64) -> f64 {
+    um * 1e-3
+}
+
+/// mm (internal) to µm (interface).
+fn mm_to_um(mm: f64) -> f64 {
+    mm * 1e3
+}
 
 /// Runs `gearcomp grind`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("gearcomp grind is not built yet")
+pub fn run(args: Args) -> Result<()> {
+    match args.command {
+        GrindCommand::Simulate(a) => simulate(a),
+        GrindCommand::Solve(a) => solve(a),
+    }
+}
+
+struct Setup {
+    pair: WormGearPair,
+    gear: InvoluteGear,
+    grid: FlankGrid,
+}
+
+fn setup(a: &SetupArgs) -> Result<Setup> {
+    let alpha_r = deg_to_rad(a.pressure_angle_deg);
+    let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
+    let gear = InvoluteGear::asymmetric(
+        a.teeth,
+        a.module_mm,
+        alpha_r,
+        alpha_l,
+        deg_to_rad(a.helix_angle_deg),
+        0.0,
+    )
+    .context("gear")?;
+    let hand = match a.worm_hand {
+        HandArg::Right => Hand::Right,
+        HandArg::Left => Hand::Left,
+    };
+    let w = InvoluteGear::worm(a.worm_starts, a.module_mm, alpha_r, a.worm_radius_mm, hand)
+        .context("worm")?;
+    let worm = InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
+        .context("worm")?;
+    let flank = match a.flank {
+        FlankArg::Right => Flank::Right,
+        FlankArg::Left => Flank::Left,
+    };
+    let pair = WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?;
+    let f2 = gear.flank(flank);
+    let r_tip = gear.reference_radius_mm() + a.module_mm;
+    let w_tip = (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt();
+    let w_start = a
+        .roll_start_mm
+        .unwrap_or((f2.w_ref_mm - 2.0 * a.module_mm).max(0.1 * f2.w_ref_mm));
+    let w_end = a
+        .roll_end_mm
+        .unwrap_or((f2.w_ref_mm + 2.0 * a.module_mm).min(w_tip));
+    if !(a.face_width_mm.is_finite() && a.face_width_mm > 0.0 && a.face_width_mm <= 2000.0) {
+        anyhow::bail!(
+            "face_width_mm = {} is out of range: expected 0 < b ≤ 2000 mm",
+            a.face_width_mm
+        );
+    }
+    let half = 0.5 * a.face_width_mm;
+    let grid = FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
+        .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")?;
+    Ok(Setup { pair, gear, grid })
+}
+
+fn poly_um(coeffs: &[f64]) -> Poly {
+    Poly(coeffs.iter().map(|&c| um_to_mm(c)).collect())
+}
+
+fn poly_to_um(p: &Poly) -> Vec<f64> {
+    p.0.iter().map(|&c| mm_to_um(c)).collect()
+}
+
+#[derive(Debug, Serialize)]
+struct LineModOut {
+    rho_deg: f64,
+    w0_mm: f64,
+    c_um: Vec<f64>,
+    l_um: Vec<f64>,
+    q_um: Vec<f64>,
+}
+
+impl LineModOut {
+    fn from(m: &LineModification) -> Self {
+        Self {
+            rho_deg: rad_to_deg(m.rho_rad),
+            w0_mm: m.w0_mm,
+            c_um: poly_to_um(&m.c),
+            l_um: poly_to_um(&m.l),
+            q_um: poly_to_um(&m.q),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct PathOut {
+    flank: &'static str,
+    centre_distance_mm: f64,
+    crossing_deg: f64,
+    c_w1: f64,
+    c_c1_mm: f64,
+    c_w2: f64,
+    c_c2_mm: f64,
+    dw1_dw2: f64,
+    r7_sum_mm: f64,
+    rho_kf_deg: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct MapOut {
+    w_mm: Vec<f64>,
+    z_mm: Vec<f64>,
+    /// Row per w, column per z.
+    ground_um: Vec<Vec<f64>>,
+    analytic_um: Vec<Vec<f64>>,
+    deviation_um: Vec<Vec<f64>>,
+}
+
+#[derive(Debug, Serialize)]
+struct Output {
+    mode: &'static str,
+    path: PathOut,
+    diagonal_ratio: f64,
+    shift_offset_mm: f64,
+    line_map: Option<LineMap>,
+    worm_modification: LineModOut,
+    wanted_gear_modification: Option<LineModOut>,
+    max_abs_ground_um: f64,
+    max_abs_ground_minus_analytic_um: f64,
+    max_abs_deviation_um: f64,
+    deviation_reference: &'static str,
+    iso1328: FlankEvaluation,
+    map: MapOut,
+}
+
+fn path_out(p: &WormGearPair) -> PathOut {
+    PathOut {
+        flank: p.worm.flank.name(),
+        centre_distance_mm: p.centre_distance_mm,
+        crossing_deg: rad_to_deg(p.crossing_rad),
+        c_w1: p.path.c_w1,
+        c_c1_mm: p.path.c_c1_mm,
+        c_w2: p.path.c_w2,
+        c_c2_mm: p.path.c_c2_mm,
+        dw1_dw2: p.path.a,
+        r7_sum_mm: p.path.r7_sum_mm,
+        rho_kf_deg: rad_to_deg(p.rho_kf_rad()),
+    }
+}
+
+/// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank).
+#[allow(clippy::too_many_arguments)]
+fn grind_and_report(
+    mode: &'static str,
+    s: &Setup,
+    a: &SetupArgs,
+    k: f64,
+    lm: Option<LineMap>,
+    worm_mod: &LineModification,
+    wanted: Option<&LineModification>,
+) -> Result<Output> {
+    let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
+    let grinder = Grinder::new(&s.pair, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
+    let mut ground = GroundFlank::new(s.grid);
+    grinder
+        .grind_flank(&mut ground)
+        .context("grinding simulation")?;
+    let g = s.grid;
+    let mut map = MapOut {
+        w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
+        z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
+        ground_um: Vec::with_capacity(g.n_w),
+        analytic_um: Vec::with_capacity(g.n_w),
+        deviation_um: Vec::with_capacity(g.n_w),
+    };
+    let mut dev_mm = Vec::with_capacity(g.len());
+    let (mut max_g, mut max_ga, mut max_d) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..g.n_w {
+        let (mut rg, mut ra, mut rd) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..g.n_z {
+            let (w, z) = (g.w_mm(i), g.z_mm(j));
+            let f = ground.at(i, j).f_ft_mm;
+            let an = predicted_gear_f_ft_mm(&s.pair, &cpl, worm_mod, w, z);
+            let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
+            dev_mm.push(f - design);
+            max_g = max_g.max(f.abs());
+            max_ga = max_ga.max((f - an).abs());
+            max_d = max_d.max((f - design).abs());
+            rg.push(mm_to_um(f));
+            ra.push(mm_to_um(an));
+            rd.push(mm_to_um(f - design));
+        }
+        map.ground_um.push(rg);
+        map.analytic_um.push(ra);
+        map.deviation_um.push(rd);
+    }
+    let tol = tolerances(
+        2.0 * s.gear.reference_radius_mm(),
+        s.gear.m_n_mm,
+        a.face_width_mm,
+        a.class,
+    )
+    .context("ISO 1328-1 tolerances")?;
+    let iso = DeviationMap::new(g, dev_mm)?
+        .evaluate(tol, s.gear.m_n_mm)
+        .context("ISO 1328-1 evaluation")?;
+    Ok(Output {
+        mode,
+        path: path_out(&s.pair),
+        diagonal_ratio: k,
+        shift_offset_mm: a.shift_offset_mm,
+        line_map: lm,
+        worm_modification: LineModOut::from(worm_mod),
+        wanted_gear_modification: wanted.map(LineModOut::from),
+        max_abs_ground_um: mm_to_um(max_g),
+        max_abs_ground_minus_analytic_um: mm_to_um(max_ga),
+        max_abs_deviation_um: mm_to_um(max_d),
+        deviation_reference: if wanted.is_some() {
+            "wanted gear modification"
+        } else {
+            "unmodified involute flank"
+        },
+        iso1328: iso,
+        map,
+    })
+}
+
+fn simulate(a: SimulateArgs) -> Result<()> {
+    let s = setup(&a.setup)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
+    let worm_mod = LineModification::new(
+        rho1,
+        s.pair.worm.w_ref_mm,
+        poly_um(&a.worm_c),
+        poly_um(&a.worm_l),
+        poly_um(&a.worm_q),
+    )
+    .context("worm modification")?;
+    let (k, lm) = match (a.diagonal_ratio, a.gear_rho_deg) {
+        (Some(k), _) => (k, None),
+        (None, Some(r2)) => {
+            let lm = line_map(&s.pair, rho1, deg_to_rad(r2), a.setup.shift_offset_mm)
+                .context("diagonal ratio for --gear-rho-deg")?;
+            (lm.k_zv1, Some(lm))
+        }
+        (None, None) => (0.0, None),
+    };
+    let out = grind_and_report("simulate", &s, &a.setup, k, lm, &worm_mod, None)?;
+    emit(&out, &a.setup)
+}
+
+fn solve(a: SolveArgs) -> Result<()> {
+    let s = setup(&a.setup)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
+    let wanted = LineModification::new(
+        deg_to_rad(a.gear_rho_deg),
+        s.pair.gear.w_ref_mm,
+        poly_um(&a.gear_c),
+        poly_um(&a.gear_l),
+        poly_um(&a.gear_q),
+    )
+    .context("wanted gear modification")?;
+    let (lm, worm_mod) =
+        worm_modification_for_gear(&s.pair, &wanted, rho1, a.setup.shift_offset_mm)
+            .context("worm modification for the wanted gear modification")?;
+    // the same K from the closed form, as a cross-check of the line map
+    let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
+    let out = grind_and_report("solve", &s, &a.setup, k, Some(lm), &worm_mod, Some(&wanted))?;
+    emit(&out, &a.setup)
+}
+
+fn fmt_poly(v: &[f64]) -> String {
+    if v.is_empty() {
+        "0".into()
+    } else {
+        v.iter()
+            .map(|c| format!("{c:.6e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+fn table(out: &Output) -> String {
+    let mut t = String::new();
+    let p = &out.path;
+    let _ = writeln!(t, "gearcomp grind {} — {} flank", out.mode, p.flank);
+    let _ = writeln!(
+        t,
+        "  centre distance {:.6} mm, crossing angle {:.6}°",
+        p.centre_distance_mm, p.crossing_deg
+    );
+    let _ = writeln!(
+        t,
+        "  contact path: C_Fw1 {:.6}  C_Fc1 {:.6} mm  C_Fw2 {:.6}  C_Fc2 {:.6} mm",
+        p.c_w1, p.c_c1_mm, p.c_w2, p.c_c2_mm
+    );
+    let _ = writeln!(
+        t,
+        "  roll distances: dw1/dw2 {:.6}, w1/cos β_b1 + w2/cos β_b2 = {:.6} mm; ρ_KF {:.6}°",
+        p.dw1_dw2, p.r7_sum_mm, p.rho_kf_deg
+    );
+    let _ = writeln!(
+        t,
+        "  diagonal ratio K_ZV1 {:.6}, shift offset z_V01 {:.3} mm",
+        out.diagonal_ratio, out.shift_offset_mm
+    );
+    if let Some(lm) = &out.line_map {
+        let _ = writeln!(
+            t,
+            "  line map X_F1 = {:.6}·X_F2 + {:.6} mm (ρ_F1 {:.4}°, ρ_F2 {:.4}°)",
+            lm.k,
+            lm.c0_mm,
+            rad_to_deg(lm.rho1_rad),
+            rad_to_deg(lm.rho2_rad)
+        );
+    }
+    let wm = &out.worm_modification;
+    let _ = writeln!(
+        t,
+        "  worm modification (ρ_F1 {:.4}°, w0 {:.4} mm): F_C [{}] F_L [{}] F_Q [{}] (µm·mm⁻ᵏ)",
+        wm.rho_deg,
+        wm.w0_mm,
+        fmt_poly(&wm.c_um),
+        fmt_poly(&wm.l_um),
+        fmt_poly(&wm.q_um)
+    );
+    if let Some(g) = &out.wanted_gear_modification {
+        let _ = writeln!(
+            t,
+            "  wanted gear modification (ρ_F2 {:.4}°, w0 {:.4} mm): F_C [{}] F_L [{}] F_Q [{}]",
+            g.rho_deg,
+            g.w0_mm,
+            fmt_poly(&g.c_um),
+            fmt_poly(&g.l_um),
+            fmt_poly(&g.q_um)
+        );
+    }
+    let _ = writeln!(
+        t,
+        "  ground flank: max |f_Ft2| {:.4} µm; envelope − analytic map: max {:.4} µm; \
+         deviation from {}: max {:.4} µm",
+        out.max_abs_ground_um,
+        out.max_abs_ground_minus_analytic_um,
+        out.deviation_reference,
+        out.max_abs_deviation_um
+    );
+    let e = &out.iso1328;
+    let tl = &e.tolerances;
+    let _ = writeln!(
+        t,
+        "  ISO 1328-1:2013 class {} (profile at z = {:.2} mm over w {:.3}…{:.3} mm; helix at w = {:.3} mm over z {:.3}…{:.3} mm)",
+        tl.class,
+        e.profile_z_mm,
+        e.profile.range_mm.0,
+        e.profile.range_mm.1,
+        e.helix_w_mm,
+        e.helix.range_mm.0,
+        e.helix.range_mm.1
+    );
+    let _ = writeln!(t, "    {:<6} {:>10} {:>10}  ok", "", "value µm", "tol µm");
+    for (name, v, tol, ok) in iso_rows(e) {
+        let _ = writeln!(
+            t,
+            "    {:<6} {:>10.3} {:>10.1}  {}",
+            name,
+            v,
+            tol,
+            if ok { "yes" } else { "NO" }
+        );
+    }
+    let _ = writeln!(
+        t,
+        "  verdict: {}",
+        if e.within_tolerance {
+            "within tolerance"
+        } else {
+            "OUT of tolerance"
+        }
+    );
+    t
+}
+
+fn iso_rows(e: &FlankEvaluation) -> Vec<(&'static str, f64, f64, bool)> {
+    let t = &e.tolerances;
+    vec![
+        (
+            "F_α",
+            e.profile.total_um,
+            t.total_alpha_t_um,
+            e.profile.total_um <= t.total_alpha_t_um,
+        ),
+        (
+            "f_fα",
+            e.profile.form_um,
+            t.f_f_alpha_t_um,
+            e.profile.form_um <= t.f_f_alpha_t_um,
+        ),
+        (
+            "f_Hα",
+            e.profile.slope_um,
+            t.f_h_alpha_t_um,
+            e.profile.slope_um.abs() <= t.f_h_alpha_t_um,
+        ),
+        (
+            "F_β",
+            e.helix.total_um,
+            t.total_beta_t_um,
+            e.helix.total_um <= t.total_beta_t_um,
+        ),
+        (
+            "f_fβ",
+            e.helix.form_um,
+            t.f_f_beta_t_um,
+            e.helix.form_um <= t.f_f_beta_t_um,
+        ),
+        (
+            "f_Hβ",
+            e.helix.slope_um,
+            t.f_h_beta_t_um,
+            e.helix.slope_um.abs() <= t.f_h_beta_t_um,
+        ),
+    ]
+}
+
+fn emit(out: &Output, a: &SetupArgs) -> Result<()> {
+    if let Some(path) = &a.report {
+        write_report(out, path)?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(out)?);
+    } else {
+        print!("{}", table(out));
+        if let Some(p) = &a.report {
+            println!("  report: {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// Colour of a value in [−m, m]: blue (negative, material missing) – white – red (material).
+fn colour(v: f64, m: f64) -> String {
+    let t = if m > 0.0 {
+        (v / m).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let (r, g, b) = if t >= 0.0 {
+        (255.0, 255.0 * (1.0 - t), 255.0 * (1.0 - t))
+    } else {
+        (255.0 * (1.0 + t), 255.0 * (1.0 + t), 255.0)
+    };
+    format!("rgb({},{},{})", r as u8, g as u8, b as u8)
+}
+
+/// SVG heat map of a (w, z) map: w to the right, z upwards.
+fn heat_map_svg(title: &str, map: &MapOut, values: &[Vec<f64>]) -> String {
+    let (w_px, h_px, left, top, bottom) = (760.0, 380.0, 70.0, 40.0, 50.0);
+    let (nw, nz) = (map.w_mm.len(), map.z_mm.len());
+    let m = values.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+    let plot_w = w_px - left - 120.0;
+    let plot_h = h_px - top - bottom;
+    let cw = plot_w / nw as f64;
+    let ch = plot_h / nz as f64;
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w_px}\" height=\"{h_px}\" \
+         font-family=\"sans-serif\" font-size=\"12\">\
+         <text x=\"{}\" y=\"20\" font-size=\"16\" text-anchor=\"middle\">{}</text>",
+        w_px / 2.0,
+        gearcomp_report::escape(title)
+    );
+    for (i, row) in values.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            let x = left + i as f64 * cw;
+            let y = top + plot_h - (j + 1) as f64 * ch;
+            let _ = write!(
+                s,
+                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{:.2}\" height=\"{:.2}\" fill=\"{}\"><title>w {:.3} mm, z {:.3} mm: {:.4} µm</title></rect>",
+                cw + 0.3,
+                ch + 0.3,
+                colour(*v, m),
+                map.w_mm[i],
+                map.z_mm[j],
+                v
+            );
+        }
+    }
+    let _ = write!(
+        s,
+        "<rect x=\"{left}\" y=\"{top}\" width=\"{plot_w}\" height=\"{plot_h}\" fill=\"none\" stroke=\"#333\"/>\
+         <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">roll distance w / mm ({:.2} … {:.2})</text>\
+         <text x=\"16\" y=\"{}\" transform=\"rotate(-90 16 {})\" text-anchor=\"middle\">width z / mm ({:.2} … {:.2})</text>",
+        left + plot_w / 2.0,
+        h_px - 15.0,
+        map.w_mm.first().copied().unwrap_or(0.0),
+        map.w_mm.last().copied().unwrap_or(0.0),
+        top + plot_h / 2.0,
+        top + plot_h / 2.0,
+        map.z_mm.first().copied().unwrap_or(0.0),
+        map.z_mm.last().copied().unwrap_or(0.0),
+    );
+    let lx = left + plot_w + 30.0;
+    for k in 0..=10 {
+        let v = m * (1.0 - 0.2 * f64::from(k));
+        let y = top + plot_h * f64::from(k) / 10.0;
+        let _ = write!(
+            s,
+            "<rect x=\"{lx}\" y=\"{y:.1}\" width=\"20\" height=\"{:.1}\" fill=\"{}\"/>",
+            plot_h / 10.0 + 0.5,
+            colour(v, m)
+        );
+        if k % 2 == 0 {
+            let _ = write!(
+                s,
+                "<text x=\"{}\" y=\"{:.1}\">{:+.3} µm</text>",
+                lx + 26.0,
+                y + 4.0,
+                v
+            );
+        }
+    }
+    s.push_str("</svg>");
+    s
+}
+
+fn write_report(out: &Output, path: &std::path::Path) -> Result<()> {
+    let mut r = HtmlReport::new(format!(
+        "gearcomp grind {} — {} flank",
+        out.mode, out.path.flank
+    ));
+    r.heading("Set-up and results").preformatted(&table(out));
+    r.paragraph(
+        "Deviations are transverse (f_Ft, along the base tangent), in µm, positive = material \
+         left on the gear. The ground flank is the envelope of the worm over rotation and feed; \
+         the analytic map is the first-order worm→gear mapping along the contact path.",
+    );
+    r.heading("Ground flank over (w, z)");
+    r.raw_svg(&heat_map_svg(
+        "ground f_Ft2 / µm",
+        &out.map,
+        &out.map.ground_um,
+    ));
+    r.heading(&format!("Deviation from the {}", out.deviation_reference));
+    r.raw_svg(&heat_map_svg(
+        "deviation / µm",
+        &out.map,
+        &out.map.deviation_um,
+    ));
+    // profile and helix traces of the deviation map at the evaluation lines
+    let e = &out.iso1328;
+    let jz = nearest(&out.map.z_mm, e.profile_z_mm);
+    let iw = nearest(&out.map.w_mm, e.helix_w_mm);
+    let prof: Vec<(f64, f64)> = out
+        .map
+        .w_mm
+        .iter()
+        .zip(&out.map.deviation_um)
+        .map(|(w, row)| (*w, row[jz]))
+        .collect();
+    let helix: Vec<(f64, f64)> = out
+        .map
+        .z_mm
+        .iter()
+        .zip(&out.map.deviation_um[iw])
+        .map(|(z, v)| (*z, *v))
+        .collect();
+    let prof_an: Vec<(f64, f64)> = out
+        .map
+        .w_mm
+        .iter()
+        .zip(out.map.ground_um.iter().zip(&out.map.analytic_um))
+        .map(|(w, (g, a))| (*w, g[jz] - a[jz]))
+        .collect();
+    r.chart(
+        &Chart::new(
+            format!("Profile deviation at z = {:.2} mm", out.map.z_mm[jz]),
+            "roll distance w / mm",
+            "deviation / µm",
+        )
+        .with(Series::line("deviation", prof))
+        .with(Series::line("envelope − analytic map", prof_an)),
+    )?;
+    r.chart(
+        &Chart::new(
+            format!("Helix deviation at w = {:.3} mm", out.map.w_mm[iw]),
+            "width z / mm",
+            "deviation / µm",
+        )
+        .with(Series::line("deviation", helix)),
+    )?;
+    r.heading("ISO 1328-1:2013 evaluation");
+    let rows: Vec<Vec<String>> = iso_rows(e)
+        .into_iter()
+        .map(|(n, v, t, ok)| {
+            vec![
+                n.to_string(),
+                format!("{v:.3}"),
+                format!("{t:.1}"),
+                if ok { "yes".into() } else { "NO".into() },
+            ]
+        })
+        .collect();
+    r.table(
+        &["quantity", "value / µm", "tolerance / µm", "within"],
+        &rows,
+    );
+    r.paragraph(&format!(
+        "Class {}; profile evaluation range {:.3}…{:.3} mm of roll distance (95 % of the active \
+         profile from its start), helix evaluation range {:.3}…{:.3} mm (face width less min(5 % b, \
+         m_n) per end). Verdict: {}.",
+        e.tolerances.class,
+        e.profile.range_mm.0,
+        e.profile.range_mm.1,
+        e.helix.range_mm.0,
+        e.helix.range_mm.1,
+        if e.within_tolerance { "within tolerance" } else { "out of tolerance" }
+    ));
+    r.write(path)
+        .with_context(|| format!("writing report {}", path.display()))?;
+    Ok(())
+}
+
+fn nearest(v: &[f64], x: f64) -> usize {
+    v.iter()
+        .enumerate()
+        .fold((0, f64::INFINITY), |(bi, bd), (i, y)| {
+            let d = (y - x).abs();
+            if d < bd {
+                (i, d)
+            } else {
+                (bi, bd)
+            }
+        })
+        .0
 }

@@ -1,1 +1,38 @@
-//! gearcomp-grinding (being built).
+//! Generating grinding of a cylindrical involute gear with a cylindrical (dressed) worm,
+//! after seed 004, part 2 (JP6903407B2, diagonal generating grinding).
+//!
+//! - [`flank`]: gears and worms as involute helicoids over the (w, z) plane of each flank.
+//! - [`kinematics`]: the chain (28), the feed coupling (36)/(94), the machine chain (34) and
+//!   its inverse.
+//! - [`contact`]: the contact line in the plane of action, the contact path (39)/(40), the
+//!   roll-distance relation (R7) and the generating coupling (R4).
+//! - [`diagonal`]: the diagonal ratio K_ZV1, the line-to-line map, worm → gear modification
+//!   transfer and its inverse, the variable diagonal ratio.
+//! - [`decompose`]: weighted least-squares decomposition of a wanted modification (102).
+//! - [`simulate`]: brute-force envelope grinding simulation over rotation and feed, storing the
+//!   worm point that ground each gear point, and the contact path fitted from it.
+//! - [`iso1328`]: ISO 1328-1:2013 profile and helix evaluation and tolerances.
+//!
+//! Conventions are collected in `docs/grinding.md`; every formula cites its source.
+//!
+//! ```
+//! use gearcomp_grinding::{contact::WormGearPair, flank::{Flank, Hand, InvoluteGear}};
+//! let gear = InvoluteGear::new(31, 3.0, 20f64.to_radians(), 15f64.to_radians())?;
+//! let worm = InvoluteGear::worm(1, 3.0, 20f64.to_radians(), 130.0, Hand::Right)?;
+//! let pair = WormGearPair::reference(&worm, &gear, Flank::Right)?;
+//! let k = gearcomp_grinding::diagonal::diagonal_ratio(&pair, 20f64.to_radians(), 45f64.to_radians())?;
+//! assert!((k + 0.877178).abs() < 1e-6);
+//! # Ok::<(), gearcomp_grinding::GrindError>(())
+//! ```
+
+pub mod contact;
+pub mod decompose;
+pub mod diagonal;
+mod error;
+pub mod flank;
+pub mod iso1328;
+pub mod kinematics;
+pub mod modification;
+pub mod simulate;
+
+pub use error::{GrindError, Result};

@@ -1,1 +1,38 @@
-//! gearcomp-identify (being built).
+//! Thermal model identification from measured data (issue 4, seed 003).
+//!
+//! Reads a thermal-test log ([`data`]), groups the temperature sensors by fuzzy-equivalence
+//! clustering of their correlation ([`cluster`]), keeps one representative per class, fits
+//! static or dynamic least-squares models ([`regress`], [`identify`]) validated on held-out
+//! data, adds the dry-hobbing workpiece shrink ([`workpiece`]), and produces the thermal
+//! model file of `gearcomp_core::model` that the compensation engine runs.
+//!
+//! ```
+//! use gearcomp_identify::{data, identify};
+//! let csv = "time_s,a_c,b_c,c_c,d_um\n".to_string()
+//!     + &(0..60).map(|k| {
+//!         let t = k as f64 * 60.0;
+//!         let a = 20.0 + (t / 900.0).sin();
+//!         let b = 21.0 + (t / 1500.0).cos();
+//!         let c = 22.0 + 0.5 * (t / 400.0).sin();
+//!         format!("{t},{a},{b},{c},{}\n", 3.0 * a - 2.0 * b)
+//!     }).collect::<String>();
+//! let sel = data::Selection { targets: vec!["d_um".into()], ..Default::default() };
+//! let table = data::read_csv(&csv, "example", &sel, Default::default()).unwrap();
+//! let opts = identify::IdentifyOptions {
+//!     model: identify::ModelKind::Static, classes: Some(3), split: identify::Split::None,
+//!     ..Default::default()
+//! };
+//! let id = identify::identify(&table, &opts).unwrap();
+//! assert!(id.targets[0].train_rmse < 1e-9);
+//! ```
+
+pub mod cluster;
+pub mod data;
+pub mod dendrogram;
+pub mod error;
+pub mod identify;
+pub mod regress;
+pub mod transform;
+pub mod workpiece;
+
+pub use error::{IdentifyError, Result};

@@ -1,0 +1,118 @@
+//! `gearcomp dress` end to end: design, solve (ERRATA §1 G1-Z5 reference), plan, errors.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+const CONFIG: &str = r#"
+[worm]
+starts = 5
+diameter_mm = 160.0
+normal_module_mm = 3.0
+profile_angle_deg = 20.0
+
+[dresser]
+diameter_mm = 100.0
+jacket_width_mm = 0.8
+
+[solve]
+flank = "right"
+method = "three-point"
+crowning_um = 0.2
+
+[plan]
+diameters_mm = [160.0, 150.0, 140.0]
+budget_mm = 0.1
+"#;
+
+fn write_config(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("gearcomp-dress-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("dress.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn gearcomp(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// `dress solve --json` reproduces the ERRATA §1 root and profile for G1-Z5, c = 0.2 µm.
+#[test]
+fn dress_solve_json_matches_errata_s1() {
+    let cfg = write_config("solve", CONFIG);
+    let report = cfg.with_file_name("solve.html");
+    let out = gearcomp(&[
+        "dress",
+        "solve",
+        cfg.to_str().unwrap(),
+        "--json",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let f = |k: &str| v[k].as_f64().unwrap();
+    assert!((f("dgamma_deg") / 0.5580 - 1.0).abs() < 0.01);
+    assert!((f("dnu_ya_mm") / -1.0413 - 1.0).abs() < 0.01);
+    assert!((f("dphi_s_rad") / 6.057e-4 - 1.0).abs() < 0.1);
+    assert!((f("dd_mm") / -0.02450 - 1.0).abs() < 0.1);
+    let prof = v["profile_um"].as_array().unwrap();
+    let mid = prof[10][1].as_f64().unwrap();
+    let start = prof[0][1].as_f64().unwrap();
+    assert!((mid + 0.2).abs() < 1e-3 && (start - 0.0469).abs() < 1e-3);
+    let html = std::fs::read_to_string(&report).unwrap();
+    assert!(html.contains("<svg") && html.contains("Contact line"));
+}
+
+/// `dress design` and `dress plan` print their tables; the plan has one row per diameter.
+#[test]
+fn dress_design_and_plan() {
+    let cfg = write_config("plan", CONFIG);
+    let out = gearcomp(&["dress", "design", cfg.to_str().unwrap()]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("fillet radius 0.8455 mm"), "{text}");
+    let out = gearcomp(&["dress", "plan", cfg.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    for r in rows {
+        assert!(r["deviation_max_um"].as_f64().unwrap() < 0.1);
+    }
+}
+
+/// Bad input: the message names the field and its allowed range; no panic.
+#[test]
+fn dress_bad_input_names_the_field() {
+    let cfg = write_config(
+        "bad",
+        &CONFIG.replace("jacket_width_mm = 0.8", "jacket_width_mm = 9.0"),
+    );
+    let out = gearcomp(&["dress", "design", cfg.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("jacket_width_mm") && err.contains("outside the allowed range"),
+        "{err}"
+    );
+    let cfg = write_config(
+        "noroot",
+        &CONFIG.replace("crowning_um = 0.2", "crowning_um = 200.0"),
+    );
+    let out = gearcomp(&["dress", "solve", cfg.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not producible"));
+}

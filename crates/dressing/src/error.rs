@@ -1,0 +1,64 @@
+//! Errors of gearcomp-dressing.
+
+use thiserror::Error;
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, DressError>;
+
+/// Everything that can go wrong designing a dresser, simulating or solving a dressing.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum DressError {
+    /// A parameter is outside its allowed range.
+    #[error("{field} = {value} is outside the allowed range {min} ..= {max}")]
+    OutOfRange {
+        /// Name of the field (with its unit suffix).
+        field: &'static str,
+        /// The value given.
+        value: f64,
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+    },
+    /// Geometry that cannot be built (e.g. jacket wider than the worm gap).
+    #[error("invalid geometry: {0}")]
+    Geometry(String),
+    /// An inner numerical iteration (contact point, envelope) did not converge.
+    #[error("{what} did not converge ({detail})")]
+    NoConvergence {
+        /// Which iteration.
+        what: &'static str,
+        /// Detail for the engineer.
+        detail: String,
+    },
+    /// The requested modification has no root: it cannot be produced with this worm and dresser.
+    #[error("not producible: no root found after {iterations} iterations (max |F| = {residual_um} um): {reason}")]
+    NoRoot {
+        /// Newton iterations done.
+        iterations: usize,
+        /// Largest residual left, in µm.
+        residual_um: f64,
+        /// Why the solver gave up.
+        reason: String,
+    },
+    /// A pose cannot be realised by the machine's axes.
+    #[error("pose not reachable by the machine axes: {0}")]
+    Unreachable(String),
+}
+
+impl DressError {
+    /// Checks `min ≤ value ≤ max` (and finiteness) for a named field.
+    pub fn check(field: &'static str, value: f64, min: f64, max: f64) -> Result<f64> {
+        if value.is_finite() && value >= min && value <= max {
+            Ok(value)
+        } else {
+            Err(DressError::OutOfRange {
+                field,
+                value,
+                min,
+                max,
+            })
+        }
+    }
+}

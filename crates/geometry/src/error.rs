@@ -1,0 +1,170 @@
+//! Errors of the gear geometry: every variant names the parameter, its value and the
+//! allowed range, and is `Copy` so a caller on a hot path never allocates for it.
+
+/// Why a gear, a measurement or a pair cannot be computed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GeometryError {
+    /// A parameter is outside its allowed range (or not finite).
+    #[error(
+        "{name} = {v}{u} is outside the allowed range {lo} … {hi}{u}",
+        v = short(*value),
+        lo = short(*min),
+        hi = short(*max),
+        u = unit_suffix(unit)
+    )]
+    OutOfRange {
+        /// The parameter's name, as in the API and the CLI.
+        name: &'static str,
+        /// The offending value (angles in degrees).
+        value: f64,
+        /// Lower end of the allowed range.
+        min: f64,
+        /// Upper end of the allowed range.
+        max: f64,
+        /// Unit of value, min and max ("mm", "°", "" for coefficients).
+        unit: &'static str,
+    },
+    /// The generating rack cuts below the base circle.
+    #[error(
+        "undercut: {name} = {value:.4} is below x_min = {min:.4} for z = {teeth} with this tool \
+         (allowed: {name} ≥ {min:.4}, or z ≥ {min_teeth:.1} at this shift)"
+    )]
+    Undercut {
+        /// The profile shift that was checked ("profile_shift" or the generating shift).
+        name: &'static str,
+        /// The offending profile shift coefficient.
+        value: f64,
+        /// The smallest shift without undercut.
+        min: f64,
+        /// The gear's number of teeth.
+        teeth: u32,
+        /// The smallest number of teeth without undercut at this shift.
+        min_teeth: f64,
+    },
+    /// The tooth comes to a point before the tip circle.
+    #[error(
+        "pointed tooth: normal tip thickness s_an = {value_mm:.4} mm with {name} = {shift:.4} \
+         (allowed: s_an > {min_mm} mm; reduce {name} or the tip diameter)"
+    )]
+    PointedTooth {
+        /// The profile shift responsible ("profile_shift" or the generating shift).
+        name: &'static str,
+        /// That profile shift coefficient.
+        shift: f64,
+        /// The normal tip thickness in mm.
+        value_mm: f64,
+        /// The smallest allowed tip thickness in mm.
+        min_mm: f64,
+    },
+    /// A measuring element (ball, span anvils) would not touch the involute flank.
+    #[error(
+        "{name} = {value} does not touch the involute flanks: contact diameter {contact_diameter_mm:.4} mm \
+         is outside the flank {min_mm:.4} … {max_mm:.4} mm"
+    )]
+    OffFlank {
+        /// The parameter that places the contact ("ball_mm" or "span_k").
+        name: &'static str,
+        /// Its value (ball diameter in mm, or k).
+        value: f64,
+        /// The diameter where the contact would be, in mm (NaN if there is none).
+        contact_diameter_mm: f64,
+        /// Lowest diameter of the usable flank in mm.
+        min_mm: f64,
+        /// Highest diameter of the usable flank in mm.
+        max_mm: f64,
+    },
+    /// Two gears that cannot mesh together.
+    #[error("gears do not mesh: {name} differs ({value} vs {other}); they must be equal")]
+    Mismatch {
+        /// The parameter that differs.
+        name: &'static str,
+        /// Its value on the first gear.
+        value: f64,
+        /// Its value on the second gear.
+        other: f64,
+    },
+}
+
+/// " mm" for a unit, "" for a dimensionless value (so messages have no double spaces).
+fn unit_suffix(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    }
+}
+
+/// A number with at most 6 decimals and no trailing zeros (60, 18.793852, -0.0843).
+fn short(x: f64) -> String {
+    if !x.is_finite() || x.abs() >= 1e9 {
+        return format!("{x}");
+    }
+    let s = format!("{x:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+/// Result of the geometry functions.
+pub type Result<T> = std::result::Result<T, GeometryError>;
+
+/// Checks that `value` is finite and within `[min, max]` (closed unless `open` is set).
+pub(crate) fn check_range(
+    name: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+    open: bool,
+) -> Result<f64> {
+    let inside = if open {
+        value > min && value < max
+    } else {
+        value >= min && value <= max
+    };
+    if value.is_finite() && inside {
+        Ok(value)
+    } else {
+        Err(GeometryError::OutOfRange {
+            name,
+            value,
+            min,
+            max,
+            unit,
+        })
+    }
+}
+
+/// Like [`check_range`] for an angle given in rad, reported in degrees.
+pub(crate) fn check_angle(
+    name: &'static str,
+    value_rad: f64,
+    min_deg: f64,
+    max_deg: f64,
+    open_low: bool,
+) -> Result<f64> {
+    // Rounded to 1e-10° so a user's 60° reads back as 60, not 59.99999999999999.
+    let deg = (value_rad.to_degrees() * 1e10).round() / 1e10;
+    // Compare in rad: 60° → rad → ° lands just below 60 and would slip through.
+    let (lo, hi) = (min_deg.to_radians(), max_deg.to_radians());
+    let low_ok = if open_low {
+        value_rad > lo
+    } else {
+        value_rad >= lo
+    };
+    if value_rad.is_finite() && low_ok && value_rad < hi {
+        Ok(value_rad)
+    } else {
+        Err(GeometryError::OutOfRange {
+            name,
+            value: deg,
+            min: min_deg,
+            max: max_deg,
+            unit: "°",
+        })
+    }
+}

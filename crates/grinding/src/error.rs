@@ -1,0 +1,97 @@
+//! Errors of the grinding crate.
+
+use thiserror::Error;
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, GrindError>;
+
+/// What can go wrong computing a worm–gear mesh, a mapping, a simulation or an evaluation.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum GrindError {
+    /// A parameter is outside its allowed range (or not finite).
+    #[error("{field} = {value} is out of range: expected {expected}")]
+    OutOfRange {
+        /// Name of the field, with its unit (e.g. `m_n_mm`).
+        field: &'static str,
+        /// The value given.
+        value: f64,
+        /// The allowed range, in words.
+        expected: &'static str,
+    },
+    /// Worm and gear do not mesh: their normal base pitches differ (digest eq. (93)).
+    #[error(
+        "worm and gear do not mesh: normal base pitch {worm_pbn_mm} mm (worm) vs {gear_pbn_mm} mm \
+         (gear); expected equal within 1e-9 relative (eq. (93): m_n·cos α_n must agree)"
+    )]
+    MeshMismatch {
+        /// Normal base pitch of the worm.
+        worm_pbn_mm: f64,
+        /// Normal base pitch of the gear.
+        gear_pbn_mm: f64,
+    },
+    /// The two base helices cannot share a common normal for this crossing angle.
+    #[error(
+        "no common flank normal for crossing angle {crossing_rad} rad: the base helix angles \
+         {beta_b1_rad} rad (worm) and {beta_b2_rad} rad (gear) are incompatible with it"
+    )]
+    NoCommonNormal {
+        /// Axis crossing angle γ.
+        crossing_rad: f64,
+        /// Base helix angle of the worm flank.
+        beta_b1_rad: f64,
+        /// Base helix angle of the gear flank.
+        beta_b2_rad: f64,
+    },
+    /// A direction makes the requested mapping singular (e.g. ρ_F2 = ρ_KF has no finite K_ZV1).
+    #[error("{what}: {field} = {value} is singular; expected {expected}")]
+    Singular {
+        /// The computation that is singular.
+        what: &'static str,
+        /// The offending field.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// What a valid value looks like.
+        expected: &'static str,
+    },
+    /// An iterative solver did not converge.
+    #[error("{what} did not converge in {iterations} iterations (residual {residual_mm} mm)")]
+    NoConvergence {
+        /// Which solver.
+        what: &'static str,
+        /// Iterations spent.
+        iterations: usize,
+        /// Last residual.
+        residual_mm: f64,
+    },
+    /// Input data are too few or inconsistent in size.
+    #[error("{field}: got {got}, expected {expected}")]
+    BadData {
+        /// Which input.
+        field: &'static str,
+        /// What was given.
+        got: usize,
+        /// What is needed.
+        expected: &'static str,
+    },
+}
+
+/// Checks that `value` is finite and inside `[min, max]`.
+pub(crate) fn check_range(
+    field: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    expected: &'static str,
+) -> Result<f64> {
+    if value.is_finite() && value >= min && value <= max {
+        Ok(value)
+    } else {
+        Err(GrindError::OutOfRange {
+            field,
+            value,
+            expected,
+        })
+    }
+}

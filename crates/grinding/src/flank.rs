@@ -1,0 +1,386 @@
+//! Involute gears and worms as involute helicoids parameterised by roll distance w and
+//! width position z (the (w, z) plane of the seed), one [`InvoluteFlank`] per flank.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{check_range, GrindError, Result};
+
+/// Which flank of a tooth (or worm thread).
+///
+/// Convention (fixed here, digest §8.1 [RECONSTRUCTED]): seen from the +z end face with the
+/// tooth tip up, the right flank is on the right; its outward normal points clockwise, and its
+/// flank sign is s = +1. The left flank has s = −1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Flank {
+    /// s = +1.
+    Right,
+    /// s = −1.
+    Left,
+}
+
+impl Flank {
+    /// The flank sign s_F (+1 right, −1 left).
+    pub fn sign(self) -> f64 {
+        match self {
+            Flank::Right => 1.0,
+            Flank::Left => -1.0,
+        }
+    }
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Flank::Right => "right",
+            Flank::Left => "left",
+        }
+    }
+}
+
+/// Hand of a helix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Hand {
+    /// Right hand: positive signed helix angle.
+    Right,
+    /// Left hand: negative signed helix angle.
+    Left,
+}
+
+impl Hand {
+    fn sign(self) -> f64 {
+        match self {
+            Hand::Right => 1.0,
+            Hand::Left => -1.0,
+        }
+    }
+}
+
+/// A cylindrical involute gear or worm (a worm is a gear with `teeth` = number of starts and a
+/// helix angle close to 90°). Asymmetric teeth have different normal pressure angles per flank.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InvoluteGear {
+    /// Number of teeth (starts for a worm), z.
+    pub teeth: u32,
+    /// Normal module m_n in mm.
+    pub m_n_mm: f64,
+    /// Normal pressure angle of the right flank α_n,r in rad.
+    pub alpha_n_right_rad: f64,
+    /// Normal pressure angle of the left flank α_n,l in rad.
+    pub alpha_n_left_rad: f64,
+    /// Signed reference helix angle β in rad (> 0 right hand).
+    pub beta_rad: f64,
+    /// Profile shift coefficient x (only sets the angular position of the flanks).
+    pub x_shift: f64,
+}
+
+impl InvoluteGear {
+    /// A validated symmetric gear.
+    pub fn new(teeth: u32, m_n_mm: f64, alpha_n_rad: f64, beta_rad: f64) -> Result<Self> {
+        Self::asymmetric(teeth, m_n_mm, alpha_n_rad, alpha_n_rad, beta_rad, 0.0)
+    }
+
+    /// A validated gear with separate right/left normal pressure angles and a profile shift.
+    pub fn asymmetric(
+        teeth: u32,
+        m_n_mm: f64,
+        alpha_n_right_rad: f64,
+        alpha_n_left_rad: f64,
+        beta_rad: f64,
+        x_shift: f64,
+    ) -> Result<Self> {
+        if teeth == 0 || teeth > 100_000 {
+            return Err(GrindError::OutOfRange {
+                field: "teeth",
+                value: f64::from(teeth),
+                expected: "1 ..= 100000",
+            });
+        }
+        check_range("m_n_mm", m_n_mm, 1e-3, 1e3, "0.001 ..= 1000 mm")?;
+        check_range(
+            "alpha_n_right_rad",
+            alpha_n_right_rad,
+            0.017,
+            0.79,
+            "1° ..= 45°",
+        )?;
+        check_range(
+            "alpha_n_left_rad",
+            alpha_n_left_rad,
+            0.017,
+            0.79,
+            "1° ..= 45°",
+        )?;
+        check_range("beta_rad", beta_rad, -1.5703, 1.5703, "|β| < 89.97°")?;
+        check_range("x_shift", x_shift, -5.0, 5.0, "-5 ..= 5")?;
+        Ok(Self {
+            teeth,
+            m_n_mm,
+            alpha_n_right_rad,
+            alpha_n_left_rad,
+            beta_rad,
+            x_shift,
+        })
+    }
+
+    /// A symmetric cylindrical worm given its reference (pitch) radius r1.
+    ///
+    /// # Formula
+    /// cos β1 = z1·m_n/(2·r1) (reference radius r = z·m_n/(2 cos β)); sign of β1 from the hand.
+    /// # Source
+    /// ISO 21771:2007 eq. for the reference diameter [STANDARD]; digest §9.2 (worm of the
+    /// reference example) [RECONSTRUCTED].
+    pub fn worm(
+        starts: u32,
+        m_n_mm: f64,
+        alpha_n_rad: f64,
+        reference_radius_mm: f64,
+        hand: Hand,
+    ) -> Result<Self> {
+        check_range("m_n_mm", m_n_mm, 1e-3, 1e3, "0.001 ..= 1000 mm")?;
+        check_range(
+            "worm_reference_radius_mm",
+            reference_radius_mm,
+            1e-3,
+            1e5,
+            "0.001 ..= 100000 mm",
+        )?;
+        let cos_beta = f64::from(starts) * m_n_mm / (2.0 * reference_radius_mm);
+        if !(cos_beta > 0.0 && cos_beta < 0.9) {
+            return Err(GrindError::OutOfRange {
+                field: "worm_reference_radius_mm",
+                value: reference_radius_mm,
+                expected: "larger than starts·m_n/1.8 (lead angle below 64°), and starts ≥ 1",
+            });
+        }
+        Self::new(starts, m_n_mm, alpha_n_rad, hand.sign() * cos_beta.acos())
+    }
+
+    /// Reference radius r = z·m_n/(2·cos β) in mm.
+    pub fn reference_radius_mm(&self) -> f64 {
+        f64::from(self.teeth) * self.m_n_mm / (2.0 * self.beta_rad.cos())
+    }
+
+    /// Normal base pitch p_bn = π·m_n·cos α_n of one flank in mm.
+    pub fn normal_base_pitch_mm(&self, flank: Flank) -> f64 {
+        std::f64::consts::PI * self.m_n_mm * self.alpha_n_rad(flank).cos()
+    }
+
+    /// Normal pressure angle of a flank.
+    pub fn alpha_n_rad(&self, flank: Flank) -> f64 {
+        match flank {
+            Flank::Right => self.alpha_n_right_rad,
+            Flank::Left => self.alpha_n_left_rad,
+        }
+    }
+
+    /// The involute helicoid of one flank.
+    ///
+    /// # Formula
+    /// tan α_t = tan α_n / cos β; r_b = r·cos α_t; sin β_b = sin β·cos α_n (signed);
+    /// ψ_b = s_t/(2r) + inv α_t with s_t = m_t·(π/2 + 2x·tan α_n); η = −s·ψ_b;
+    /// w_P = r_b·tan α_t (roll distance of the reference circle).
+    /// # Source
+    /// ISO 21771:2007 §4–5 [STANDARD]; digest §8.1 [RECONSTRUCTED].
+    pub fn flank(&self, flank: Flank) -> InvoluteFlank {
+        let alpha_n = self.alpha_n_rad(flank);
+        let r = self.reference_radius_mm();
+        let alpha_t = (alpha_n.tan() / self.beta_rad.cos()).atan();
+        let r_b = r * alpha_t.cos();
+        let beta_b = (self.beta_rad.sin() * alpha_n.cos()).asin();
+        let m_t = self.m_n_mm / self.beta_rad.cos();
+        let s_t = m_t * (std::f64::consts::FRAC_PI_2 + 2.0 * self.x_shift * alpha_n.tan());
+        let psi_b = s_t / (2.0 * r) + (alpha_t.tan() - alpha_t);
+        InvoluteFlank {
+            flank,
+            r_b_mm: r_b,
+            beta_b_rad: beta_b,
+            eta_rad: -flank.sign() * psi_b,
+            w_ref_mm: r_b * alpha_t.tan(),
+        }
+    }
+}
+
+/// One flank of an involute gear or worm: an involute helicoid.
+///
+/// # Formula
+/// τ(w, z) = η + s·w/r_b + z·tan β_b/r_b;
+/// E(w, z) = r_b·e_r(τ) − s·w·e_t(τ) + z·e_z, with e_r = (cos τ, sin τ, 0), e_t = (−sin τ, cos τ, 0);
+/// outward unit normal N = s·(−cos β_b·e_t(τ) + sin β_b·e_z), so N·e_z = s·sin β_b.
+/// # Units
+/// mm, rad. w ≥ 0 is the roll distance (w = √(r² − r_b²)); z is the width position.
+/// # Source
+/// Digest §8.1, the lost eq. (27) [RECONSTRUCTED, VERIFIED by the digest's Newton check].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InvoluteFlank {
+    /// Which flank.
+    pub flank: Flank,
+    /// Base radius r_b in mm.
+    pub r_b_mm: f64,
+    /// Signed base helix angle β_b in rad (> 0 right hand).
+    pub beta_b_rad: f64,
+    /// Angular position η of the flank's base-circle start at z = 0, in rad.
+    pub eta_rad: f64,
+    /// Roll distance of the reference (pitch) circle w_P in mm.
+    pub w_ref_mm: f64,
+}
+
+impl InvoluteFlank {
+    /// Flank sign s.
+    #[inline]
+    pub fn s(&self) -> f64 {
+        self.flank.sign()
+    }
+
+    /// Angle τ(w, z) of the base-circle tangent point.
+    #[inline]
+    pub fn tau(&self, w_mm: f64, z_mm: f64) -> f64 {
+        self.eta_rad + (self.s() * w_mm + z_mm * self.beta_b_rad.tan()) / self.r_b_mm
+    }
+
+    /// Point E(w, z) in the body frame.
+    #[inline]
+    pub fn point(&self, w_mm: f64, z_mm: f64) -> Vector3<f64> {
+        let (st, ct) = self.tau(w_mm, z_mm).sin_cos();
+        let sw = self.s() * w_mm;
+        Vector3::new(self.r_b_mm * ct + sw * st, self.r_b_mm * st - sw * ct, z_mm)
+    }
+
+    /// Outward unit normal N(w, z) in the body frame.
+    #[inline]
+    pub fn normal(&self, w_mm: f64, z_mm: f64) -> Vector3<f64> {
+        self.normal_at_tau(self.tau(w_mm, z_mm))
+    }
+
+    /// Outward unit normal for a given τ (the normal depends on τ only).
+    #[inline]
+    pub fn normal_at_tau(&self, tau: f64) -> Vector3<f64> {
+        let (st, ct) = tau.sin_cos();
+        let (sb, cb) = self.beta_b_rad.sin_cos();
+        let s = self.s();
+        Vector3::new(s * cb * st, -s * cb * ct, s * sb)
+    }
+
+    /// Point, normal and their partial derivatives with respect to w and z:
+    /// (E, N, ∂E/∂w, ∂E/∂z, ∂N/∂w, ∂N/∂z).
+    ///
+    /// # Formula
+    /// ∂E/∂w = (w/r_b)·e_r; ∂E/∂z = tan β_b·e_t + s·w·tan β_b/r_b·e_r + e_z;
+    /// ∂N/∂τ = s·cos β_b·e_r, ∂τ/∂w = s/r_b, ∂τ/∂z = tan β_b/r_b.
+    #[inline]
+    pub fn jet(&self, w_mm: f64, z_mm: f64) -> [Vector3<f64>; 6] {
+        let tau = self.tau(w_mm, z_mm);
+        let (st, ct) = tau.sin_cos();
+        let e_r = Vector3::new(ct, st, 0.0);
+        let e_t = Vector3::new(-st, ct, 0.0);
+        let e_z = Vector3::new(0.0, 0.0, 1.0);
+        let s = self.s();
+        let (sb, cb) = self.beta_b_rad.sin_cos();
+        let tb = sb / cb;
+        let p = e_r * self.r_b_mm - e_t * (s * w_mm) + e_z * z_mm;
+        let n = (e_t * (-cb) + e_z * sb) * s;
+        let dp_dw = e_r * (w_mm / self.r_b_mm);
+        let dp_dz = e_t * tb + e_r * (s * w_mm * tb / self.r_b_mm) + e_z;
+        let dn_dtau = e_r * (s * cb);
+        [
+            p,
+            n,
+            dp_dw,
+            dp_dz,
+            dn_dtau * (s / self.r_b_mm),
+            dn_dtau * (tb / self.r_b_mm),
+        ]
+    }
+
+    /// Lead p_z = 2π·r_b/tan β_b in mm (infinite for a spur gear).
+    pub fn lead_mm(&self) -> f64 {
+        2.0 * std::f64::consts::PI * self.r_b_mm / self.beta_b_rad.tan()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn gear() -> InvoluteGear {
+        InvoluteGear::new(31, 3.0, 20f64.to_radians(), 15f64.to_radians()).unwrap()
+    }
+
+    /// Digest §9.2 reference numbers (independent calculation), 1e-6 as printed.
+    #[test]
+    fn reference_example_dimensions() {
+        let g = gear();
+        assert_relative_eq!(g.reference_radius_mm(), 48.140342, epsilon = 1e-6);
+        let f = g.flank(Flank::Right);
+        assert_relative_eq!(f.r_b_mm, 45.048348, epsilon = 1e-6);
+        assert_relative_eq!(f.beta_b_rad.to_degrees(), 14.076095, epsilon = 1e-6);
+        assert_relative_eq!(f.eta_rad, -0.067124, epsilon = 1e-6);
+        assert_relative_eq!(f.w_ref_mm, 16.974655, epsilon = 1e-6);
+        let w = InvoluteGear::worm(1, 3.0, 20f64.to_radians(), 130.0, Hand::Right).unwrap();
+        assert_relative_eq!(w.beta_rad.to_degrees(), 89.338880, epsilon = 1e-6);
+        let wf = w.flank(Flank::Right);
+        assert_relative_eq!(wf.r_b_mm, 4.119147, epsilon = 1e-6);
+        assert_relative_eq!(wf.beta_b_rad.to_degrees(), 69.989523, epsilon = 1e-6);
+        assert_relative_eq!(wf.w_ref_mm, 129.934724, epsilon = 1e-6);
+        assert_relative_eq!(wf.lead_mm(), 9.425405, epsilon = 1e-6);
+        // Normal base pitch π·m_n·cos α_n = 8.856394 mm for both (digest §4.2).
+        assert_relative_eq!(
+            g.normal_base_pitch_mm(Flank::Right),
+            8.856394,
+            epsilon = 1e-6
+        );
+    }
+
+    /// The surface is an involute: radius² = r_b² + w², polar angle = η + s·inv α (z = 0);
+    /// the normal is unit, orthogonal to both tangents and has axial part s·sin β_b.
+    #[test]
+    fn surface_is_an_involute_helicoid() {
+        for flank in [Flank::Right, Flank::Left] {
+            let f = gear().flank(flank);
+            for &(w, z) in &[(11.0, -15.0), (17.0, 0.0), (23.0, 14.0)] {
+                let p = f.point(w, z);
+                assert_relative_eq!(p.x.hypot(p.y), f.r_b_mm.hypot(w), epsilon = 1e-12);
+                let alpha = (w / f.r_b_mm).atan();
+                let polar_expected =
+                    f.eta_rad + f.s() * (alpha.tan() - alpha) + z * f.beta_b_rad.tan() / f.r_b_mm;
+                let d = p.y.atan2(p.x) - polar_expected;
+                assert!(d.sin().abs() < 1e-12);
+                let [_, n, dw, dz, dnw, dnz] = f.jet(w, z);
+                assert_relative_eq!(n.norm(), 1.0, epsilon = 1e-14);
+                assert!(n.dot(&dw).abs() < 1e-12 && n.dot(&dz).abs() < 1e-12);
+                assert_relative_eq!(n.z, f.s() * f.beta_b_rad.sin(), epsilon = 1e-14);
+                // derivatives against central differences
+                let h = 1e-5;
+                let fdw = (f.point(w + h, z) - f.point(w - h, z)) / (2.0 * h);
+                let fdz = (f.point(w, z + h) - f.point(w, z - h)) / (2.0 * h);
+                let fnw = (f.normal(w + h, z) - f.normal(w - h, z)) / (2.0 * h);
+                let fnz = (f.normal(w, z + h) - f.normal(w, z - h)) / (2.0 * h);
+                assert!((fdw - dw).norm() < 1e-8 && (fdz - dz).norm() < 1e-8);
+                assert!((fnw - dnw).norm() < 1e-8 && (fnz - dnz).norm() < 1e-8);
+            }
+        }
+    }
+
+    /// Outward: a step along N leaves the tooth (its polar angle moves away from the tooth
+    /// centre at angle 0), for both flanks.
+    #[test]
+    fn normal_points_out_of_the_tooth() {
+        for flank in [Flank::Right, Flank::Left] {
+            let f = gear().flank(flank);
+            let p = f.point(17.0, 0.0);
+            let q = p + f.normal(17.0, 0.0) * 0.01;
+            let half_angle = |v: Vector3<f64>| v.y.atan2(v.x).abs();
+            assert!(half_angle(q) > half_angle(p));
+        }
+    }
+
+    #[test]
+    fn bad_input_is_rejected() {
+        assert!(InvoluteGear::new(0, 3.0, 0.35, 0.2).is_err());
+        assert!(InvoluteGear::new(31, f64::NAN, 0.35, 0.2).is_err());
+        assert!(InvoluteGear::new(31, 3.0, 1.2, 0.2).is_err());
+        assert!(InvoluteGear::worm(1, 3.0, 0.35, 1.0, Hand::Right).is_err());
+    }
+}

@@ -1,0 +1,417 @@
+//! ISO 1328-1:2013 profile and helix evaluation of a flank deviation map, and the tolerances of
+//! an accuracy class.
+//!
+//! The standard works in µm; values enter this module in mm (the crate's unit) and are
+//! converted to µm once, in [`DeviationMap::trace_um`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{check_range, GrindError, Result};
+use crate::simulate::FlankGrid;
+
+/// Deviation of a flank from its design over a (w, z) grid (transverse, mm, > 0 = material).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeviationMap {
+    /// The grid.
+    pub grid: FlankGrid,
+    /// f_Ft deviation per grid point (index i_w·n_z + j_z) in mm.
+    pub f_mm: Vec<f64>,
+}
+
+/// Evaluation of one trace (profile or helix) over its evaluation range.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TraceEvaluation {
+    /// Evaluation range (start, end) in mm of roll distance (profile) or width (helix).
+    pub range_mm: (f64, f64),
+    /// Total deviation F (F_α or F_β) in µm.
+    pub total_um: f64,
+    /// Form deviation f_f (f_fα or f_fβ) in µm.
+    pub form_um: f64,
+    /// Slope deviation f_H (f_Hα or f_Hβ) in µm, signed.
+    pub slope_um: f64,
+}
+
+/// Evaluates a trace (x in mm, f in µm) over `range_mm`.
+///
+/// # Formula
+/// Mean line = least-squares line of f over the evaluation range;
+/// F = max f − min f (design trace = zero deviation);
+/// f_f = max r − min r with r = f − mean line;
+/// f_H = mean line(end) − mean line(start), signed (> 0: more material at the range end, i.e.
+/// towards the tip for a profile, towards +z for a helix).
+/// # Source
+/// ISO 1328-1:2013, definitions of total, form and slope deviation of profile and helix
+/// (clause 3.3) [STANDARD]; sign convention of f_H fixed here (docs/grinding.md).
+pub fn evaluate_trace(x_mm: &[f64], f_um: &[f64], range_mm: (f64, f64)) -> Result<TraceEvaluation> {
+    if x_mm.len() != f_um.len() {
+        return Err(GrindError::BadData {
+            field: "trace",
+            got: f_um.len(),
+            expected: "as many deviations as abscissae",
+        });
+    }
+    let pts = || {
+        x_mm.iter()
+            .zip(f_um)
+            .filter(|(x, _)| **x >= range_mm.0 - 1e-12 && **x <= range_mm.1 + 1e-12)
+    };
+    let n = pts().count();
+    if n < 3 || !pts().all(|(x, f)| x.is_finite() && f.is_finite()) {
+        return Err(GrindError::BadData {
+            field: "trace points inside the evaluation range",
+            got: n,
+            expected: "at least 3 finite points",
+        });
+    }
+    let nf = n as f64;
+    let mx = pts().map(|(x, _)| x).sum::<f64>() / nf;
+    let mf = pts().map(|(_, f)| f).sum::<f64>() / nf;
+    // two-pass centred sums: the 2-unknown least-squares line without normal-equation loss
+    let sxx = pts().map(|(x, _)| (x - mx).powi(2)).sum::<f64>();
+    let sxf = pts().map(|(x, f)| (x - mx) * (f - mf)).sum::<f64>();
+    if sxx.is_nan() || sxx <= 0.0 {
+        return Err(GrindError::BadData {
+            field: "trace abscissae",
+            got: n,
+            expected: "distinct positions",
+        });
+    }
+    let slope = sxf / sxx;
+    let line = |x: f64| mf + slope * (x - mx);
+    let (mut fmin, mut fmax, mut rmin, mut rmax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, f) in pts() {
+        fmin = fmin.min(*f);
+        fmax = fmax.max(*f);
+        let r = f - line(*x);
+        rmin = rmin.min(r);
+        rmax = rmax.max(r);
+    }
+    Ok(TraceEvaluation {
+        range_mm,
+        total_um: fmax - fmin,
+        form_um: rmax - rmin,
+        slope_um: line(range_mm.1) - line(range_mm.0),
+    })
+}
+
+/// Profile evaluation range L_α from the active profile [w_start (SAP), w_end (tip)].
+///
+/// # Formula
+/// L_α starts at the start of the active profile and covers 95 % of the active length
+/// L_AE (the 5 % next to the tip are excluded).
+/// # Source
+/// ISO 1328-1:2013, profile evaluation range [STANDARD, as recalled; verify the clause].
+pub fn profile_range(active_mm: (f64, f64)) -> (f64, f64) {
+    (
+        active_mm.0,
+        active_mm.0 + 0.95 * (active_mm.1 - active_mm.0),
+    )
+}
+
+/// Helix evaluation range L_β of a face [z_start, z_end].
+///
+/// # Formula
+/// Each end is shortened by the smaller of 5 % of the face width b and one module m_n.
+/// # Source
+/// ISO 1328-1:2013, helix evaluation range [STANDARD, as recalled; verify the clause].
+pub fn helix_range(face_mm: (f64, f64), m_n_mm: f64) -> (f64, f64) {
+    let b = face_mm.1 - face_mm.0;
+    let cut = (0.05 * b).min(m_n_mm);
+    (face_mm.0 + cut, face_mm.1 - cut)
+}
+
+/// Rounds a calculated tolerance.
+///
+/// # Formula
+/// above 10 µm: to the nearest integer µm; 5…10 µm: to the nearest 0.5 µm; below 5 µm: to
+/// the nearest 0.1 µm.
+/// # Source
+/// ISO 1328-1:2013 rounding rule as quoted in anchors.md TV4 [STANDARD, text of the standard
+/// not available here: verify].
+pub fn round_iso1328_um(v_um: f64) -> f64 {
+    if v_um > 10.0 {
+        v_um.round()
+    } else if v_um >= 5.0 {
+        (v_um * 2.0).round() / 2.0
+    } else {
+        (v_um * 10.0).round() / 10.0
+    }
+}
+
+/// Tolerances of an accuracy class (µm), rounded per [`round_iso1328_um`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Tolerances {
+    /// Accuracy class A (1…11).
+    pub class: u8,
+    /// Single pitch tolerance f_pT.
+    pub f_pt_um: f64,
+    /// Total cumulative pitch tolerance F_pT.
+    pub total_pt_um: f64,
+    /// Profile slope tolerance f_HαT.
+    pub f_h_alpha_t_um: f64,
+    /// Profile form tolerance f_fαT.
+    pub f_f_alpha_t_um: f64,
+    /// Total profile tolerance F_αT.
+    pub total_alpha_t_um: f64,
+    /// Helix slope tolerance f_HβT.
+    pub f_h_beta_t_um: f64,
+    /// Helix form tolerance f_fβT.
+    pub f_f_beta_t_um: f64,
+    /// Total helix tolerance F_βT.
+    pub total_beta_t_um: f64,
+}
+
+/// Tolerances of class A for reference diameter d, normal module m_n and face width b.
+///
+/// # Formula
+/// φ = (√2)^(A−5);
+/// f_pT = (0.001d + 0.4m_n + 5)·φ; F_pT = (0.002d + 0.55√d + 0.7m_n + 12)·φ;
+/// f_HαT = (0.4m_n + 0.001d + 4)·φ; f_fαT = (0.55m_n + 5)·φ; F_αT = √(f_HαT² + f_fαT²);
+/// f_HβT = (0.05√d + 0.35√b + 4)·φ; f_fβT = (0.07√d + 0.45√b + 4)·φ; F_βT = √(f_HβT² + f_fβT²)
+/// (totals from the unrounded parts), every value then rounded.
+/// # Domain
+/// A = 1…11; d, m_n, b in mm within the standard's scope (5 ≤ d ≤ 15 000, 0.5 ≤ m_n ≤ 70,
+/// 4 ≤ b ≤ 1200).
+/// # Source
+/// ISO 1328-1:2013, formulas (5)–(12) [STANDARD] (as coded in a public implementation and
+/// anchors.md TV4).
+pub fn tolerances(d_mm: f64, m_n_mm: f64, b_mm: f64, class: u8) -> Result<Tolerances> {
+    check_range(
+        "d_mm",
+        d_mm,
+        5.0,
+        15_000.0,
+        "5 ..= 15000 mm (ISO 1328-1 scope)",
+    )?;
+    check_range(
+        "m_n_mm",
+        m_n_mm,
+        0.5,
+        70.0,
+        "0.5 ..= 70 mm (ISO 1328-1 scope)",
+    )?;
+    check_range(
+        "b_mm",
+        b_mm,
+        4.0,
+        1200.0,
+        "4 ..= 1200 mm (ISO 1328-1 scope)",
+    )?;
+    if !(1..=11).contains(&class) {
+        return Err(GrindError::OutOfRange {
+            field: "accuracy_class",
+            value: f64::from(class),
+            expected: "1 ..= 11",
+        });
+    }
+    let phi = std::f64::consts::SQRT_2.powi(i32::from(class) - 5);
+    let (sd, sb) = (d_mm.sqrt(), b_mm.sqrt());
+    let fha = (0.4 * m_n_mm + 0.001 * d_mm + 4.0) * phi;
+    let ffa = (0.55 * m_n_mm + 5.0) * phi;
+    let fhb = (0.05 * sd + 0.35 * sb + 4.0) * phi;
+    let ffb = (0.07 * sd + 0.45 * sb + 4.0) * phi;
+    let r = round_iso1328_um;
+    Ok(Tolerances {
+        class,
+        f_pt_um: r((0.001 * d_mm + 0.4 * m_n_mm + 5.0) * phi),
+        total_pt_um: r((0.002 * d_mm + 0.55 * sd + 0.7 * m_n_mm + 12.0) * phi),
+        f_h_alpha_t_um: r(fha),
+        f_f_alpha_t_um: r(ffa),
+        total_alpha_t_um: r(fha.hypot(ffa)),
+        f_h_beta_t_um: r(fhb),
+        f_f_beta_t_um: r(ffb),
+        total_beta_t_um: r(fhb.hypot(ffb)),
+    })
+}
+
+/// Profile and helix evaluation of a flank against a class.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FlankEvaluation {
+    /// Width position of the evaluated profile (mid face) in mm.
+    pub profile_z_mm: f64,
+    /// Roll distance of the evaluated helix (middle of L_α) in mm.
+    pub helix_w_mm: f64,
+    /// Profile evaluation (F_α, f_fα, f_Hα).
+    pub profile: TraceEvaluation,
+    /// Helix evaluation (F_β, f_fβ, f_Hβ).
+    pub helix: TraceEvaluation,
+    /// Tolerances of the class.
+    pub tolerances: Tolerances,
+    /// Every value within its tolerance.
+    pub within_tolerance: bool,
+}
+
+impl DeviationMap {
+    /// Checks size and values.
+    pub fn new(grid: FlankGrid, f_mm: Vec<f64>) -> Result<Self> {
+        // the grid's fields are public: re-validate before indexing with them
+        let grid = FlankGrid::new(grid.w_range_mm, grid.z_range_mm, grid.n_w, grid.n_z)?;
+        if f_mm.len() != grid.len() {
+            return Err(GrindError::BadData {
+                field: "deviation map",
+                got: f_mm.len(),
+                expected: "one value per grid point",
+            });
+        }
+        for &v in &f_mm {
+            check_range("deviation f_mm", v, -1e3, 1e3, "finite")?;
+        }
+        Ok(Self { grid, f_mm })
+    }
+
+    /// Value at (w, z), bilinear between grid points (clamped to the grid).
+    pub fn value_mm(&self, w_mm: f64, z_mm: f64) -> f64 {
+        let g = &self.grid;
+        let loc = |v: f64, r: (f64, f64), n: usize| {
+            let t = ((v - r.0) / (r.1 - r.0) * (n - 1) as f64).clamp(0.0, (n - 1) as f64);
+            let i = (t.floor() as usize).min(n - 2);
+            (i, t - i as f64)
+        };
+        let (i, a) = loc(w_mm, g.w_range_mm, g.n_w);
+        let (j, b) = loc(z_mm, g.z_range_mm, g.n_z);
+        let f = |i: usize, j: usize| self.f_mm[i * g.n_z + j];
+        (1.0 - a) * ((1.0 - b) * f(i, j) + b * f(i, j + 1))
+            + a * ((1.0 - b) * f(i + 1, j) + b * f(i + 1, j + 1))
+    }
+
+    /// A trace in µm: along w at width z (profile) or along z at roll distance w (helix),
+    /// sampled at the grid lines inside `range_mm` plus the two range ends.
+    fn trace_um(&self, profile: bool, at_mm: f64, range_mm: (f64, f64)) -> (Vec<f64>, Vec<f64>) {
+        let g = &self.grid;
+        let n = if profile { g.n_w } else { g.n_z };
+        let mut xs = vec![range_mm.0];
+        for k in 0..n {
+            let x = if profile { g.w_mm(k) } else { g.z_mm(k) };
+            if x > range_mm.0 + 1e-9 && x < range_mm.1 - 1e-9 {
+                xs.push(x);
+            }
+        }
+        xs.push(range_mm.1);
+        let fs = xs
+            .iter()
+            .map(|&x| {
+                let v = if profile {
+                    self.value_mm(x, at_mm)
+                } else {
+                    self.value_mm(at_mm, x)
+                };
+                v * 1e3
+            })
+            .collect();
+        (xs, fs)
+    }
+
+    /// ISO 1328-1 evaluation: profile at mid face width, helix at the middle of L_α; the grid's
+    /// w range is taken as the active profile and its z range as the face width.
+    pub fn evaluate(&self, tol: Tolerances, m_n_mm: f64) -> Result<FlankEvaluation> {
+        let g = self.grid;
+        let pr = profile_range(g.w_range_mm);
+        let hr = helix_range(g.z_range_mm, m_n_mm);
+        let z_mid = 0.5 * (g.z_range_mm.0 + g.z_range_mm.1);
+        let w_mid = 0.5 * (pr.0 + pr.1);
+        let (x, f) = self.trace_um(true, z_mid, pr);
+        let profile = evaluate_trace(&x, &f, pr)?;
+        let (x, f) = self.trace_um(false, w_mid, hr);
+        let helix = evaluate_trace(&x, &f, hr)?;
+        let within = profile.total_um <= tol.total_alpha_t_um
+            && profile.form_um <= tol.f_f_alpha_t_um
+            && profile.slope_um.abs() <= tol.f_h_alpha_t_um
+            && helix.total_um <= tol.total_beta_t_um
+            && helix.form_um <= tol.f_f_beta_t_um
+            && helix.slope_um.abs() <= tol.f_h_beta_t_um;
+        Ok(FlankEvaluation {
+            profile_z_mm: z_mid,
+            helix_w_mm: w_mid,
+            profile,
+            helix,
+            tolerances: tol,
+            within_tolerance: within,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// anchors.md TV4: class 6, d = 80 mm, m_n = 2 mm, b = 20 mm.
+    #[test]
+    fn class6_tolerances_tv4() {
+        let t = tolerances(80.0, 2.0, 20.0, 6).unwrap();
+        assert_eq!(t.f_pt_um, 8.5);
+        assert_eq!(t.total_pt_um, 26.0);
+        assert_eq!(t.f_h_alpha_t_um, 7.0);
+        assert_eq!(t.f_f_alpha_t_um, 8.5);
+        assert_eq!(t.total_alpha_t_um, 11.0);
+        assert_eq!(t.f_h_beta_t_um, 8.5);
+        assert_eq!(t.f_f_beta_t_um, 9.5);
+        assert_eq!(t.total_beta_t_um, 13.0);
+        assert!(tolerances(80.0, 2.0, 20.0, 12).is_err());
+        assert!(tolerances(f64::NAN, 2.0, 20.0, 6).is_err());
+    }
+
+    #[test]
+    fn rounding_rule() {
+        assert_eq!(round_iso1328_um(26.134), 26.0);
+        assert_eq!(round_iso1328_um(10.6), 11.0);
+        assert_eq!(round_iso1328_um(8.627), 8.5);
+        assert_eq!(round_iso1328_um(6.901), 7.0);
+        assert_eq!(round_iso1328_um(4.87), 4.9);
+        assert_eq!(round_iso1328_um(0.04), 0.0);
+    }
+
+    /// Hand-computed trace: f = 0.2x + 0.05(x − 5)² µm at x = 0, 1, …, 10 mm.
+    /// Mean line slope 0.2 (the parabola is symmetric) ⇒ f_H = 2.0 µm; mean of (x−5)² = 10 ⇒
+    /// residual 0.05((x−5)² − 10) ∈ [−0.5, 0.75] ⇒ f_f = 1.25 µm; f(0) = 1.25, f(10) = 3.25,
+    /// min at x = 3: 0.8 ⇒ F = 2.45 µm.
+    #[test]
+    fn hand_computed_trace() {
+        let x: Vec<f64> = (0..=10).map(f64::from).collect();
+        let f: Vec<f64> = x
+            .iter()
+            .map(|x| 0.2 * x + 0.05 * (x - 5.0).powi(2))
+            .collect();
+        let e = evaluate_trace(&x, &f, (0.0, 10.0)).unwrap();
+        assert_relative_eq!(e.slope_um, 2.0, epsilon = 1e-12);
+        assert_relative_eq!(e.form_um, 1.25, epsilon = 1e-12);
+        assert_relative_eq!(e.total_um, 2.45, epsilon = 1e-12);
+        assert!(evaluate_trace(&x, &f[..3], (0.0, 10.0)).is_err());
+        assert!(evaluate_trace(&x, &f, (20.0, 30.0)).is_err());
+    }
+
+    /// Hand-computed flank: f = k·(w − 11) + c·z² on w ∈ [11, 23], z ∈ [−10, 10], m_n = 2.
+    /// L_α = [11, 22.4] (95 %), L_β = [−9, 9] (min(5 % of 20, 2) = 1 mm per end).
+    /// Profile at z = 0: linear ⇒ f_fα = 0, f_Hα = F_α = k·11.4. Helix at w = 16.7: parabola
+    /// c·z² on [−9, 9] ⇒ f_Hβ = 0, F_β = 81c, f_fβ = 81c (residual range of a symmetric
+    /// parabola = c·9² when the ends and the centre are samples).
+    #[test]
+    fn hand_computed_flank() {
+        let grid = FlankGrid::new((11.0, 23.0), (-10.0, 10.0), 13, 21).unwrap();
+        let (k, c) = (0.5e-3, 0.1e-3);
+        let mut f = Vec::new();
+        for i in 0..grid.n_w {
+            for j in 0..grid.n_z {
+                f.push(k * (grid.w_mm(i) - 11.0) + c * grid.z_mm(j).powi(2));
+            }
+        }
+        let map = DeviationMap::new(grid, f).unwrap();
+        let tol = tolerances(80.0, 2.0, 20.0, 6).unwrap();
+        let e = map.evaluate(tol, 2.0).unwrap();
+        assert_eq!(e.profile.range_mm, (11.0, 22.4));
+        assert_relative_eq!(e.helix.range_mm.0, -9.0, epsilon = 1e-12);
+        assert_relative_eq!(e.profile.slope_um, 0.5 * 11.4, epsilon = 1e-9);
+        assert_relative_eq!(e.profile.total_um, 0.5 * 11.4, epsilon = 1e-9);
+        assert!(e.profile.form_um < 1e-9);
+        assert!(e.helix.slope_um.abs() < 1e-9);
+        assert_relative_eq!(e.helix.total_um, 8.1, epsilon = 1e-9);
+        assert_relative_eq!(e.helix.form_um, 8.1, epsilon = 1e-9);
+        // 5.7 ≤ 7.0, 5.7 ≤ 11, 8.1 ≤ 9.5, 8.1 ≤ 13 ⇒ class 6 passes; class 5 (f_fβT 6.5) fails
+        assert!(e.within_tolerance);
+        let e5 = map
+            .evaluate(tolerances(80.0, 2.0, 20.0, 5).unwrap(), 2.0)
+            .unwrap();
+        assert!(!e5.within_tolerance);
+    }
+}

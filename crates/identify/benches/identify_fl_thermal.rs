@@ -1,0 +1,69 @@
+//! Full identification on FL_THERMAL (clustering, selection, fit, validation), against the
+//! cost of only reading the data, measured in the same run; and the per-sample model
+//! evaluation (allocation-free `TransformState` stepping) against a plain dot product.
+//!
+//! Budget: the issue asks for "well under a second" for the full identification.
+#![allow(missing_docs, clippy::unwrap_used, clippy::expect_used)]
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use gearcomp_core::model::Transform;
+use gearcomp_identify::data::{read_csv, ReadOptions, Selection};
+use gearcomp_identify::identify::{identify, IdentifyOptions};
+use gearcomp_identify::transform::TransformState;
+
+fn bench(c: &mut Criterion) {
+    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let sel = Selection {
+        targets: vec!["ch*_um".into()],
+        ..Selection::default()
+    };
+    let table = read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap();
+    let opts = IdentifyOptions::default();
+    let mut g = c.benchmark_group("fl_thermal");
+    g.sample_size(10);
+    g.bench_function("baseline_read_csv-16sensors-11115rows", |b| {
+        b.iter(|| read_csv(black_box(&text), "fl", &sel, ReadOptions::default()).unwrap())
+    });
+    g.bench_function("identify_dynamic-16sensors-5targets-11115rows", |b| {
+        b.iter(|| identify(black_box(&table), &opts).unwrap())
+    });
+    g.finish();
+
+    // Per-cycle evaluation of an 8-sensor value + rate model: 16 terms.
+    let coeffs: Vec<f64> = (0..16).map(|i| 0.1 * i as f64).collect();
+    let mut states: Vec<TransformState> = (0..16)
+        .map(|i| {
+            if i % 2 == 0 {
+                TransformState::new(Transform::Value)
+            } else {
+                TransformState::new(Transform::Rate { tau_s: 900.0 })
+            }
+        })
+        .collect();
+    let temps: Vec<f64> = (0..16).map(|i| 20.0 + i as f64).collect();
+    let mut t_s = 0.0;
+    let mut p = c.benchmark_group("per_sample");
+    p.bench_function("baseline_dot_product-16terms", |b| {
+        b.iter(|| {
+            black_box(&coeffs)
+                .iter()
+                .zip(black_box(&temps))
+                .map(|(a, x)| a * x)
+                .sum::<f64>()
+        })
+    });
+    p.bench_function("model_step-16terms", |b| {
+        b.iter(|| {
+            t_s += 15.0;
+            let mut y = 0.0;
+            for ((s, a), x) in states.iter_mut().zip(&coeffs).zip(black_box(&temps)) {
+                y += a * s.step(t_s, *x);
+            }
+            y
+        })
+    });
+    p.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

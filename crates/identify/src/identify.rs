@@ -1,0 +1,727 @@
+//! The identification pipeline: correlation → fuzzy-equivalence classes → one representative
+//! per class → forward selection by k-fold-by-run cross-validation → least-squares fit →
+//! validation on held-out data → a `gearcomp_core::model::LinearModel` per target.
+
+use crate::cluster::{self, Dendrogram};
+use crate::data::Table;
+use crate::error::{invalid, IdentifyError, Result};
+use crate::regress::{self, LinearFit};
+use crate::transform::transform_series;
+use gearcomp_core::model::{LinearModel, Term, Transform};
+use nalgebra::{DMatrix, DVector};
+
+/// The kind of model fitted per target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ModelKind {
+    /// Value + filtered rate (lead–lag) per sensor, sensors chosen by forward selection
+    /// among the class representatives, τ and class count by cross-validation.
+    #[default]
+    Dynamic,
+    /// Seed 003 as written: every class representative, current values, OLS.
+    Static,
+    /// As `Static`, fitted by ridge regression with α chosen by cross-validation.
+    Ridge,
+}
+
+/// How the inputs are grouped into classes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Grouping {
+    /// Fuzzy-equivalence (max–min closure, λ-cut), i.e. single linkage on |r| (seed 003).
+    #[default]
+    FuzzyEquivalence,
+    /// Fuzzy c-means on the range-normalised series (the open-source workbench).
+    FuzzyCMeans,
+}
+
+/// How the representative of a class is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RepresentativeBy {
+    /// Largest |Pearson r| with the target (seed 003).
+    #[default]
+    Pearson,
+    /// Largest grey relational grade with the target, ρ = 0.5 (the workbench).
+    GreyRelational,
+}
+
+/// Which rows train the model; the others test it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Split {
+    /// Rows with time < the given seconds train.
+    TimeBefore(f64),
+    /// Rows whose run number is in the list test; the others train.
+    TestRuns(Vec<f64>),
+    /// All rows train; no test error.
+    None,
+}
+
+/// Options of [`identify`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentifyOptions {
+    /// Model kind.
+    pub model: ModelKind,
+    /// Class formation.
+    pub grouping: Grouping,
+    /// Representative criterion.
+    pub representative: RepresentativeBy,
+    /// A fixed class count; `None` chooses among `class_counts` by cross-validation.
+    pub classes: Option<usize>,
+    /// Candidate class counts (those ≥ the number of inputs are dropped).
+    pub class_counts: Vec<usize>,
+    /// Candidate rate filter time constants in s (dynamic model).
+    pub taus_s: Vec<f64>,
+    /// At most this many sensors per target (dynamic model).
+    pub max_sensors: usize,
+    /// Number of cross-validation folds (runs, or contiguous time blocks without runs).
+    pub folds: usize,
+    /// Candidate ridge α (ridge model).
+    pub ridge_alphas: Vec<f64>,
+    /// Train/test split.
+    pub split: Split,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        Self {
+            model: ModelKind::Dynamic,
+            grouping: Grouping::FuzzyEquivalence,
+            representative: RepresentativeBy::Pearson,
+            classes: None,
+            class_counts: vec![6, 8, 10, 12],
+            taus_s: vec![300.0, 600.0, 900.0, 1200.0, 1800.0, 2400.0, 3600.0, 7200.0],
+            max_sensors: 8,
+            folds: 3,
+            ridge_alphas: vec![1e-4, 1e-3, 1e-2, 1e-1],
+            split: Split::TimeBefore(86_400.0),
+        }
+    }
+}
+
+/// The identified model of one target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetModel {
+    /// Target column name.
+    pub target: String,
+    /// Classes of the inputs (indices into the table's inputs) at the chosen count.
+    pub classes: Vec<Vec<usize>>,
+    /// Representative of each class.
+    pub representatives: Vec<usize>,
+    /// |r| (or grey grade) of each input with the target, on the training rows.
+    pub target_score: Vec<f64>,
+    /// The sensors the model reads, in selection order.
+    pub sensors: Vec<usize>,
+    /// Rate filter time constant in s (dynamic model).
+    pub tau_s: Option<f64>,
+    /// Ridge α (ridge model).
+    pub ridge_alpha: Option<f64>,
+    /// Pooled cross-validation RMSE (µm, target unit) on the training rows.
+    pub cv_rmse: f64,
+    /// RMSE of each validation fold.
+    pub fold_rmse: Vec<f64>,
+    /// Regressor names, in coefficient order after the intercept.
+    pub regressors: Vec<String>,
+    /// The least-squares fit on all training rows.
+    pub fit: LinearFit,
+    /// The model as written to the model file.
+    pub model: LinearModel,
+    /// Model prediction at every row (evaluated from `model` with the engine's semantics).
+    pub predicted: Vec<f64>,
+    /// RMSE on the training rows.
+    pub train_rmse: f64,
+    /// RMSE on the test rows (None without a test set).
+    pub test_rmse: Option<f64>,
+}
+
+/// The whole identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Identification {
+    /// Pearson correlation of the inputs on the training rows.
+    pub correlation: DMatrix<f64>,
+    /// Dendrogram of |r| (fuzzy-equivalence / single linkage).
+    pub dendrogram: Dendrogram,
+    /// Whether each row trains.
+    pub train: Vec<bool>,
+    /// Validation fold of each row (training rows only).
+    pub fold: Vec<Option<usize>>,
+    /// One model per target.
+    pub targets: Vec<TargetModel>,
+    /// One-line description of the method, for reports and provenance.
+    pub method: String,
+}
+
+fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {
+    let (s, n) = e
+        .iter()
+        .zip(mask)
+        .filter(|(_, &m)| m == want)
+        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
+    (n > 0).then(|| (s / n as f64).sqrt())
+}
+
+/// Train mask of a split.
+pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
+    let mask: Vec<bool> = match split {
+        Split::TimeBefore(s) => table.time_s.iter().map(|t| t < s).collect(),
+        Split::TestRuns(runs) => {
+            let r = table.runs.as_ref().ok_or_else(|| {
+                invalid("split", "test runs", "a run column in the data (--run-column)")
+            })?;
+            r.iter().map(|v| !runs.contains(v)).collect()
+        }
+        Split::None => vec![true; table.time_s.len()],
+    };
+    let n = mask.iter().filter(|&&m| m).count();
+    if n < 10 {
+        return Err(IdentifyError::TooFewRows {
+            what: "training rows of the split".into(),
+            rows: n,
+            needed: 10,
+        });
+    }
+    Ok(mask)
+}
+
+/// Validation fold of each training row: by run (runs dealt round-robin into `folds`
+/// groups in order of appearance) or, without runs, `folds` contiguous blocks of equal
+/// time span.
+///
+/// # Formula
+/// block = min(⌊(t − t₀)/((t₁ − t₀)/K)⌋, K − 1) over the training period [t₀, t₁]
+pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize>>> {
+    if k < 2 {
+        return Err(invalid("folds", k, "at least 2 folds"));
+    }
+    if let Some(runs) = &table.runs {
+        let mut seen: Vec<f64> = Vec::new();
+        for (r, &m) in runs.iter().zip(train) {
+            if m && !seen.contains(r) {
+                seen.push(*r);
+            }
+        }
+        if seen.len() < 2 {
+            return Err(invalid(
+                "runs in the training data",
+                seen.len(),
+                "at least 2 runs for k-fold by run",
+            ));
+        }
+        return Ok(runs
+            .iter()
+            .zip(train)
+            .map(|(r, &m)| {
+                m.then(|| seen.iter().position(|s| s == r).unwrap_or(0) % k)
+            })
+            .collect());
+    }
+    let times: Vec<f64> = table
+        .time_s
+        .iter()
+        .zip(train)
+        .filter(|(_, &m)| m)
+        .map(|(t, _)| *t)
+        .collect();
+    let t0 = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let span = (t1 - t0) / k as f64;
+    Ok(table
+        .time_s
+        .iter()
+        .zip(train)
+        .map(|(t, &m)| m.then(|| (((t - t0) / span).floor().max(0.0) as usize).min(k - 1)))
+        .collect())
+}
+
+fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
+    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
+    let mut out = DMatrix::zeros(rows, cols);
+    let mut r0 = 0;
+    for p in parts {
+        out.rows_mut(r0, p.nrows()).copy_from(*p);
+        r0 += p.nrows();
+    }
+    out
+}
+
+fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
+    if a.nrows() == 0 {
+        return DMatrix::zeros(0, a.ncols());
+    }
+    a.qr().r()
+}
+
+/// Cross-validation by QR reduction: per fold, the R factors of [1 X Y] on the training
+/// and held-out rows. Since ‖Q·R·v‖ = ‖R·v‖, every sub-model's least-squares fit and its
+/// held-out error follow from these small matrices, exactly (no normal equations).
+struct CvEngine {
+    train_r: Vec<DMatrix<f64>>,
+    val_r: Vec<DMatrix<f64>>,
+    n_features: usize,
+    n_val: usize,
+}
+
+impl CvEngine {
+    fn new(features: &[&[f64]], targets: &[&[f64]], fold: &[Option<usize>], k: usize) -> Self {
+        let m = 1 + features.len() + targets.len();
+        let mut blocks = Vec::with_capacity(k);
+        let mut n_val = 0;
+        for f in 0..k {
+            let rows: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] == Some(f)).collect();
+            n_val += rows.len();
+            let a = DMatrix::from_fn(rows.len(), m, |r, c| {
+                let i = rows[r];
+                if c == 0 {
+                    1.0
+                } else if c <= features.len() {
+                    features[c - 1][i]
+                } else {
+                    targets[c - 1 - features.len()][i]
+                }
+            });
+            blocks.push(r_factor(a));
+        }
+        let train_r = (0..k)
+            .map(|f| {
+                let others: Vec<&DMatrix<f64>> =
+                    (0..k).filter(|&g| g != f).map(|g| &blocks[g]).collect();
+                r_factor(stack(&others, m))
+            })
+            .collect();
+        Self {
+            train_r,
+            val_r: blocks,
+            n_features: features.len(),
+            n_val,
+        }
+    }
+
+    /// Per-fold held-out SSE of the model on `features` (indices) for `target`.
+    fn fold_sse(&self, features: &[usize], target: usize) -> Option<Vec<f64>> {
+        let mut cols = Vec::with_capacity(features.len() + 1);
+        cols.push(0usize);
+        cols.extend(features.iter().map(|f| f + 1));
+        let ycol = 1 + self.n_features + target;
+        let mut out = Vec::with_capacity(self.train_r.len());
+        for (tr, va) in self.train_r.iter().zip(&self.val_r) {
+            if tr.nrows() < cols.len() {
+                return None;
+            }
+            let a = tr.select_columns(&cols);
+            let b = tr.column(ycol).into_owned();
+            let qr = a.qr();
+            let r = qr.r();
+            let max_p = (0..cols.len()).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
+            if (0..cols.len()).any(|j| !(r[(j, j)].abs() > 1e-11 * max_p)) {
+                return None;
+            }
+            let mut qtb = b;
+            qr.q_tr_mul(&mut qtb);
+            let beta = r.solve_upper_triangular(&qtb.rows(0, cols.len()).into_owned())?;
+            let e: DVector<f64> = va.column(ycol) - va.select_columns(&cols) * beta;
+            out.push(e.norm_squared());
+        }
+        Some(out)
+    }
+
+    fn rmse(&self, features: &[usize], target: usize) -> Option<f64> {
+        let s = self.fold_sse(features, target)?;
+        Some((s.iter().sum::<f64>() / self.n_val as f64).sqrt())
+    }
+}
+
+struct Choice {
+    cv: f64,
+    k: usize,
+    tau: Option<f64>,
+    alpha: Option<f64>,
+    sensors: Vec<usize>,
+    classes: Vec<Vec<usize>>,
+    reps: Vec<usize>,
+}
+
+fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
+    match a {
+        None => true,
+        Some(c) => cv < c.cv || (cv == c.cv && len < c.sensors.len()),
+    }
+}
+
+fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
+    x.iter().zip(mask).filter(|(_, &m)| m).map(|(v, _)| *v).collect()
+}
+
+/// Identifies one model per target of `table`.
+///
+/// # Source
+/// seed 003, steps (1)–(5) and eq. (9) [RECONSTRUCTED: research/seed_formulas.md]; the
+/// dynamic Value + Rate model and its cross-validated selection are this project's
+/// (docs/identification.md) [PROJECT CONVENTION].
+pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
+    let c = table.inputs.len();
+    if table.targets.is_empty() {
+        return Err(invalid("targets", "none", "at least one target column"));
+    }
+    if c < 2 {
+        return Err(invalid("inputs", c, "at least 2 input columns"));
+    }
+    if opts.max_sensors == 0 {
+        return Err(invalid("max_sensors", 0, "at least 1"));
+    }
+    for &tau in &opts.taus_s {
+        if !(tau.is_finite() && tau > 0.0) {
+            return Err(invalid("tau_s", tau, "time constants > 0 s"));
+        }
+    }
+    if opts.model == ModelKind::Dynamic && opts.taus_s.is_empty() {
+        return Err(invalid("tau_s", "[]", "at least one time constant"));
+    }
+    if let Some(k) = opts.classes {
+        if k == 0 || k > c {
+            return Err(invalid("classes", k, &format!("1 ≤ classes ≤ {c} inputs")));
+        }
+    }
+    let train = train_mask(table, &opts.split)?;
+    let fold = folds(table, &train, opts.folds)?;
+    let k_folds = opts.folds;
+    let tr_inputs: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, &train)).collect();
+    let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| v.as_slice()).collect();
+    let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
+    let absr = corr.map(f64::abs);
+    let dendrogram = Dendrogram::single_linkage(&absr);
+    let counts: Vec<usize> = match opts.classes {
+        Some(k) => vec![k],
+        None => {
+            let v: Vec<usize> = opts
+                .class_counts
+                .iter()
+                .copied()
+                .filter(|&k| k >= 1 && k < c)
+                .collect();
+            if v.is_empty() {
+                vec![c - 1]
+            } else {
+                v
+            }
+        }
+    };
+    let class_sets: Vec<(usize, Vec<Vec<usize>>)> = counts
+        .iter()
+        .map(|&k| {
+            let cl = match opts.grouping {
+                Grouping::FuzzyEquivalence => dendrogram.classes(k)?,
+                Grouping::FuzzyCMeans => cluster::fuzzy_c_means(&tr_refs, k, 2.0, 1e-9, 2000)?.1,
+            };
+            Ok((k, cl))
+        })
+        .collect::<Result<_>>()?;
+    let target_refs: Vec<&[f64]> = table.targets.iter().map(|v| v.as_slice()).collect();
+    let in_refs: Vec<&[f64]> = table.inputs.iter().map(|v| v.as_slice()).collect();
+
+    // Candidate regressors per τ: value and rate of every input (dynamic), or values only.
+    let taus: Vec<Option<f64>> = match opts.model {
+        ModelKind::Dynamic => opts.taus_s.iter().map(|&t| Some(t)).collect(),
+        _ => vec![None],
+    };
+    let mut features: Vec<Vec<Vec<f64>>> = Vec::with_capacity(taus.len());
+    for tau in &taus {
+        let mut f = Vec::with_capacity(2 * c);
+        for x in &table.inputs {
+            f.push(x.clone());
+            if let Some(tau_s) = tau {
+                f.push(transform_series(&table.time_s, x, Transform::Rate { tau_s: *tau_s })?);
+            }
+        }
+        features.push(f);
+    }
+    let per_sensor = if opts.model == ModelKind::Dynamic { 2 } else { 1 };
+    let engines: Vec<CvEngine> = features
+        .iter()
+        .map(|f| {
+            let refs: Vec<&[f64]> = f.iter().map(|v| v.as_slice()).collect();
+            CvEngine::new(&refs, &target_refs, &fold, k_folds)
+        })
+        .collect();
+    let cols_of = |sensors: &[usize]| -> Vec<usize> {
+        sensors
+            .iter()
+            .flat_map(|&s| (0..per_sensor).map(move |q| per_sensor * s + q))
+            .collect()
+    };
+
+    let mut out = Vec::with_capacity(table.targets.len());
+    for (j, y) in table.targets.iter().enumerate() {
+        let ytr = select_rows(y, &train);
+        let score: Vec<f64> = match opts.representative {
+            RepresentativeBy::Pearson => tr_refs
+                .iter()
+                .enumerate()
+                .map(|(i, x)| {
+                    cluster::pearson(x, &ytr, &format!(
+                        "correlation({}, {})",
+                        table.input_names[i], table.target_names[j]
+                    ))
+                    .map(f64::abs)
+                })
+                .collect::<Result<_>>()?,
+            RepresentativeBy::GreyRelational => cluster::grey_relational_grades(&ytr, &tr_refs, 0.5)?,
+        };
+        let mut best: Option<Choice> = None;
+        for (k, classes) in &class_sets {
+            let reps = cluster::representatives(classes, &score);
+            match opts.model {
+                ModelKind::Dynamic => {
+                    for (ti, eng) in engines.iter().enumerate() {
+                        let mut sel: Vec<usize> = Vec::new();
+                        for _ in 0..opts.max_sensors.min(reps.len()) {
+                            let mut step: Option<(f64, usize)> = None;
+                            for &cand in reps.iter().filter(|r| !sel.contains(r)) {
+                                let mut s = sel.clone();
+                                s.push(cand);
+                                if let Some(v) = eng.rmse(&cols_of(&s), j) {
+                                    if step.is_none_or(|(b, _)| v < b) {
+                                        step = Some((v, cand));
+                                    }
+                                }
+                            }
+                            let Some((v, cand)) = step else { break };
+                            sel.push(cand);
+                            if better(&best, v, sel.len()) {
+                                best = Some(Choice {
+                                    cv: v,
+                                    k: *k,
+                                    tau: taus[ti],
+                                    alpha: None,
+                                    sensors: sel.clone(),
+                                    classes: classes.clone(),
+                                    reps: reps.clone(),
+                                });
+                            }
+                        }
+                    }
+                }
+                ModelKind::Static => {
+                    if let Some(v) = engines[0].rmse(&cols_of(&reps), j) {
+                        if better(&best, v, reps.len()) {
+                            best = Some(Choice {
+                                cv: v,
+                                k: *k,
+                                tau: None,
+                                alpha: None,
+                                sensors: reps.clone(),
+                                classes: classes.clone(),
+                                reps: reps.clone(),
+                            });
+                        }
+                    }
+                }
+                ModelKind::Ridge => {
+                    for &alpha in &opts.ridge_alphas {
+                        let v = ridge_cv(&in_refs, &reps, y, &fold, k_folds, alpha)?;
+                        if better(&best, v, reps.len()) {
+                            best = Some(Choice {
+                                cv: v,
+                                k: *k,
+                                tau: None,
+                                alpha: Some(alpha),
+                                sensors: reps.clone(),
+                                classes: classes.clone(),
+                                reps: reps.clone(),
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        let choice = best.ok_or_else(|| IdentifyError::RankDeficient {
+            columns: format!("every candidate model of {}", table.target_names[j]),
+            pivot: 0.0,
+            tolerance: 0.0,
+        })?;
+        out.push(finish(table, &train, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines)?);
+    }
+    let method = format!(
+        "{} model; classes by {}; representative by {}; {}-fold cross-validation by {}",
+        match opts.model {
+            ModelKind::Dynamic => "dynamic (value + filtered rate per sensor, forward selection)",
+            ModelKind::Static => "static (seed 003: all class representatives, OLS)",
+            ModelKind::Ridge => "static ridge (all class representatives)",
+        },
+        match opts.grouping {
+            Grouping::FuzzyEquivalence => "fuzzy equivalence (max–min closure, λ-cut)",
+            Grouping::FuzzyCMeans => "fuzzy c-means (m = 2)",
+        },
+        match opts.representative {
+            RepresentativeBy::Pearson => "max |Pearson r| with the target",
+            RepresentativeBy::GreyRelational => "max grey relational grade (ρ = 0.5)",
+        },
+        k_folds,
+        if table.runs.is_some() { "run" } else { "contiguous time block" },
+    );
+    Ok(Identification {
+        correlation: corr,
+        dendrogram,
+        train,
+        fold,
+        targets: out,
+        method,
+    })
+}
+
+fn ridge_cv(
+    inputs: &[&[f64]],
+    sensors: &[usize],
+    y: &[f64],
+    fold: &[Option<usize>],
+    k: usize,
+    alpha: f64,
+) -> Result<f64> {
+    let (mut sse, mut n) = (0.0, 0usize);
+    let names: Vec<String> = sensors.iter().map(|s| format!("input {s}")).collect();
+    for f in 0..k {
+        let tr: Vec<bool> = fold.iter().map(|g| g.is_some_and(|g| g != f)).collect();
+        let va: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] == Some(f)).collect();
+        let cols: Vec<Vec<f64>> = sensors.iter().map(|&s| select_rows(inputs[s], &tr)).collect();
+        let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+        let fit = regress::ridge(&refs, &select_rows(y, &tr), alpha, &names)?;
+        for &i in &va {
+            let row: Vec<f64> = sensors.iter().map(|&s| inputs[s][i]).collect();
+            let e = y[i] - fit.predict(&row);
+            sse += e * e;
+            n += 1;
+        }
+    }
+    Ok((sse / n.max(1) as f64).sqrt())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    table: &Table,
+    train: &[bool],
+    fold: &[Option<usize>],
+    k_folds: usize,
+    j: usize,
+    features: &[Vec<Vec<f64>>],
+    taus: &[Option<f64>],
+    per_sensor: usize,
+    ch: Choice,
+    score: Vec<f64>,
+    engines: &[CvEngine],
+) -> Result<TargetModel> {
+    let ti = taus.iter().position(|t| *t == ch.tau).unwrap_or(0);
+    let feats = &features[ti];
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    let mut kinds: Vec<(usize, Transform)> = Vec::new();
+    for &s in &ch.sensors {
+        let name = &table.input_names[s];
+        cols.push(select_rows(&feats[per_sensor * s], train));
+        names.push(name.clone());
+        kinds.push((s, Transform::Value));
+        if let Some(tau_s) = ch.tau {
+            cols.push(select_rows(&feats[per_sensor * s + 1], train));
+            names.push(format!("rate({name}, τ = {tau_s} s)"));
+            kinds.push((s, Transform::Rate { tau_s }));
+        }
+    }
+    let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+    let ytr = select_rows(&table.targets[j], train);
+    let fit = match ch.alpha {
+        Some(a) => regress::ridge(&refs, &ytr, a, &names)?,
+        None => regress::ols(&refs, &ytr, &names)?,
+    };
+    let model = LinearModel {
+        intercept: fit.coefficients[0],
+        terms: kinds
+            .iter()
+            .zip(&fit.coefficients[1..])
+            .map(|(&(s, transform), &coefficient)| Term {
+                channel: table.input_names[s].clone(),
+                coefficient,
+                transform,
+            })
+            .collect(),
+    };
+    model.validate(&format!("model of {}", table.target_names[j]))?;
+    let predicted = predict(table, &model)?;
+    let e: Vec<f64> = table.targets[j].iter().zip(&predicted).map(|(y, p)| y - p).collect();
+    let fold_rmse = if ch.alpha.is_none() {
+        let fcols: Vec<usize> = ch
+            .sensors
+            .iter()
+            .flat_map(|&s| (0..per_sensor).map(move |q| per_sensor * s + q))
+            .collect();
+        let sse = engines[ti].fold_sse(&fcols, j).unwrap_or_default();
+        sse.iter()
+            .enumerate()
+            .map(|(f, s)| {
+                let n = fold.iter().filter(|g| **g == Some(f)).count().max(1);
+                (s / n as f64).sqrt()
+            })
+            .collect()
+    } else {
+        vec![f64::NAN; k_folds]
+    };
+    Ok(TargetModel {
+        target: table.target_names[j].clone(),
+        classes: ch.classes,
+        representatives: ch.reps,
+        target_score: score,
+        sensors: ch.sensors,
+        tau_s: ch.tau,
+        ridge_alpha: ch.alpha,
+        cv_rmse: ch.cv,
+        fold_rmse,
+        regressors: names,
+        fit,
+        model,
+        predicted,
+        train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
+        test_rmse: rmse_where(&e, train, false),
+    })
+    .map(|m| {
+        debug_assert_eq!(m.classes.len(), ch.k);
+        m
+    })
+}
+
+/// Evaluates a linear model over the whole table with the engine's transform semantics.
+pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
+    let mut out = vec![model.intercept; table.time_s.len()];
+    for t in &model.terms {
+        let i = table
+            .input_names
+            .iter()
+            .position(|n| *n == t.channel)
+            .ok_or_else(|| IdentifyError::ColumnNotFound {
+                pattern: t.channel.clone(),
+                available: table.input_names.join(", "),
+            })?;
+        let x = transform_series(&table.time_s, &table.inputs[i], t.transform)?;
+        for (o, v) in out.iter_mut().zip(x) {
+            *o += t.coefficient * v;
+        }
+    }
+    Ok(out)
+}
+
+/// Plain least squares on all inputs (the floor to beat): (train RMSE, test RMSE) per target.
+pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
+    let train = train_mask(table, split)?;
+    let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, &train)).collect();
+    let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+    table
+        .targets
+        .iter()
+        .map(|y| {
+            let fit = regress::ols(&refs, &select_rows(y, &train), &table.input_names)?;
+            let e: Vec<f64> = (0..y.len())
+                .map(|i| {
+                    let row: Vec<f64> = table.inputs.iter().map(|x| x[i]).collect();
+                    y[i] - fit.predict(&row)
+                })
+                .collect();
+            Ok((
+                rmse_where(&e, &train, true).unwrap_or(f64::NAN),
+                rmse_where(&e, &train, false),
+            ))
+        })
+        .collect()
+}

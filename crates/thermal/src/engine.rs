@@ -1,0 +1,1300 @@
+//! The compensation engine: built once from a validated [`EngineConfig`], then
+//! [`Engine::step`] once per cycle with no allocation, no locks and no logging.
+//!
+//! Per cycle: check the input time and every reading (NaN, open/short circuit, validity
+//! range, stale, stuck, out-of-order stamp) → on a trigger, N-sample block average → time
+//! filter → limits (stop request) → per axis: law → clamp to the maximum offset → boundary
+//! constant D against the running compensation → safe-point gate → rate limit → pulses.
+//! A faulty channel freezes every axis that reads it at its last good target and raises an
+//! alarm; the applied offset never jumps.
+
+use gearcomp_core::model::{
+    AxisModel, LinearModel, ReferenceRadius, ShrinkMethod, Transform, WorkpieceShrink,
+};
+use gearcomp_geometry::shrink::{
+    shrink_offset_exact_um, shrink_offset_first_order_um, ShrinkInput, ShrinkReference,
+};
+
+use crate::config::{
+    Application, AxisConfig, ChannelConfig, EngineConfig, TermConfig, TimeFilterConfig, Trigger,
+};
+use crate::error::{check_range, invalid, Result, ThermalError};
+use crate::filter::{BlockAverage, DelayLine, FirstOrderLag, MovingWindow};
+use crate::law;
+use crate::sensor::Resistive;
+use crate::sensor::SensorKind;
+
+/// Most channels one engine reads (fault bookkeeping uses a 64-bit mask).
+pub const MAX_CHANNELS: usize = 64;
+/// Most axes one engine compensates (the output holds a fixed array).
+pub const MAX_AXES: usize = 8;
+/// Most samples in one block average.
+pub const MAX_SAMPLES_PER_AVERAGE: usize = 4096;
+/// Longest moving window, in averages.
+pub const MAX_WINDOW: usize = 4096;
+
+/// One channel's raw reading and the time it was acquired.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// Raw value: Ω (RTD, NTC), °C (ready temperatures) or the transducer's unit.
+    pub raw: f64,
+    /// Acquisition time in s, on the same clock as [`Inputs::time_s`].
+    pub stamp_s: f64,
+}
+
+/// One cycle's inputs; slices are borrowed, nothing is copied or allocated.
+#[derive(Debug, Clone, Copy)]
+pub struct Inputs<'a> {
+    /// Cycle time in s; must increase strictly from cycle to cycle.
+    pub time_s: f64,
+    /// One reading per configured channel, in configuration order.
+    pub readings: &'a [Reading],
+    /// The sample trigger (stroke switch, spindle index) for `trigger = "input"`.
+    pub trigger: bool,
+    /// True between cuts, where an offset change cannot mark a flank.
+    pub safe_point: bool,
+    /// Actual axis positions in mm, one per axis, for position-dependent terms.
+    pub positions_mm: &'a [f64],
+}
+
+/// Why a channel is not trusted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The raw reading is NaN or infinite.
+    NotANumber,
+    /// A resistive sensor reads as an open circuit (NTC too cold, RTD too hot, or R ≤ 0
+    /// impossible to convert on the high side).
+    OpenCircuit,
+    /// A resistive sensor reads as a short circuit.
+    ShortCircuit,
+    /// The converted value is outside the channel's validity range.
+    OutOfRange,
+    /// The reading is older than the stale timeout.
+    Stale,
+    /// The value has not changed for longer than the stuck timeout.
+    Stuck,
+    /// The reading's time stamp went backwards.
+    OutOfOrder,
+}
+
+/// An alarm raised in a cycle; the cycle acts on it, nothing is logged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Alarm {
+    /// A channel is faulty; axes reading it are frozen.
+    Channel {
+        /// Channel index in configuration order.
+        channel: u16,
+        /// What is wrong.
+        fault: Fault,
+    },
+    /// The cycle time did not increase; the whole cycle was ignored.
+    TimeOutOfOrder {
+        /// The rejected time in s.
+        time_s: f64,
+        /// The last accepted time in s.
+        previous_s: f64,
+    },
+    /// The input slice does not have one reading per channel; the cycle was ignored.
+    InputCount {
+        /// Readings given.
+        got: u16,
+        /// Channels configured.
+        expected: u16,
+    },
+    /// A position-dependent term has no finite position for its axis.
+    PositionMissing {
+        /// Axis index.
+        axis: u8,
+    },
+    /// A law evaluated to NaN or infinity (e.g. a workpiece-shrink domain error).
+    LawNotFinite {
+        /// Axis index.
+        axis: u8,
+    },
+}
+
+/// Why the engine requests a machine stop (seed 000: averaged value outside its limits).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StopReason {
+    /// Channel index.
+    pub channel: u16,
+    /// The averaged value that violated a limit.
+    pub value: f64,
+    /// The lower limit (−∞ if none).
+    pub limit_min: f64,
+    /// The upper limit (+∞ if none).
+    pub limit_max: f64,
+}
+
+/// What an axis did this cycle (one value, by priority from `Stopped` down).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisStatus {
+    /// Not every channel of the law has an averaged value yet; offset 0.
+    Starting,
+    /// The target followed the law.
+    Updated,
+    /// The law is within the boundary constant D of the running compensation.
+    Held,
+    /// The law exceeded the maximum offset and was clamped.
+    Clamped,
+    /// The applied offset is still moving to the target under the rate limit.
+    Ramping,
+    /// A change is pending until the next safe point.
+    WaitingSafePoint,
+    /// A channel of the law is faulty: target frozen at its last good value.
+    Frozen,
+    /// A stop is requested: no correction.
+    Stopped,
+}
+
+/// One axis's result of a cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisOutput {
+    /// The offset applied now, µm (rate-limited, gated).
+    pub offset_um: f64,
+    /// The running compensation the offset moves to, µm.
+    pub target_um: f64,
+    /// The law's last value, µm (NaN before the first evaluation).
+    pub law_um: f64,
+    /// Pulses issued this cycle (pulse application only).
+    pub pulses: i64,
+    /// Pulses issued since the start (the distance counter of seed 000 block 606).
+    pub pulse_total: i64,
+    /// What happened.
+    pub status: AxisStatus,
+}
+
+impl AxisOutput {
+    const ZERO: AxisOutput = AxisOutput {
+        offset_um: 0.0,
+        target_um: 0.0,
+        law_um: f64::NAN,
+        pulses: 0,
+        pulse_total: 0,
+        status: AxisStatus::Starting,
+    };
+}
+
+/// Overall state after a cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EngineStatus {
+    /// All inputs good.
+    Running,
+    /// At least one alarm this cycle; affected axes are frozen.
+    Alarm,
+    /// A limit was violated: stop requested (latched until acknowledged).
+    StopRequested,
+}
+
+/// The result of one cycle: fixed size, `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Output {
+    /// The cycle time in s.
+    pub time_s: f64,
+    /// Overall state.
+    pub status: EngineStatus,
+    /// The first alarm of this cycle (lowest channel first), if any.
+    pub alarm: Option<Alarm>,
+    /// How many alarms this cycle raised.
+    pub alarm_count: u16,
+    /// The latched stop request, if any.
+    pub stop: Option<StopReason>,
+    /// True when a new N-sample average was formed this cycle.
+    pub averaged: bool,
+    axes: [AxisOutput; MAX_AXES],
+    n_axes: u8,
+}
+
+impl Output {
+    /// Per-axis results, in configuration order.
+    pub fn axes(&self) -> &[AxisOutput] {
+        &self.axes[..self.n_axes as usize]
+    }
+
+    fn raise(&mut self, a: Alarm) {
+        if self.alarm.is_none() {
+            self.alarm = Some(a);
+        }
+        self.alarm_count = self.alarm_count.saturating_add(1);
+    }
+}
+
+#[derive(Debug, Clone)]
+enum TimeFilter {
+    None,
+    Lag(FirstOrderLag),
+    Window(MovingWindow),
+}
+
+#[derive(Debug, Clone)]
+struct ChannelState {
+    kind: SensorKind,
+    valid_min: f64,
+    valid_max: f64,
+    limit_min: f64,
+    limit_max: f64,
+    stale_timeout_s: f64,
+    stuck_timeout_s: f64,
+    stuck_tolerance: f64,
+    block: BlockAverage,
+    filter: TimeFilter,
+    last_stamp_s: f64,
+    stuck_ref: f64,
+    stuck_since_s: f64,
+    value: f64,
+    has_value: bool,
+    fresh: bool,
+    fault: Option<Fault>,
+}
+
+impl ChannelState {
+    /// Checks one reading; returns the engineering value or the fault.
+    fn check(&mut self, r: Reading, time_s: f64) -> std::result::Result<f64, Fault> {
+        if !r.stamp_s.is_finite() || r.stamp_s < self.last_stamp_s {
+            return Err(Fault::OutOfOrder);
+        }
+        self.last_stamp_s = r.stamp_s;
+        if !r.raw.is_finite() {
+            return Err(Fault::NotANumber);
+        }
+        if time_s - r.stamp_s > self.stale_timeout_s {
+            return Err(Fault::Stale);
+        }
+        let v = match self.kind.convert(r.raw) {
+            Some(v) => v,
+            // Only resistive sensors can fail to convert a finite raw value (R ≤ 0, or a
+            // resistance off the ends of the curve).
+            None => {
+                return Err(if r.raw <= 0.0 {
+                    Fault::ShortCircuit
+                } else {
+                    match self.kind.resistive() {
+                        Resistive::NegativeCoefficient => Fault::ShortCircuit,
+                        _ => Fault::OpenCircuit,
+                    }
+                })
+            }
+        };
+        if v < self.valid_min || v > self.valid_max {
+            let high = v > self.valid_max;
+            return Err(match (self.kind.resistive(), high) {
+                (Resistive::PositiveCoefficient, true)
+                | (Resistive::NegativeCoefficient, false) => Fault::OpenCircuit,
+                (Resistive::PositiveCoefficient, false)
+                | (Resistive::NegativeCoefficient, true) => Fault::ShortCircuit,
+                (Resistive::No, _) => Fault::OutOfRange,
+            });
+        }
+        if (v - self.stuck_ref).abs() > self.stuck_tolerance || self.stuck_ref.is_nan() {
+            self.stuck_ref = v;
+            self.stuck_since_s = time_s;
+        } else if time_s - self.stuck_since_s > self.stuck_timeout_s {
+            return Err(Fault::Stuck);
+        }
+        Ok(v)
+    }
+}
+
+#[derive(Debug, Clone)]
+enum TransformState {
+    Value,
+    Lag(FirstOrderLag),
+    Delay(DelayLine),
+    Rate(FirstOrderLag, f64),
+}
+
+#[derive(Debug, Clone)]
+struct Regressor {
+    channel: usize,
+    coefficient: f64,
+    transform: TransformState,
+    x: f64,
+}
+
+#[derive(Debug, Clone)]
+struct LinearEval {
+    intercept: f64,
+    regressors: Vec<Regressor>,
+}
+
+impl LinearEval {
+    fn build(m: &LinearModel, field: &str, names: &[String]) -> Result<Self> {
+        let mut regressors = Vec::with_capacity(m.terms.len());
+        for (i, t) in m.terms.iter().enumerate() {
+            let channel = resolve(&format!("{field}.terms[{i}].channel"), &t.channel, names)?;
+            let transform = match t.transform {
+                Transform::Value => TransformState::Value,
+                Transform::FirstOrderLag { tau_s } => {
+                    TransformState::Lag(FirstOrderLag::new(tau_s))
+                }
+                Transform::Delay { delay_s } => TransformState::Delay(DelayLine::new(delay_s)),
+                Transform::Rate { tau_s } => TransformState::Rate(FirstOrderLag::new(tau_s), tau_s),
+            };
+            regressors.push(Regressor {
+                channel,
+                coefficient: t.coefficient,
+                transform,
+                x: f64::NAN,
+            });
+        }
+        Ok(Self {
+            intercept: m.intercept,
+            regressors,
+        })
+    }
+
+    /// Runs the transforms of the regressors whose channel has a new averaged value.
+    fn update(&mut self, t_s: f64, channels: &[ChannelState]) {
+        for r in &mut self.regressors {
+            let ch = &channels[r.channel];
+            if !ch.fresh {
+                continue;
+            }
+            let u = ch.value;
+            r.x = match &mut r.transform {
+                TransformState::Value => u,
+                TransformState::Lag(l) => l.update(t_s, u),
+                TransformState::Delay(d) => d.update(t_s, u),
+                TransformState::Rate(l, tau_s) => (u - l.update(t_s, u)) / *tau_s,
+            };
+        }
+    }
+
+    /// y = intercept + Σ coefficient·x (NaN until every regressor has a value).
+    fn value(&self) -> f64 {
+        let mut y = self.intercept;
+        for r in &self.regressors {
+            y += r.coefficient * r.x;
+        }
+        y
+    }
+
+    fn mask(&self) -> u64 {
+        self.regressors
+            .iter()
+            .fold(0, |m, r| m | (1u64 << r.channel))
+    }
+}
+
+#[derive(Debug, Clone)]
+struct WorkpieceEval {
+    temperature: LinearEval,
+    design_temp_c: f64,
+    template: ShrinkInput,
+    method: ShrinkMethod,
+}
+
+impl WorkpieceEval {
+    fn build(w: &WorkpieceShrink, field: &str, names: &[String]) -> Result<Self> {
+        let g = &w.gear;
+        let beta_rad = g.helix_angle_deg.to_radians();
+        let alpha_n_rad = g.pressure_angle_deg.to_radians();
+        let reference_radius_mm = g.normal_module_mm * f64::from(g.teeth) / (2.0 * beta_rad.cos());
+        let transverse_pressure_angle_rad = (alpha_n_rad.tan() / beta_rad.cos()).atan();
+        let reference = match w.reference {
+            ReferenceRadius::Pitch => ShrinkReference::Pitch,
+            ReferenceRadius::Tip => match g.tip_diameter_mm {
+                Some(da) => ShrinkReference::Radius(da / 2.0),
+                None => {
+                    return Err(invalid(
+                        format!("{field}.gear.tip_diameter_mm"),
+                        "missing",
+                        "a tip diameter in mm when reference = \"tip\"",
+                    ))
+                }
+            },
+        };
+        let template = ShrinkInput {
+            reference_radius_mm,
+            transverse_pressure_angle_rad,
+            expansion_per_k: w.expansion_per_k,
+            delta_temp_k: 0.0,
+            reference,
+        };
+        // Validate the geometry now so the cycle only meets temperature-domain errors.
+        shrink_offset_exact_um(&template).map_err(|e| {
+            invalid(
+                format!("{field}.gear"),
+                e,
+                "a valid gear for the shrink formula",
+            )
+        })?;
+        Ok(Self {
+            temperature: LinearEval::build(&w.temperature, &format!("{field}.temperature"), names)?,
+            design_temp_c: w.design_temp_c,
+            template,
+            method: w.method,
+        })
+    }
+
+    /// δT = shrink(Ta − Tb) in µm; NaN when the shrink formula rejects the temperature.
+    ///
+    /// # Formula
+    /// Ta = intercept + Σ a_i·x_i;  δT = shrink(Ta − Tb)
+    /// # Source
+    /// seed 003 eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
+    fn value(&self) -> f64 {
+        let mut input = self.template;
+        input.delta_temp_k = self.temperature.value() - self.design_temp_c;
+        let r = match self.method {
+            ShrinkMethod::Exact => shrink_offset_exact_um(&input),
+            ShrinkMethod::FirstOrder => shrink_offset_first_order_um(&input),
+        };
+        r.unwrap_or(f64::NAN)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct ModelEval {
+    machine: LinearEval,
+    workpiece: Option<WorkpieceEval>,
+}
+
+impl ModelEval {
+    fn build(a: &AxisModel, field: &str, names: &[String]) -> Result<Self> {
+        Ok(Self {
+            machine: LinearEval::build(&a.machine, &format!("{field}.machine"), names)?,
+            workpiece: match &a.workpiece {
+                Some(w) => Some(WorkpieceEval::build(
+                    w,
+                    &format!("{field}.workpiece"),
+                    names,
+                )?),
+                None => None,
+            },
+        })
+    }
+
+    fn value(&self) -> f64 {
+        self.machine.value() + self.workpiece.as_ref().map_or(0.0, WorkpieceEval::value)
+    }
+
+    fn mask(&self) -> u64 {
+        self.machine.mask() | self.workpiece.as_ref().map_or(0, |w| w.temperature.mask())
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Term {
+    Linear {
+        ch: usize,
+        kd: f64,
+        alpha: f64,
+    },
+    Difference {
+        a: usize,
+        b: usize,
+        kz: f64,
+    },
+    TimeLinear {
+        a: usize,
+        kz: f64,
+        b_per_h: f64,
+        c: f64,
+    },
+    TimeSqrt {
+        b: usize,
+        kzp: f64,
+        k: f64,
+    },
+    Component {
+        ch: usize,
+        k: f64,
+        mid: f64,
+    },
+    Position {
+        ch: usize,
+        t_ref: f64,
+        o: f64,
+        o_t: f64,
+        s: f64,
+        s_t: f64,
+        p0: f64,
+    },
+    Model(Box<ModelEval>),
+}
+
+#[derive(Debug, Clone)]
+struct SignedTerm {
+    sign: f64,
+    term: Term,
+}
+
+#[derive(Debug, Clone)]
+struct AxisState {
+    pulse_um: Option<f64>,
+    dead_band_um: f64,
+    max_offset_um: f64,
+    max_step_um: f64,
+    safe_points_only: bool,
+    terms: Vec<SignedTerm>,
+    mask: u64,
+    needs_position: bool,
+    out: AxisOutput,
+    carry_pulses: f64,
+}
+
+/// The thermal compensation engine.
+#[derive(Debug, Clone)]
+pub struct Engine {
+    trigger: Trigger,
+    next_clock_s: f64,
+    names: Vec<String>,
+    axis_names: Vec<String>,
+    channels: Vec<ChannelState>,
+    axes: Vec<AxisState>,
+    last_time_s: f64,
+    start_s: f64,
+    stop: Option<StopReason>,
+}
+
+fn resolve(field: &str, name: &str, names: &[String]) -> Result<usize> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| ThermalError::UnknownChannel {
+            field: field.to_string(),
+            name: name.to_string(),
+            known: names.join(", "),
+        })
+}
+
+fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<ChannelState> {
+    let p = format!("channels[{i}]");
+    match c.sensor {
+        SensorKind::NtcBeta {
+            r0_ohm,
+            t0_c,
+            beta_k,
+        } => {
+            check_range(
+                &format!("{p}.sensor.r0_ohm"),
+                r0_ohm,
+                f64::MIN_POSITIVE,
+                1e9,
+                "0 < R0 ≤ 1e9 Ω",
+            )?;
+            check_range(
+                &format!("{p}.sensor.t0_c"),
+                t0_c,
+                -100.0,
+                300.0,
+                "−100 °C ≤ T0 ≤ 300 °C",
+            )?;
+            check_range(
+                &format!("{p}.sensor.beta_k"),
+                beta_k,
+                100.0,
+                20_000.0,
+                "100 K ≤ β ≤ 20 000 K",
+            )?;
+        }
+        SensorKind::NtcSteinhartHart { a, b, c } => {
+            for (n, v) in [("a", a), ("b", b), ("c", c)] {
+                check_range(
+                    &format!("{p}.sensor.{n}"),
+                    v,
+                    -1.0,
+                    1.0,
+                    "a finite coefficient |·| ≤ 1 1/K",
+                )?;
+            }
+        }
+        SensorKind::Displacement {
+            gain_um_per_unit,
+            offset_um,
+        } => {
+            if !(gain_um_per_unit.is_finite() && gain_um_per_unit != 0.0) {
+                return Err(invalid(
+                    format!("{p}.sensor.gain_um_per_unit"),
+                    gain_um_per_unit,
+                    "a finite, non-zero gain in µm per unit",
+                ));
+            }
+            check_range(
+                &format!("{p}.sensor.offset_um"),
+                offset_um,
+                -1e9,
+                1e9,
+                "a finite offset in µm",
+            )?;
+        }
+        SensorKind::Celsius | SensorKind::Pt100 | SensorKind::Pt1000 => {}
+    }
+    let (lo, hi) = if c.sensor.is_temperature() {
+        (-273.15, 2000.0)
+    } else {
+        (-1e9, 1e9)
+    };
+    let unit = if c.sensor.is_temperature() {
+        "°C, −273.15…2000"
+    } else {
+        "µm"
+    };
+    check_range(
+        &format!("{p}.valid_min"),
+        c.valid_min,
+        lo,
+        hi,
+        &format!("a finite value in {unit}"),
+    )?;
+    check_range(
+        &format!("{p}.valid_max"),
+        c.valid_max,
+        lo,
+        hi,
+        &format!("a finite value in {unit}"),
+    )?;
+    if c.valid_max <= c.valid_min {
+        return Err(invalid(
+            format!("{p}.valid_max"),
+            c.valid_max,
+            &format!("> valid_min = {}", c.valid_min),
+        ));
+    }
+    let limit_min = c.limit_min.unwrap_or(f64::NEG_INFINITY);
+    let limit_max = c.limit_max.unwrap_or(f64::INFINITY);
+    if let Some(v) = c.limit_min {
+        check_range(
+            &format!("{p}.limit_min"),
+            v,
+            c.valid_min,
+            c.valid_max,
+            "inside [valid_min, valid_max]",
+        )?;
+    }
+    if let Some(v) = c.limit_max {
+        check_range(
+            &format!("{p}.limit_max"),
+            v,
+            c.valid_min,
+            c.valid_max,
+            "inside [valid_min, valid_max]",
+        )?;
+    }
+    if limit_max <= limit_min {
+        return Err(invalid(format!("{p}.limit_max"), limit_max, "> limit_min"));
+    }
+    check_range(
+        &format!("{p}.stale_timeout_s"),
+        c.stale_timeout_s,
+        0.0,
+        1e9,
+        "0 ≤ timeout ≤ 1e9 s",
+    )?;
+    if let Some(v) = c.stuck_timeout_s {
+        check_range(
+            &format!("{p}.stuck_timeout_s"),
+            v,
+            f64::MIN_POSITIVE,
+            1e9,
+            "0 < timeout ≤ 1e9 s",
+        )?;
+    }
+    check_range(
+        &format!("{p}.stuck_tolerance"),
+        c.stuck_tolerance,
+        0.0,
+        1e9,
+        "≥ 0 in the channel unit",
+    )?;
+    let filter = match cfg.sampling.time_filter {
+        TimeFilterConfig::None => TimeFilter::None,
+        TimeFilterConfig::FirstOrder { tau_s } => TimeFilter::Lag(FirstOrderLag::new(tau_s)),
+        TimeFilterConfig::MovingWindow { averages } => {
+            TimeFilter::Window(MovingWindow::new(averages))
+        }
+    };
+    Ok(ChannelState {
+        kind: c.sensor,
+        valid_min: c.valid_min,
+        valid_max: c.valid_max,
+        limit_min,
+        limit_max,
+        stale_timeout_s: c.stale_timeout_s,
+        stuck_timeout_s: c.stuck_timeout_s.unwrap_or(f64::INFINITY),
+        stuck_tolerance: c.stuck_tolerance,
+        block: BlockAverage::new(cfg.sampling.samples_per_average),
+        filter,
+        last_stamp_s: f64::NEG_INFINITY,
+        stuck_ref: f64::NAN,
+        stuck_since_s: 0.0,
+        value: f64::NAN,
+        has_value: false,
+        fresh: false,
+        fault: None,
+    })
+}
+
+fn finite_coef(field: String, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(invalid(field, v, "a finite coefficient"))
+    }
+}
+
+fn build_term(t: &TermConfig, p: &str, names: &[String], cfg: &EngineConfig) -> Result<SignedTerm> {
+    let r = |f: &str, n: &str| resolve(&format!("{p}.{f}"), n, names);
+    let c = |f: &str, v: f64| finite_coef(format!("{p}.{f}"), v);
+    let (sign, term) = match t {
+        TermConfig::Linear {
+            channel,
+            kd_um_per_c,
+            alpha_um,
+            sign,
+        } => (
+            sign,
+            Term::Linear {
+                ch: r("channel", channel)?,
+                kd: c("kd_um_per_c", *kd_um_per_c)?,
+                alpha: c("alpha_um", *alpha_um)?,
+            },
+        ),
+        TermConfig::Difference {
+            a,
+            b,
+            kz_um_per_c,
+            sign,
+        } => (
+            sign,
+            Term::Difference {
+                a: r("a", a)?,
+                b: r("b", b)?,
+                kz: c("kz_um_per_c", *kz_um_per_c)?,
+            },
+        ),
+        TermConfig::TimeLinear {
+            a,
+            kz_um_per_c,
+            b_c_per_h,
+            c_c,
+            sign,
+        } => (
+            sign,
+            Term::TimeLinear {
+                a: r("a", a)?,
+                kz: c("kz_um_per_c", *kz_um_per_c)?,
+                b_per_h: c("b_c_per_h", *b_c_per_h)?,
+                c: c("c_c", *c_c)?,
+            },
+        ),
+        TermConfig::TimeSqrt {
+            b,
+            kz_prime_um_per_c,
+            k_um_per_sqrt_h,
+            sign,
+        } => (
+            sign,
+            Term::TimeSqrt {
+                b: r("b", b)?,
+                kzp: c("kz_prime_um_per_c", *kz_prime_um_per_c)?,
+                k: c("k_um_per_sqrt_h", *k_um_per_sqrt_h)?,
+            },
+        ),
+        TermConfig::Component {
+            channel,
+            k_um_per_unit,
+            midpoint,
+            sign,
+        } => (
+            sign,
+            Term::Component {
+                ch: r("channel", channel)?,
+                k: c("k_um_per_unit", *k_um_per_unit)?,
+                mid: c("midpoint", *midpoint)?,
+            },
+        ),
+        TermConfig::Position {
+            channel,
+            t_ref_c,
+            offset_um,
+            offset_um_per_c,
+            slope_um_per_mm,
+            slope_um_per_mm_per_c,
+            p0_mm,
+            sign,
+        } => (
+            sign,
+            Term::Position {
+                ch: r("channel", channel)?,
+                t_ref: c("t_ref_c", *t_ref_c)?,
+                o: c("offset_um", *offset_um)?,
+                o_t: c("offset_um_per_c", *offset_um_per_c)?,
+                s: c("slope_um_per_mm", *slope_um_per_mm)?,
+                s_t: c("slope_um_per_mm_per_c", *slope_um_per_mm_per_c)?,
+                p0: c("p0_mm", *p0_mm)?,
+            },
+        ),
+        TermConfig::Model { file, axis, sign } => {
+            let model = cfg.models.get(file).ok_or_else(|| {
+                invalid(
+                    format!("{p}.file"),
+                    format!("{file:?}"),
+                    "a thermal model file that was loaded with the configuration",
+                )
+            })?;
+            model.validate()?;
+            let am = model.axes.iter().find(|a| &a.axis == axis).ok_or_else(|| {
+                let known: Vec<&str> = model.axes.iter().map(|a| a.axis.as_str()).collect();
+                invalid(
+                    format!("{p}.axis"),
+                    format!("{axis:?}"),
+                    &format!("one of the model's axes: {}", known.join(", ")),
+                )
+            })?;
+            (
+                sign,
+                Term::Model(Box::new(ModelEval::build(
+                    am,
+                    &format!("{p}.model[{file}].{axis}"),
+                    names,
+                )?)),
+            )
+        }
+    };
+    Ok(SignedTerm {
+        sign: sign.factor(),
+        term,
+    })
+}
+
+impl Term {
+    fn mask(&self) -> u64 {
+        let bit = |i: usize| 1u64 << i;
+        match self {
+            Term::Linear { ch, .. } | Term::Component { ch, .. } | Term::Position { ch, .. } => {
+                bit(*ch)
+            }
+            Term::Difference { a, b, .. } => bit(*a) | bit(*b),
+            Term::TimeLinear { a, .. } => bit(*a),
+            Term::TimeSqrt { b, .. } => bit(*b),
+            Term::Model(m) => m.mask(),
+        }
+    }
+
+    fn value(&self, ch: &[ChannelState], t_s: f64, p_mm: f64) -> f64 {
+        let v = |i: usize| ch[i].value;
+        match self {
+            Term::Linear { ch, kd, alpha } => law::linear_um(*kd, v(*ch), *alpha),
+            Term::Difference { a, b, kz } => law::difference_um(*kz, v(*a), v(*b)),
+            Term::TimeLinear { a, kz, b_per_h, c } => {
+                law::time_linear_um(*kz, v(*a), *b_per_h, *c, t_s)
+            }
+            Term::TimeSqrt { b, kzp, k } => law::time_sqrt_um(*kzp, v(*b), *k, t_s),
+            Term::Component { ch, k, mid } => law::component_um(*k, v(*ch), *mid),
+            Term::Position {
+                ch,
+                t_ref,
+                o,
+                o_t,
+                s,
+                s_t,
+                p0,
+            } => law::position_um(*o, *o_t, *s, *s_t, *t_ref, v(*ch), p_mm, *p0),
+            Term::Model(m) => m.value(),
+        }
+    }
+}
+
+fn build_axis(a: &AxisConfig, i: usize, names: &[String], cfg: &EngineConfig) -> Result<AxisState> {
+    let p = format!("axes[{i}]");
+    if a.name.trim().is_empty() {
+        return Err(invalid(format!("{p}.name"), "\"\"", "an axis name"));
+    }
+    let pulse_um = match a.apply {
+        Application::Pulses { pulse_um } => {
+            check_range(
+                &format!("{p}.apply.pulse_um"),
+                pulse_um,
+                1e-6,
+                1e4,
+                "1e-6 µm ≤ pulse ≤ 1e4 µm",
+            )?;
+            Some(pulse_um)
+        }
+        Application::MeasuringSystem | Application::Command => None,
+    };
+    check_range(
+        &format!("{p}.max_offset_um"),
+        a.max_offset_um,
+        f64::MIN_POSITIVE,
+        1e5,
+        "0 < max offset ≤ 1e5 µm",
+    )?;
+    check_range(
+        &format!("{p}.dead_band_um"),
+        a.dead_band_um,
+        0.0,
+        a.max_offset_um,
+        "0 ≤ D ≤ max_offset_um",
+    )?;
+    if let Some(s) = a.max_step_um {
+        check_range(
+            &format!("{p}.max_step_um"),
+            s,
+            f64::MIN_POSITIVE,
+            1e5,
+            "0 < step ≤ 1e5 µm per cycle",
+        )?;
+    }
+    if a.terms.is_empty() {
+        return Err(invalid(format!("{p}.terms"), "[]", "at least one term"));
+    }
+    let mut terms = Vec::with_capacity(a.terms.len());
+    for (k, t) in a.terms.iter().enumerate() {
+        terms.push(build_term(t, &format!("{p}.terms[{k}]"), names, cfg)?);
+    }
+    let mask = terms.iter().fold(0, |m, t| m | t.term.mask());
+    let needs_position = terms
+        .iter()
+        .any(|t| matches!(t.term, Term::Position { .. }));
+    Ok(AxisState {
+        pulse_um,
+        dead_band_um: a.dead_band_um,
+        max_offset_um: a.max_offset_um,
+        max_step_um: a.max_step_um.unwrap_or(f64::INFINITY),
+        safe_points_only: a.safe_points_only,
+        terms,
+        mask,
+        needs_position,
+        out: AxisOutput::ZERO,
+        carry_pulses: 0.0,
+    })
+}
+
+impl Engine {
+    /// Validates the configuration and builds the engine with all its state preallocated.
+    pub fn new(cfg: &EngineConfig) -> Result<Self> {
+        let s = &cfg.sampling;
+        check_range(
+            "sampling.samples_per_average",
+            s.samples_per_average as f64,
+            1.0,
+            MAX_SAMPLES_PER_AVERAGE as f64,
+            "1 ≤ N ≤ 4096",
+        )?;
+        match s.time_filter {
+            TimeFilterConfig::None => {}
+            TimeFilterConfig::FirstOrder { tau_s } => check_range(
+                "sampling.time_filter.tau_s",
+                tau_s,
+                f64::MIN_POSITIVE,
+                1e7,
+                "0 < τ ≤ 1e7 s",
+            )?,
+            TimeFilterConfig::MovingWindow { averages } => check_range(
+                "sampling.time_filter.averages",
+                averages as f64,
+                1.0,
+                MAX_WINDOW as f64,
+                "1 ≤ M ≤ 4096",
+            )?,
+        }
+        if let Trigger::Clock { period_s } = s.trigger {
+            check_range(
+                "sampling.trigger.period_s",
+                period_s,
+                f64::MIN_POSITIVE,
+                1e7,
+                "0 < period ≤ 1e7 s",
+            )?;
+        }
+        if cfg.channels.is_empty() || cfg.channels.len() > MAX_CHANNELS {
+            return Err(invalid("channels", cfg.channels.len(), "1 to 64 channels"));
+        }
+        if cfg.axes.is_empty() || cfg.axes.len() > MAX_AXES {
+            return Err(invalid("axes", cfg.axes.len(), "1 to 8 axes"));
+        }
+        let mut names: Vec<String> = Vec::with_capacity(cfg.channels.len());
+        for (i, c) in cfg.channels.iter().enumerate() {
+            if c.name.trim().is_empty() {
+                return Err(invalid(
+                    format!("channels[{i}].name"),
+                    "\"\"",
+                    "a channel name",
+                ));
+            }
+            if names.contains(&c.name) {
+                return Err(invalid(
+                    format!("channels[{i}].name"),
+                    &c.name,
+                    "a name not used by another channel",
+                ));
+            }
+            names.push(c.name.clone());
+        }
+        let channels = cfg
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(i, c)| build_channel(c, i, cfg))
+            .collect::<Result<Vec<_>>>()?;
+        let axes = cfg
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(i, a)| build_axis(a, i, &names, cfg))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self {
+            trigger: s.trigger,
+            next_clock_s: f64::NEG_INFINITY,
+            names,
+            axis_names: cfg.axes.iter().map(|a| a.name.clone()).collect(),
+            channels,
+            axes,
+            last_time_s: f64::NEG_INFINITY,
+            start_s: f64::NAN,
+            stop: None,
+        })
+    }
+
+    /// Channel names in input order.
+    pub fn channel_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Axis names in output order.
+    pub fn axis_names(&self) -> &[String] {
+        &self.axis_names
+    }
+
+    /// The fault a channel had in the last cycle, if any.
+    pub fn channel_fault(&self, channel: usize) -> Option<Fault> {
+        self.channels.get(channel).and_then(|c| c.fault)
+    }
+
+    /// A channel's averaged, time-filtered value (NaN before the first average).
+    pub fn channel_value(&self, channel: usize) -> f64 {
+        self.channels.get(channel).map_or(f64::NAN, |c| c.value)
+    }
+
+    /// Clears a latched stop request (the operator acknowledged it).
+    pub fn acknowledge_stop(&mut self) {
+        self.stop = None;
+    }
+
+    fn output(&self, time_s: f64) -> Output {
+        let mut axes = [AxisOutput::ZERO; MAX_AXES];
+        for (o, a) in axes.iter_mut().zip(&self.axes) {
+            *o = a.out;
+            o.pulses = 0;
+        }
+        Output {
+            time_s,
+            status: EngineStatus::Running,
+            alarm: None,
+            alarm_count: 0,
+            stop: self.stop,
+            averaged: false,
+            axes,
+            n_axes: self.axes.len() as u8,
+        }
+    }
+
+    /// Runs one cycle. Allocation-free; never panics on any input values.
+    pub fn step(&mut self, inputs: &Inputs) -> Output {
+        let time_s = inputs.time_s;
+        let mut out = self.output(time_s);
+        if inputs.readings.len() != self.channels.len() {
+            out.raise(Alarm::InputCount {
+                got: inputs.readings.len().min(u16::MAX as usize) as u16,
+                expected: self.channels.len() as u16,
+            });
+            return self.freeze_all(out);
+        }
+        if !(time_s.is_finite() && time_s > self.last_time_s) {
+            out.raise(Alarm::TimeOutOfOrder {
+                time_s,
+                previous_s: self.last_time_s,
+            });
+            return self.freeze_all(out);
+        }
+        self.last_time_s = time_s;
+        if self.start_s.is_nan() {
+            self.start_s = time_s;
+        }
+        let sample = match self.trigger {
+            Trigger::EveryCycle => true,
+            Trigger::Input => inputs.trigger,
+            Trigger::Clock { period_s } => {
+                if time_s >= self.next_clock_s {
+                    // Skip missed ticks rather than bursting to catch up.
+                    self.next_clock_s = if self.next_clock_s.is_finite() {
+                        self.next_clock_s
+                            + ((time_s - self.next_clock_s) / period_s).floor() * period_s
+                            + period_s
+                    } else {
+                        time_s + period_s
+                    };
+                    true
+                } else {
+                    false
+                }
+            }
+        };
+
+        let mut faulted: u64 = 0;
+        for (i, (ch, r)) in self.channels.iter_mut().zip(inputs.readings).enumerate() {
+            ch.fresh = false;
+            match ch.check(*r, time_s) {
+                Err(f) => {
+                    ch.fault = Some(f);
+                    ch.block.reset();
+                    faulted |= 1u64 << i;
+                    out.raise(Alarm::Channel {
+                        channel: i as u16,
+                        fault: f,
+                    });
+                }
+                Ok(v) => {
+                    ch.fault = None;
+                    if !sample {
+                        continue;
+                    }
+                    if let Some(avg) = ch.block.push(v) {
+                        ch.value = match &mut ch.filter {
+                            TimeFilter::None => avg,
+                            TimeFilter::Lag(l) => l.update(time_s, avg),
+                            TimeFilter::Window(w) => w.push(avg),
+                        };
+                        ch.has_value = true;
+                        ch.fresh = true;
+                        out.averaged = true;
+                        // Seed 000 claims: an averaged value outside its limits stops the
+                        // machine; the first violation is kept until acknowledged.
+                        if (ch.value < ch.limit_min || ch.value > ch.limit_max)
+                            && self.stop.is_none()
+                        {
+                            self.stop = Some(StopReason {
+                                channel: i as u16,
+                                value: ch.value,
+                                limit_min: ch.limit_min,
+                                limit_max: ch.limit_max,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        out.stop = self.stop;
+
+        let t_since_start_s = time_s - self.start_s;
+        let channels = &self.channels;
+        for (ai, (ax, o)) in self.axes.iter_mut().zip(out.axes.iter_mut()).enumerate() {
+            for t in &mut ax.terms {
+                if let Term::Model(m) = &mut t.term {
+                    m.machine.update(time_s, channels);
+                    if let Some(w) = &mut m.workpiece {
+                        w.temperature.update(time_s, channels);
+                    }
+                }
+            }
+            let ready = channels
+                .iter()
+                .enumerate()
+                .all(|(i, c)| ax.mask & (1u64 << i) == 0 || c.has_value);
+            let mut status;
+            if self.stop.is_some() {
+                status = AxisStatus::Stopped;
+            } else if ax.mask & faulted != 0 {
+                status = AxisStatus::Frozen;
+            } else if !ready {
+                status = AxisStatus::Starting;
+            } else {
+                let p_mm = if ax.needs_position {
+                    inputs.positions_mm.get(ai).copied().unwrap_or(f64::NAN)
+                } else {
+                    0.0
+                };
+                if ax.needs_position && !p_mm.is_finite() {
+                    status = AxisStatus::Frozen;
+                    out.alarm = out
+                        .alarm
+                        .or(Some(Alarm::PositionMissing { axis: ai as u8 }));
+                    out.alarm_count = out.alarm_count.saturating_add(1);
+                } else {
+                    let mut law_um = 0.0;
+                    for t in &ax.terms {
+                        law_um += t.sign * t.term.value(channels, t_since_start_s, p_mm);
+                    }
+                    if !law_um.is_finite() {
+                        status = AxisStatus::Frozen;
+                        out.alarm = out.alarm.or(Some(Alarm::LawNotFinite { axis: ai as u8 }));
+                        out.alarm_count = out.alarm_count.saturating_add(1);
+                    } else {
+                        ax.out.law_um = law_um;
+                        let clamped = law_um.clamp(-ax.max_offset_um, ax.max_offset_um);
+                        // Seed 000 blocks 602/604: update the running compensation only when
+                        // the required correction differs from it by at least D.
+                        if (clamped - ax.out.target_um).abs() >= ax.dead_band_um {
+                            ax.out.target_um = clamped;
+                            status = AxisStatus::Updated;
+                        } else {
+                            status = AxisStatus::Held;
+                        }
+                        if clamped != law_um {
+                            status = AxisStatus::Clamped;
+                        }
+                    }
+                }
+            }
+            // Apply: gate at safe points, then rate-limit; the target may be frozen.
+            let gap_um = ax.out.target_um - ax.out.offset_um;
+            let mut step_um = 0.0;
+            if gap_um != 0.0 {
+                if ax.safe_points_only && !inputs.safe_point {
+                    if status != AxisStatus::Stopped && status != AxisStatus::Frozen {
+                        status = AxisStatus::WaitingSafePoint;
+                    }
+                } else {
+                    step_um = gap_um.clamp(-ax.max_step_um, ax.max_step_um);
+                    ax.out.offset_um = if step_um == gap_um {
+                        ax.out.target_um
+                    } else {
+                        ax.out.offset_um + step_um
+                    };
+                    if step_um != gap_um && matches!(status, AxisStatus::Updated | AxisStatus::Held)
+                    {
+                        status = AxisStatus::Ramping;
+                    }
+                }
+            }
+            ax.out.pulses = match ax.pulse_um {
+                Some(p) if step_um != 0.0 => {
+                    law::pulses_with_carry(step_um, p, &mut ax.carry_pulses)
+                }
+                _ => 0,
+            };
+            ax.out.pulse_total = ax.out.pulse_total.saturating_add(ax.out.pulses);
+            ax.out.status = status;
+            *o = ax.out;
+        }
+        out.status = if self.stop.is_some() {
+            EngineStatus::StopRequested
+        } else if out.alarm_count > 0 {
+            EngineStatus::Alarm
+        } else {
+            EngineStatus::Running
+        };
+        out
+    }
+
+    fn freeze_all(&mut self, mut out: Output) -> Output {
+        for (ax, o) in self.axes.iter_mut().zip(out.axes.iter_mut()) {
+            ax.out.pulses = 0;
+            ax.out.status = if self.stop.is_some() {
+                AxisStatus::Stopped
+            } else {
+                AxisStatus::Frozen
+            };
+            *o = ax.out;
+        }
+        out.status = if self.stop.is_some() {
+            EngineStatus::StopRequested
+        } else {
+            EngineStatus::Alarm
+        };
+        out
+    }
+}

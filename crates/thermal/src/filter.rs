@@ -1,0 +1,280 @@
+//! Averaging and filtering state: fixed-capacity, allocated once at build time, updated
+//! in the control cycle without allocation.
+
+/// N-sample block average (seed 000 Fig. 4: take N samples at the trigger, then average).
+#[derive(Debug, Clone)]
+pub struct BlockAverage {
+    n: usize,
+    count: usize,
+    sum: f64,
+}
+
+impl BlockAverage {
+    /// A block of `n ≥ 1` samples (validated by the caller).
+    pub fn new(n: usize) -> Self {
+        Self {
+            n: n.max(1),
+            count: 0,
+            sum: 0.0,
+        }
+    }
+
+    /// Adds a sample; returns the average when the block is complete.
+    ///
+    /// # Formula
+    /// P̄ = (1/N)·Σ P_i
+    /// # Source
+    /// seed 000, Fig. 4 blocks 104–110 and Fig. 6 block 300 [SEED]
+    pub fn push(&mut self, v: f64) -> Option<f64> {
+        self.sum += v;
+        self.count += 1;
+        if self.count >= self.n {
+            let mean = self.sum / self.n as f64;
+            self.count = 0;
+            self.sum = 0.0;
+            Some(mean)
+        } else {
+            None
+        }
+    }
+
+    /// Discards a partial block (after a fault, so bad and good samples never mix).
+    pub fn reset(&mut self) {
+        self.count = 0;
+        self.sum = 0.0;
+    }
+}
+
+/// First-order lag, exact discretisation for a piecewise-constant input.
+#[derive(Debug, Clone, Copy)]
+pub struct FirstOrderLag {
+    tau_s: f64,
+    y: f64,
+    t_last_s: f64,
+    started: bool,
+}
+
+impl FirstOrderLag {
+    /// A lag with time constant `tau_s > 0` (validated by the caller).
+    pub fn new(tau_s: f64) -> Self {
+        Self {
+            tau_s,
+            y: 0.0,
+            t_last_s: 0.0,
+            started: false,
+        }
+    }
+
+    /// Feeds a sample at time `t_s`; returns the filtered value.
+    ///
+    /// # Formula
+    /// y ← y + (1 − e^(−Δt/τ))·(u − y); y = u at the first sample
+    /// # Units
+    /// t, τ in s; y in the unit of u.
+    /// # Source
+    /// exact zero-order-hold discretisation of τ·ẏ + y = u [DERIVED]; the same semantics
+    /// as `gearcomp_core::model::Transform::FirstOrderLag`
+    pub fn update(&mut self, t_s: f64, u: f64) -> f64 {
+        if !self.started {
+            self.started = true;
+            self.y = u;
+        } else {
+            let dt_s = (t_s - self.t_last_s).max(0.0);
+            self.y += (1.0 - (-dt_s / self.tau_s).exp()) * (u - self.y);
+        }
+        self.t_last_s = t_s;
+        self.y
+    }
+
+    /// The current output.
+    pub fn value(&self) -> f64 {
+        self.y
+    }
+}
+
+/// Moving average over the last M values (fixed ring).
+#[derive(Debug, Clone)]
+pub struct MovingWindow {
+    buf: Vec<f64>,
+    head: usize,
+    len: usize,
+    sum: f64,
+}
+
+impl MovingWindow {
+    /// A window of `m ≥ 1` values (validated by the caller).
+    pub fn new(m: usize) -> Self {
+        Self {
+            buf: vec![0.0; m.max(1)],
+            head: 0,
+            len: 0,
+            sum: 0.0,
+        }
+    }
+
+    /// Adds a value; returns the mean of the values held (fewer than M at the start).
+    ///
+    /// # Formula
+    /// T̄ = (1/M)·Σ_{k=0}^{M−1} T_{n−k}
+    pub fn push(&mut self, v: f64) -> f64 {
+        let cap = self.buf.len();
+        if self.len == cap {
+            self.sum -= self.buf[self.head];
+        } else {
+            self.len += 1;
+        }
+        self.buf[self.head] = v;
+        self.sum += v;
+        self.head = (self.head + 1) % cap;
+        // Re-summing once per wrap bounds the floating-point drift of the running sum.
+        if self.head == 0 {
+            self.sum = self.buf[..self.len].iter().sum();
+        }
+        self.sum / self.len as f64
+    }
+}
+
+/// The value `delay_s` ago, linearly interpolated, from a fixed ring of decimated points.
+#[derive(Debug, Clone)]
+pub struct DelayLine {
+    delay_s: f64,
+    spacing_s: f64,
+    t: Vec<f64>,
+    v: Vec<f64>,
+    head: usize,
+    len: usize,
+}
+
+/// Points kept by a [`DelayLine`]; at a spacing of delay/(CAP/2) they span twice the delay.
+pub const DELAY_CAPACITY: usize = 512;
+
+impl DelayLine {
+    /// A delay of `delay_s ≥ 0` s (validated by the caller).
+    pub fn new(delay_s: f64) -> Self {
+        Self {
+            delay_s,
+            spacing_s: delay_s / (DELAY_CAPACITY as f64 / 2.0),
+            t: vec![0.0; DELAY_CAPACITY],
+            v: vec![0.0; DELAY_CAPACITY],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn at(&self, k: usize) -> (f64, f64) {
+        // k = 0 is the oldest stored point.
+        let idx = (self.head + DELAY_CAPACITY - self.len + k) % DELAY_CAPACITY;
+        (self.t[idx], self.v[idx])
+    }
+
+    /// Feeds a sample at `t_s` and returns u(t − delay).
+    ///
+    /// # Formula
+    /// u(t − d) by linear interpolation between stored points; before `d` of history
+    /// exists, the oldest value. Points are stored at least d/256 apart, so the ring of 512
+    /// covers 2·d; a thermal signal sampled that finely interpolates to well below its noise.
+    /// # Source
+    /// semantics of `gearcomp_core::model::Transform::Delay` [PROJECT CONVENTION]
+    pub fn update(&mut self, t_s: f64, u: f64) -> f64 {
+        let newest_t = if self.len > 0 {
+            self.at(self.len - 1).0
+        } else {
+            f64::NEG_INFINITY
+        };
+        if self.len == 0 || t_s - newest_t >= self.spacing_s {
+            self.t[self.head] = t_s;
+            self.v[self.head] = u;
+            self.head = (self.head + 1) % DELAY_CAPACITY;
+            self.len = (self.len + 1).min(DELAY_CAPACITY);
+        }
+        let target = t_s - self.delay_s;
+        let (t0, v0) = self.at(0);
+        if target <= t0 {
+            return v0;
+        }
+        // The current sample is the newest point even when it was not stored.
+        let (tn, vn) = self.at(self.len - 1);
+        if target >= tn {
+            let span = t_s - tn;
+            return if span > 0.0 {
+                vn + (u - vn) * (target - tn) / span
+            } else {
+                u
+            };
+        }
+        // Binary search for the last stored point at or before the target.
+        let (mut lo, mut hi) = (0usize, self.len - 1);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if self.at(mid).0 <= target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let (ta, va) = self.at(lo);
+        let (tb, vb) = self.at(hi);
+        if tb > ta {
+            va + (vb - va) * (target - ta) / (tb - ta)
+        } else {
+            va
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_average_of_eight() {
+        let mut b = BlockAverage::new(8);
+        let xs = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
+        let outs: Vec<_> = xs.iter().map(|&x| b.push(x)).collect();
+        assert!(outs[..7].iter().all(Option::is_none));
+        assert_eq!(outs[7], Some(4.5));
+    }
+
+    /// Step response of a first-order lag: y(τ) = 1 − e^(−1) = 0.632 12 (closed form),
+    /// independent of the step size because the discretisation is exact.
+    #[test]
+    fn lag_step_response_is_exact() {
+        for dt in [1.0, 7.0, 60.0] {
+            let mut f = FirstOrderLag::new(600.0);
+            f.update(0.0, 0.0);
+            let mut t: f64 = 0.0;
+            let mut y = 0.0;
+            while t < 600.0 - 1e-9 {
+                t += dt;
+                y = f.update(t.min(600.0), 1.0);
+            }
+            assert!((y - (1.0 - (-1.0f64).exp())).abs() < 1e-12, "dt {dt}: {y}");
+        }
+    }
+
+    #[test]
+    fn moving_window_mean() {
+        let mut w = MovingWindow::new(3);
+        assert_eq!(w.push(3.0), 3.0);
+        assert_eq!(w.push(6.0), 4.5);
+        assert_eq!(w.push(9.0), 6.0);
+        assert_eq!(w.push(12.0), 9.0);
+    }
+
+    /// A ramp delayed by d is the ramp shifted by d, exactly (linear interpolation).
+    #[test]
+    fn delay_of_a_ramp() {
+        let mut d = DelayLine::new(100.0);
+        let mut last = 0.0;
+        for k in 0..2000 {
+            let t = k as f64 * 1.5;
+            last = d.update(t, 2.0 * t);
+            if t < 100.0 {
+                assert_eq!(last, 0.0);
+            }
+        }
+        let t_end = 1999.0 * 1.5;
+        assert!((last - 2.0 * (t_end - 100.0)).abs() < 1e-9, "{last}");
+    }
+}

@@ -1,0 +1,269 @@
+//! Replaying a recorded log through the engine (`gearcomp replay`).
+//!
+//! The log is CSV with a header: `time_s` (s, strictly increasing), one column per
+//! configured channel (named as the channel, raw units), and optionally `trigger` and
+//! `safe_point` (0/1; both default to 1). An empty cell means "no new reading": the
+//! channel keeps its last value and stamp, so a long gap shows as a stale channel. A cell
+//! that is not a number is reported with its line and fed to the engine as NaN (the
+//! engine then raises its NaN alarm); a row with the wrong number of fields is reported
+//! and skipped. No row is dropped silently.
+
+use crate::engine::{Alarm, AxisStatus, Engine, EngineStatus, Inputs, Reading};
+use crate::error::{invalid, Result};
+
+/// A problem with one row of the log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BadRow {
+    /// 1-based line number in the file (the header is line 1).
+    pub line: u64,
+    /// What is wrong, naming the column and the text.
+    pub message: String,
+}
+
+/// One replayed row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayRow {
+    /// Line number in the log.
+    pub line: u64,
+    /// Time, s.
+    pub time_s: f64,
+    /// Applied offset per axis, µm.
+    pub offset_um: Vec<f64>,
+    /// Running compensation per axis, µm.
+    pub target_um: Vec<f64>,
+    /// Axis status per axis.
+    pub axis_status: Vec<AxisStatus>,
+    /// Pulses issued this row per axis.
+    pub pulses: Vec<i64>,
+    /// Engine status.
+    pub status: EngineStatus,
+    /// The alarm, described ("" if none).
+    pub alarm: String,
+    /// The stop request, described ("" if none).
+    pub stop: String,
+}
+
+/// The result of a replay.
+#[derive(Debug, Clone, Default)]
+pub struct Replay {
+    /// Axis names.
+    pub axes: Vec<String>,
+    /// One row per log row that had the right shape.
+    pub rows: Vec<ReplayRow>,
+    /// Rows with problems (reported, never silently dropped).
+    pub bad_rows: Vec<BadRow>,
+}
+
+/// Describes an alarm for people (not for the control cycle).
+pub fn describe_alarm(a: &Alarm, channel_names: &[String], axis_names: &[String]) -> String {
+    let ch = |i: u16| {
+        channel_names
+            .get(i as usize)
+            .map_or("?", String::as_str)
+            .to_string()
+    };
+    let ax = |i: u8| {
+        axis_names
+            .get(i as usize)
+            .map_or("?", String::as_str)
+            .to_string()
+    };
+    match a {
+        Alarm::Channel { channel, fault } => format!("channel {}: {fault:?}", ch(*channel)),
+        Alarm::TimeOutOfOrder { time_s, previous_s } => {
+            format!("time {time_s} s not after {previous_s} s: cycle ignored")
+        }
+        Alarm::InputCount { got, expected } => format!("{got} readings for {expected} channels"),
+        Alarm::PositionMissing { axis } => format!("axis {}: no position", ax(*axis)),
+        Alarm::LawNotFinite { axis } => format!("axis {}: law not finite", ax(*axis)),
+    }
+}
+
+fn parse_flag(text: &str) -> Option<bool> {
+    match text.trim() {
+        "" | "1" | "true" => Some(true),
+        "0" | "false" => Some(false),
+        _ => None,
+    }
+}
+
+/// Runs `engine` over the CSV `text`.
+pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| invalid("log header", e, "a CSV header line"))?
+        .clone();
+    let col = |name: &str| headers.iter().position(|h| h == name);
+    let time_col = col("time_s").ok_or_else(|| {
+        invalid(
+            "log header",
+            headers.iter().collect::<Vec<_>>().join(","),
+            "a time_s column",
+        )
+    })?;
+    let names = engine.channel_names().to_vec();
+    let axes = engine.axis_names().to_vec();
+    let mut channel_cols = Vec::with_capacity(names.len());
+    for n in &names {
+        channel_cols.push(col(n).ok_or_else(|| {
+            invalid(
+                "log header",
+                headers.iter().collect::<Vec<_>>().join(","),
+                &format!("a column for channel {n:?}"),
+            )
+        })?);
+    }
+    let (trig_col, safe_col) = (col("trigger"), col("safe_point"));
+    let mut out = Replay {
+        axes: axes.clone(),
+        ..Default::default()
+    };
+    let mut readings = vec![
+        Reading {
+            raw: f64::NAN,
+            stamp_s: f64::NEG_INFINITY
+        };
+        names.len()
+    ];
+    let mut record = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut record) {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(e) => {
+                let line = e.position().map_or(0, |p| p.line());
+                out.bad_rows.push(BadRow {
+                    line,
+                    message: format!("unreadable row: {e}"),
+                });
+                continue;
+            }
+        }
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != headers.len() {
+            out.bad_rows.push(BadRow {
+                line,
+                message: format!(
+                    "{} fields, the header has {}: row skipped",
+                    record.len(),
+                    headers.len()
+                ),
+            });
+            continue;
+        }
+        let time_s = match record[time_col].parse::<f64>() {
+            Ok(t) if t.is_finite() => t,
+            _ => {
+                out.bad_rows.push(BadRow {
+                    line,
+                    message: format!(
+                        "time_s {:?} is not a finite number: row skipped",
+                        &record[time_col]
+                    ),
+                });
+                continue;
+            }
+        };
+        for (k, &c) in channel_cols.iter().enumerate() {
+            let cell = &record[c];
+            if cell.is_empty() {
+                continue;
+            }
+            let raw = cell.parse::<f64>().unwrap_or_else(|_| {
+                out.bad_rows.push(BadRow {
+                    line,
+                    message: format!("column {}: {cell:?} is not a number (fed as NaN)", names[k]),
+                });
+                f64::NAN
+            });
+            readings[k] = Reading {
+                raw,
+                stamp_s: time_s,
+            };
+        }
+        let mut flag = |c: Option<usize>, what: &str| {
+            c.map_or(true, |c| {
+                parse_flag(&record[c]).unwrap_or_else(|| {
+                    out.bad_rows.push(BadRow {
+                        line,
+                        message: format!("column {what}: {:?} is not 0/1 (taken as 1)", &record[c]),
+                    });
+                    true
+                })
+            })
+        };
+        let trigger = flag(trig_col, "trigger");
+        let safe_point = flag(safe_col, "safe_point");
+        let o = engine.step(&Inputs {
+            time_s,
+            readings: &readings,
+            trigger,
+            safe_point,
+            positions_mm: &[],
+        });
+        let ax = o.axes();
+        out.rows.push(ReplayRow {
+            line,
+            time_s,
+            offset_um: ax.iter().map(|a| a.offset_um).collect(),
+            target_um: ax.iter().map(|a| a.target_um).collect(),
+            axis_status: ax.iter().map(|a| a.status).collect(),
+            pulses: ax.iter().map(|a| a.pulses).collect(),
+            status: o.status,
+            alarm: o
+                .alarm
+                .map_or(String::new(), |a| describe_alarm(&a, &names, &axes)),
+            stop: o.stop.map_or(String::new(), |s| {
+                format!(
+                    "channel {} = {} outside [{}, {}]",
+                    names.get(s.channel as usize).map_or("?", String::as_str),
+                    s.value,
+                    s.limit_min,
+                    s.limit_max
+                )
+            }),
+        });
+    }
+    Ok(out)
+}
+
+impl Replay {
+    /// The offsets and alarms as CSV text: `line,time_s,<axis>_offset_um,<axis>_target_um,
+    /// <axis>_pulses,<axis>_status…,status,alarm,stop`.
+    pub fn to_csv(&self) -> Result<String> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let mut header = vec!["line".to_string(), "time_s".to_string()];
+        for a in &self.axes {
+            header.extend([
+                format!("{a}_offset_um"),
+                format!("{a}_target_um"),
+                format!("{a}_pulses"),
+                format!("{a}_status"),
+            ]);
+        }
+        header.extend(["status".into(), "alarm".into(), "stop".into()]);
+        let err = |e: csv::Error| invalid("output", e, "writable CSV");
+        w.write_record(&header).map_err(err)?;
+        for r in &self.rows {
+            let mut rec = vec![r.line.to_string(), r.time_s.to_string()];
+            for i in 0..self.axes.len() {
+                rec.extend([
+                    format!("{:.4}", r.offset_um[i]),
+                    format!("{:.4}", r.target_um[i]),
+                    r.pulses[i].to_string(),
+                    format!("{:?}", r.axis_status[i]),
+                ]);
+            }
+            rec.extend([format!("{:?}", r.status), r.alarm.clone(), r.stop.clone()]);
+            w.write_record(&rec).map_err(err)?;
+        }
+        let bytes = w
+            .into_inner()
+            .map_err(|e| invalid("output", e, "writable CSV"))?;
+        String::from_utf8(bytes).map_err(|e| invalid("output", e, "UTF-8 text"))
+    }
+}
