@@ -187,10 +187,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut engine = Engine::new(&bundle.config).context("building the compensation engine")?;
     let mut sim = Simulator::new(bundle.machine.clone(), args.seed)?;
-    eprint!(
-        "gearcomp demo: simulating {hours} h on the {} preset ",
-        preset.name()
-    );
     let run = run_closed_loop(&mut sim, &mut engine, hours, |f| {
         eprint!(
             "\rgearcomp demo: simulating {hours} h on the {} preset {:>3.0} %",

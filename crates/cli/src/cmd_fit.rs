@@ -65,8 +65,10 @@ pub enum ShrinkMethodArg {
 
 /// Options of `gearcomp fit`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Example: gearcomp fit --target ch1_um ch3_um ch5_um --out model.toml --report fit.html\n\
-Without --data the embedded FL_THERMAL test (46 h, 16 temperatures, 5 probes) is used, trained on the first 24 h.")]
+#[command(
+    after_help = "Example: gearcomp fit --target ch1_um ch3_um ch5_um --out model.toml --report fit.html\n\
+Without --data the embedded FL_THERMAL test (46 h, 16 temperatures, 5 probes) is used, trained on the first 24 h."
+)]
 pub struct Args {
     /// CSV log with a header row: time column (s), temperature columns, target columns.
     /// Default: the embedded FL_THERMAL data set.
@@ -109,7 +111,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "6,8,10,12")]
     pub class_counts: Vec<usize>,
     /// Candidate rate-filter time constants τ in seconds (dynamic model).
-    #[arg(long, value_delimiter = ',', default_value = "300,600,900,1200,1800,2400,3600,7200")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "300,600,900,1200,1800,2400,3600,7200"
+    )]
     pub tau_s: Vec<f64>,
     /// Largest number of sensors per target (dynamic model).
     #[arg(long, default_value_t = 8)]
@@ -184,7 +190,8 @@ fn load(path: &Option<PathBuf>, sel: &Selection, skip: bool) -> anyhow::Result<(
             p.display().to_string(),
         ),
         None => (
-            gearcomp_datasets::fl_thermal_csv().context("decompress the embedded FL_THERMAL data")?,
+            gearcomp_datasets::fl_thermal_csv()
+                .context("decompress the embedded FL_THERMAL data")?,
             "FL_THERMAL (embedded)".to_string(),
         ),
     };
@@ -211,7 +218,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Split::TestRuns(args.test_runs.clone())
     } else {
         if !(args.train_before_h.is_finite() && args.train_before_h > 0.0) {
-            anyhow::bail!("invalid --train-before-h = {}: expected hours > 0", args.train_before_h);
+            anyhow::bail!(
+                "invalid --train-before-h = {}: expected hours > 0",
+                args.train_before_h
+            );
         }
         Split::TimeBefore(args.train_before_h * 3600.0)
     };
@@ -297,10 +307,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .enumerate()
         .map(|(j, m)| AxisModel {
-            axis: args.axis.get(j).cloned().unwrap_or_else(|| m.target.clone()),
+            axis: args
+                .axis
+                .get(j)
+                .cloned()
+                .unwrap_or_else(|| m.target.clone()),
             target: m.target.clone(),
             machine: m.model.clone(),
-            workpiece: if j == 0 { workpiece.as_ref().map(|w| w.0.clone()) } else { None },
+            workpiece: if j == 0 {
+                workpiece.as_ref().map(|w| w.0.clone())
+            } else {
+                None
+            },
         })
         .collect();
     let file = ModelFile {
@@ -313,7 +331,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             created_by: format!("gearcomp fit {}", env!("CARGO_PKG_VERSION")),
             method: id.method.clone(),
             train_rmse_um: id.targets.iter().map(|m| m.train_rmse).collect(),
-            test_rmse_um: id.targets.iter().map(|m| m.test_rmse.unwrap_or(f64::NAN)).filter(|v| v.is_finite()).collect(),
+            test_rmse_um: id
+                .targets
+                .iter()
+                .map(|m| m.test_rmse.unwrap_or(f64::NAN))
+                .filter(|v| v.is_finite())
+                .collect(),
         }),
     };
     file.validate()?;
@@ -322,8 +345,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut out = String::new();
     use std::fmt::Write as _;
     let n_train = id.train.iter().filter(|&&m| m).count();
-    let _ = writeln!(out, "data: {data_name}: {} rows, {} inputs, {} target(s); {} training rows, {} test rows",
-        table.time_s.len(), table.inputs.len(), table.targets.len(), n_train, table.time_s.len() - n_train);
+    let _ = writeln!(
+        out,
+        "data: {data_name}: {} rows, {} inputs, {} target(s); {} training rows, {} test rows",
+        table.time_s.len(),
+        table.inputs.len(),
+        table.targets.len(),
+        n_train,
+        table.time_s.len() - n_train
+    );
     for i in table.issues.iter().take(20) {
         let _ = writeln!(out, "  note: {i}");
     }
@@ -333,19 +363,64 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = writeln!(out, "method: {}", id.method);
     let mut rows = Vec::new();
     for (m, b) in id.targets.iter().zip(&base) {
-        let sensors: Vec<&str> = m.sensors.iter().map(|&s| table.input_names[s].as_str()).collect();
-        let _ = writeln!(out, "\n{}: {} classes, {} sensor(s): {}{}{}", m.target, m.classes.len(), sensors.len(), sensors.join(", "),
-            m.tau_s.map_or(String::new(), |t| format!("; rate τ = {t} s")),
-            m.ridge_alpha.map_or(String::new(), |a| format!("; ridge α = {a}")));
+        let sensors: Vec<&str> = m
+            .sensors
+            .iter()
+            .map(|&s| table.input_names[s].as_str())
+            .collect();
+        let _ = writeln!(
+            out,
+            "\n{}: {} classes, {} sensor(s): {}{}{}",
+            m.target,
+            m.classes.len(),
+            sensors.len(),
+            sensors.join(", "),
+            m.tau_s
+                .map_or(String::new(), |t| format!("; rate τ = {t} s")),
+            m.ridge_alpha
+                .map_or(String::new(), |a| format!("; ridge α = {a}"))
+        );
         let fmt_opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
-        let _ = writeln!(out, "  RMSE µm: train {:.3}, test {}, cross-validation {:.3} (folds: {}); R² = {:.4}",
-            m.train_rmse, fmt_opt(m.test_rmse), m.cv_rmse,
-            m.fold_rmse.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", "), m.fit.r2);
-        let _ = writeln!(out, "  plain least squares on all {} inputs: train {:.3}, test {} µm", table.inputs.len(), b.0, fmt_opt(b.1));
-        let _ = writeln!(out, "  {:<34} {:>16} {:>14}", "term", "coefficient", "std. error");
-        let _ = writeln!(out, "  {:<34} {:>16.6} {:>14.6}", "intercept", m.fit.coefficients[0], m.fit.std_errors.first().copied().unwrap_or(f64::NAN));
+        let _ = writeln!(
+            out,
+            "  RMSE µm: train {:.3}, test {}, cross-validation {:.3} (folds: {}); R² = {:.4}",
+            m.train_rmse,
+            fmt_opt(m.test_rmse),
+            m.cv_rmse,
+            m.fold_rmse
+                .iter()
+                .map(|v| format!("{v:.3}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            m.fit.r2
+        );
+        let _ = writeln!(
+            out,
+            "  plain least squares on all {} inputs: train {:.3}, test {} µm",
+            table.inputs.len(),
+            b.0,
+            fmt_opt(b.1)
+        );
+        let _ = writeln!(
+            out,
+            "  {:<34} {:>16} {:>14}",
+            "term", "coefficient", "std. error"
+        );
+        let _ = writeln!(
+            out,
+            "  {:<34} {:>16.6} {:>14.6}",
+            "intercept",
+            m.fit.coefficients[0],
+            m.fit.std_errors.first().copied().unwrap_or(f64::NAN)
+        );
         for (k, name) in m.regressors.iter().enumerate() {
-            let _ = writeln!(out, "  {:<34} {:>16.6e} {:>14.4e}", name, m.fit.coefficients[k + 1], m.fit.std_errors.get(k + 1).copied().unwrap_or(f64::NAN));
+            let _ = writeln!(
+                out,
+                "  {:<34} {:>16.6e} {:>14.4e}",
+                name,
+                m.fit.coefficients[k + 1],
+                m.fit.std_errors.get(k + 1).copied().unwrap_or(f64::NAN)
+            );
         }
         rows.push(vec![
             m.target.clone(),
@@ -358,24 +433,55 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ]);
     }
     if let Some((w, wm)) = &workpiece {
-        let chans: Vec<&str> = w.temperature.terms.iter().map(|t| t.channel.as_str()).collect();
+        let chans: Vec<&str> = w
+            .temperature
+            .terms
+            .iter()
+            .map(|t| t.channel.as_str())
+            .collect();
         let _ = writeln!(out, "\nworkpiece: Ta = {:.6} + Σ ai·ti on {} (train RMSE {:.3} °C); δT at Ta = Tb + 30 K: {:.4} µm",
             w.temperature.intercept, chans.join(", "), wm.train_rmse, shrink_offset_um(w, w.design_temp_c + 30.0)?);
     }
-    print!("{out}");
+    let mut stdout = std::io::stdout().lock();
+    {
+        use std::io::Write as _;
+        stdout.write_all(out.as_bytes())?;
+    }
 
     if let Some(p) = &args.out {
-        file.save(p).with_context(|| format!("write model file {}", p.display()))?;
-        println!("\nmodel file: {}", p.display());
+        file.save(p)
+            .with_context(|| format!("write model file {}", p.display()))?;
+        std::io::Write::write_all(
+            &mut stdout,
+            format!("\nmodel file: {}\n", p.display()).as_bytes(),
+        )?;
     }
     if let Some(p) = &args.report {
         let mut r = HtmlReport::new(format!("gearcomp fit: {}", args.name));
         r.paragraph(&format!("Data: {data_name}. {}", id.method));
         r.heading("Summary (RMSE in the target unit, µm)");
-        r.table(&["target", "chosen sensors", "rate τ / s", "train", "test", "cross-validation", "plain LS test (all inputs)"], &rows);
+        r.table(
+            &[
+                "target",
+                "chosen sensors",
+                "rate τ / s",
+                "train",
+                "test",
+                "cross-validation",
+                "plain LS test (all inputs)",
+            ],
+            &rows,
+        );
         if !table.issues.is_empty() {
             r.heading("Data notes");
-            r.preformatted(&table.issues.iter().map(|i| i.to_string()).collect::<Vec<_>>().join("\n"));
+            r.preformatted(
+                &table
+                    .issues
+                    .iter()
+                    .map(|i| i.to_string())
+                    .collect::<Vec<_>>()
+                    .join("\n"),
+            );
         }
         r.heading("Sensor classes (fuzzy equivalence dendrogram, training rows)");
         let first = &id.targets[0];
@@ -383,36 +489,111 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let merges = &id.dendrogram.merges;
             let k = first.classes.len();
             let done = table.inputs.len().saturating_sub(k);
-            merges.get(done).map(|m| m.level).or_else(|| merges.last().map(|m| m.level))
+            merges
+                .get(done)
+                .map(|m| m.level)
+                .or_else(|| merges.last().map(|m| m.level))
         };
-        r.raw_svg(&dendrogram_svg(&id.dendrogram, &table.input_names, cut, &first.sensors));
-        r.paragraph(&format!("Dashed line: the cut giving {} classes for {}; red: its chosen sensors.", first.classes.len(), first.target));
+        r.raw_svg(&dendrogram_svg(
+            &id.dendrogram,
+            &table.input_names,
+            cut,
+            &first.sensors,
+        ));
+        r.paragraph(&format!(
+            "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
+            first.classes.len(),
+            first.target
+        ));
         for (j, m) in id.targets.iter().enumerate() {
-            r.heading(&format!("{}", m.target));
-            let cls: Vec<String> = m.classes.iter().map(|c| format!("{{{}}}", c.iter().map(|&i| table.input_names[i].as_str()).collect::<Vec<_>>().join(", "))).collect();
-            r.paragraph(&format!("Classes: {}. Chosen: {}.", cls.join(" "), m.sensors.iter().map(|&s| table.input_names[s].as_str()).collect::<Vec<_>>().join(", ")));
+            r.heading(&m.target);
+            let cls: Vec<String> = m
+                .classes
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{{{}}}",
+                        c.iter()
+                            .map(|&i| table.input_names[i].as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })
+                .collect();
+            r.paragraph(&format!(
+                "Classes: {}. Chosen: {}.",
+                cls.join(" "),
+                m.sensors
+                    .iter()
+                    .map(|&s| table.input_names[s].as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
             let hours: Vec<f64> = table.time_s.iter().map(|t| t / 3600.0).collect();
-            let meas = thin(hours.iter().copied().zip(table.targets[j].iter().copied()).collect(), 2500);
-            let pred = thin(hours.iter().copied().zip(m.predicted.iter().copied()).collect(), 2500);
-            let res = thin(hours.iter().zip(table.targets[j].iter().zip(&m.predicted)).map(|(h, (y, p))| (*h, y - p)).collect(), 2500);
-            let split_h = match &split { Split::TimeBefore(s) => format!(" (train before {:.1} h)", s / 3600.0), _ => String::new() };
-            r.chart(&Chart::new(format!("{}: measured vs predicted{split_h}", m.target), "time / h", "displacement / µm")
-                .with(Series::line("measured", meas)).with(Series::line("predicted", pred)))?;
-            r.chart(&Chart::new(format!("{}: residual (measured − predicted)", m.target), "time / h", "residual / µm")
-                .with(Series::line("residual", res)))?;
+            let meas = thin(
+                hours
+                    .iter()
+                    .copied()
+                    .zip(table.targets[j].iter().copied())
+                    .collect(),
+                2500,
+            );
+            let pred = thin(
+                hours
+                    .iter()
+                    .copied()
+                    .zip(m.predicted.iter().copied())
+                    .collect(),
+                2500,
+            );
+            let res = thin(
+                hours
+                    .iter()
+                    .zip(table.targets[j].iter().zip(&m.predicted))
+                    .map(|(h, (y, p))| (*h, y - p))
+                    .collect(),
+                2500,
+            );
+            let split_h = match &split {
+                Split::TimeBefore(s) => format!(" (train before {:.1} h)", s / 3600.0),
+                _ => String::new(),
+            };
+            r.chart(
+                &Chart::new(
+                    format!("{}: measured vs predicted{split_h}", m.target),
+                    "time / h",
+                    "displacement / µm",
+                )
+                .with(Series::line("measured", meas))
+                .with(Series::line("predicted", pred)),
+            )?;
+            r.chart(
+                &Chart::new(
+                    format!("{}: residual (measured − predicted)", m.target),
+                    "time / h",
+                    "residual / µm",
+                )
+                .with(Series::line("residual", res)),
+            )?;
         }
         if let Some((w, _)) = &workpiece {
             let offs = combined_offsets_um(&table, &file.axes[0]).ok();
             r.heading("Workpiece shrink (dry hobbing)");
-            r.paragraph(&format!("Ta model intercept {:.6} °C, {} term(s); δT at Ta = Tb + 30 K: {:.4} µm.", w.temperature.intercept, w.temperature.terms.len(), shrink_offset_um(w, w.design_temp_c + 30.0)?));
+            r.paragraph(&format!(
+                "Ta model intercept {:.6} °C, {} term(s); δT at Ta = Tb + 30 K: {:.4} µm.",
+                w.temperature.intercept,
+                w.temperature.terms.len(),
+                shrink_offset_um(w, w.design_temp_c + 30.0)?
+            ));
             if offs.is_none() {
                 r.paragraph("The combined offset δM + δT is not drawn: the workpiece model's channels are not all in the main data.");
             }
         }
         r.heading("Model file");
         r.preformatted(&file.to_toml_string()?);
-        r.write(p).with_context(|| format!("write report {}", p.display()))?;
-        println!("report: {}", p.display());
+        r.write(p)
+            .with_context(|| format!("write report {}", p.display()))?;
+        std::io::Write::write_all(&mut stdout, format!("report: {}\n", p.display()).as_bytes())?;
     }
     Ok(())
 }

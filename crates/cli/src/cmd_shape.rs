@@ -316,12 +316,17 @@ fn print_text(r: &CycleReport) {
         s.c2_error_in_face_max_urad,
         s.deviation_max_um
     );
+    let lead = if s.design_lead_mm.is_finite() {
+        format!(
+            "design lead {:.6} mm, simulated {:.6} mm (relative {:.3e})",
+            s.design_lead_mm, s.simulated_lead_mm, s.lead_rel_error
+        )
+    } else {
+        "spur gear (straight tooth trace)".to_string()
+    };
     println!(
-        "  helix     design lead {:.6} mm, simulated {:.6} mm (relative {:.3e}); f_Hb = {:.4} um \
-         over L_b = {:.2} mm; ISO 1328-1 class {} f_HbT = {} um: {}",
-        s.design_lead_mm,
-        s.simulated_lead_mm,
-        s.lead_rel_error,
+        "  helix     {lead}; f_Hb = {:.4} um over L_b = {:.2} mm; ISO 1328-1 class {} f_HbT = {} \
+         um: {}",
         s.f_h_beta_um,
         s.evaluation_length_mm,
         s.iso_class,

@@ -19,6 +19,7 @@ pub fn fl_thermal_csv() -> std::io::Result<String> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     #[test]
     fn fl_thermal_has_header_and_all_rows() {

@@ -107,6 +107,7 @@ fn benches(c: &mut Criterion) {
             dt_rad: dt,
             stock_mm: 0.05,
             inside_mm: 0.05,
+            stop_nu_zs_mm: None,
         };
         let tests = simulate(&g1, &spec, &k0).unwrap().tests;
         g.throughput(Throughput::Elements(tests));

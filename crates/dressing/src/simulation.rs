@@ -22,6 +22,9 @@ pub struct SimSpec {
     pub stock_mm: f64,
     /// Vector length inside the nominal flank (mm), room for negative modifications.
     pub inside_mm: f64,
+    /// Abort when the worm reaches this axial position ν_zS* (mm): the contact line is then
+    /// where the vectors switch from final to not yet final (Fig. 1). `None`: a full pass.
+    pub stop_nu_zs_mm: Option<f64>,
 }
 
 /// State after a simulation.
@@ -80,7 +83,10 @@ pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> R
         }
     }
     let k0 = (t_lo / spec.dt_rad).floor() as i64;
-    let k1 = (t_hi / spec.dt_rad).ceil() as i64;
+    let mut k1 = (t_hi / spec.dt_rad).ceil() as i64;
+    if let Some(nu) = spec.stop_nu_zs_mm {
+        k1 = k1.min((nu / worm.p_mm / spec.dt_rad).floor() as i64);
+    }
     let mut pts = Vec::with_capacity(nw * nb);
     for &w in &spec.w_mm {
         for &b in &spec.b_mm {
@@ -111,7 +117,7 @@ pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> R
         f_mm: to_rows(&len),
         r_a_mm: to_rows(&ra),
         cuts: cuts.chunks(nb).map(<[u32]>::to_vec).collect(),
-        steps: (k1 - k0 + 1) as usize,
+        steps: (k1 - k0 + 1).max(0) as usize,
         tests,
     })
 }

@@ -377,3 +377,26 @@ pub fn solve_curve_fit(
         opts,
     )
 }
+
+/// Worm axial position ν_zS that puts the contact line through the worm point (w_0, b_0), the
+/// fifth unknown of ^F_F4 / ^F_F3.
+///
+/// With ΔK constant the dressing motion is a screw, so the contact line only translates with
+/// ν_zS: b_BwFS(w; ν_zS, ΔK) = b_BwFS(w; 0, ΔK) − ν_zS. The 5-component Jacobian is therefore
+/// block-triangular and ν_zS follows in closed form after the 4-component solve.
+///
+/// # Formula
+/// ν_zS = b_BwFS(w_0; 0, ΔK) − b_0
+/// # Source
+/// seed 004, E111–E113, eqs. (13), (14) [SEED]; decoupling digest §4.A.4 [RECONSTRUCTED]
+pub fn axial_position_for_contact_point(
+    setup: &DressingSetup,
+    flank: Flank,
+    w0_mm: f64,
+    b0_mm: f64,
+    dk: &AxisCorrection,
+) -> Result<f64> {
+    let d = setup.dress_point(flank, w0_mm, dk)?;
+    let b_c = setup.worm.b_axial_section(flank, w0_mm) + setup.worm.p_mm * d.t_rad;
+    Ok(b_c - b0_mm)
+}

@@ -54,6 +54,7 @@ fn c2_feed_marks_errata_s4() {
             dt_rad: dt,
             stock_mm: 0.05,
             inside_mm: 0.05,
+            stop_nu_zs_mm: None,
         };
         let r = simulate(&s, &spec, &k).unwrap();
         let mut largest = 0.0f64;
@@ -99,6 +100,7 @@ fn c3_full_simulation_matches_screw_evaluation() {
             dt_rad: dt,
             stock_mm: 0.05,
             inside_mm: 0.05,
+            stop_nu_zs_mm: None,
         };
         let r = simulate(&s, &spec, &dk).unwrap();
         for (j, w) in ws.iter().enumerate() {
@@ -121,6 +123,7 @@ fn c3_full_simulation_matches_screw_evaluation() {
             dt_rad: dt,
             stock_mm: 0.05,
             inside_mm: 0.06,
+            stop_nu_zs_mm: None,
         };
         let r = simulate(&z5, &spec, &dk).unwrap();
         for (j, w) in ws.iter().enumerate() {

@@ -192,3 +192,30 @@ fn invalid_input_is_an_error() {
     };
     assert!(gearcomp_dressing::dresser::Dresser::design(&worm, spec).is_err());
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+    /// No panic on wide input: worm, dresser and one dressing evaluation either work or return
+    /// an error.
+    #[test]
+    fn no_panic_on_wide_input(
+        z in 0u32..9, d in 20.0..400.0f64, m in 0.3..8.0f64, alpha in 0.05..0.7f64,
+        da in 10.0..400.0f64, jacket in -0.2..3.0f64, clearance in -0.05..0.3f64,
+        w in -10.0..600.0f64, dk in proptest::array::uniform4(-5.0..5.0f64),
+    ) {
+        if let Ok(worm) = Worm::design(z, d, m, alpha) {
+            let spec = gearcomp_dressing::dresser::DresserSpec {
+                d_a_mm: da, jacket_width_mm: jacket, clearance_mm: clearance,
+            };
+            let designed = gearcomp_dressing::dresser::Dresser::design(&worm, spec);
+            if let Ok(dr) = designed {
+                let s = gearcomp_dressing::envelope::DressingSetup::new(worm, dr);
+                let k = gearcomp_dressing::kinematics::AxisCorrection::from_array(dk);
+                let _ = s.dress_point(Flank::Right, w, &k);
+                let _ = s.active_profile(Flank::Left);
+                let _ = s.jacket_depth(&k);
+            }
+        }
+    }
+}

@@ -224,3 +224,39 @@ fn e1_corrections_grow_with_worm_diameter() {
         "{ks:?}"
     );
 }
+
+/// D5: contact line through a point. After the G1-Z5 3-point solve, ν_zS is chosen so the
+/// contact line passes through (mid profile, b_0 = +20 mm); the full simulation aborted at that
+/// ν_zS shows the switch final / not yet final in that row within one grid cell of b_0.
+#[test]
+fn d5_contact_line_through_a_point() {
+    use gearcomp_dressing::simulation::{simulate, SimSpec};
+    let s = common::g1_z5();
+    let (p, (a, b)) = crowning(&s, 0.2e-3);
+    let k = solve_three_point(&s, &p, AxisCorrection::default(), &NewtonOptions::default())
+        .unwrap()
+        .dk;
+    let w0 = 0.5 * (a + b);
+    let b0 = 20.0;
+    let nu = axial_position_for_contact_point(&s, Flank::Right, w0, b0, &k).unwrap();
+    let cell = 0.25;
+    let spec = SimSpec {
+        flank: Flank::Right,
+        w_mm: vec![w0],
+        b_mm: (-8..=8).map(|i| b0 + cell * f64::from(i)).collect(),
+        dt_rad: 0.01f64.to_radians(),
+        stock_mm: 0.05,
+        inside_mm: 0.05,
+        stop_nu_zs_mm: Some(nu),
+    };
+    let r = simulate(&s, &spec, &k).unwrap();
+    let f = s.dress_point(Flank::Right, w0, &k).unwrap().f_mm;
+    for (i, bk) in spec.b_mm.iter().enumerate() {
+        let l = r.f_mm[0][i];
+        if *bk >= b0 + cell {
+            assert!((l - f).abs() < 1e-6, "b {bk}: {l} should be final ({f})");
+        } else if *bk <= b0 - cell {
+            assert!(l - f > 1e-3, "b {bk}: {l} should not be final yet");
+        }
+    }
+}

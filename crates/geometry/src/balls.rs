@@ -150,8 +150,9 @@ impl Gear {
     /// d + 2·σ·x·m_n (the reference circle moved with the profile shift), solved by bisection.
     ///
     /// Exact value, not rounded to a catalogue ball: pick the nearest ball you own and check
-    /// it with [`Gear::ball_dimension`]. For x = 0 spur gears it is ≈ 1.70–1.75·m_n at z = 20…40
-    /// and tends to π·cos α_n/2 ≈ 1.476·m_n for a rack (DIN 3960's rule of thumb 1.68·m_n).
+    /// it with [`Gear::ball_dimension`]. For x = 0 spur gears it is 1.7244·m_n at z = 20,
+    /// 1.6967·m_n at z = 40 and tends to π/(2·cos α_n)·m_n = 1.6716·m_n for a rack (the
+    /// source of DIN 3960's rule of thumb D_M ≈ 1.68·m_n).
     ///
     /// # Formula
     /// find D_M with d_c(D_M) = d + 2·σ·x·m_n (d_c from [`Gear::ball_dimension`])

@@ -61,7 +61,11 @@ pub fn inv_inverse(value: f64) -> f64 {
     for _ in 0..60 {
         let t = a.tan();
         // Reuse tan α where the direct form is accurate; the series path of inv() below 0.1.
-        let f = if a < 0.1 { inv(a) - value } else { t - a - value };
+        let f = if a < 0.1 {
+            inv(a) - value
+        } else {
+            t - a - value
+        };
         let step = f / (t * t);
         let next = (a - step).clamp(1e-300, std::f64::consts::FRAC_PI_2 - 1e-15);
         // Quadratic convergence: after a step below 1e-9·α the error is ~1e-18·α, so stop.

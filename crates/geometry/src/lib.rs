@@ -31,6 +31,7 @@ pub mod balls;
 pub mod error;
 pub mod gear;
 pub mod involute;
+pub mod iso1328;
 pub mod pair;
 pub mod shrink;
 pub mod span;

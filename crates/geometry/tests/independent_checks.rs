@@ -344,3 +344,19 @@ fn shaper_at_zero_shift_cuts_the_rack_root() {
     let lead = h.lead_mm().unwrap();
     assert!((lead - PI * 25.0 * 2.0 / deg(15.0).sin()).abs() < 1e-9);
 }
+
+/// For a very large spur gear the recommended ball tends to the rack's: touching the
+/// straight flanks at the datum line, whose space is π·m/2 wide, gives
+/// D_M = π·m_n/(2·cos α_n) (1.6716·m_n at 20°). At z = 10 000 the gap is O(1/z).
+#[test]
+fn recommended_ball_tends_to_the_rack_ball() {
+    for a in [15.0, 20.0, 25.0] {
+        let g = gear(2.0, a, 0.0, 10_000, 0.0, Mesh::External);
+        let ball = g.recommended_ball_mm(0.0).unwrap();
+        let rack = PI * 2.0 / (2.0 * deg(a).cos());
+        assert!(
+            (ball - rack).abs() < 2e-4 * rack,
+            "α = {a}: {ball} vs {rack}"
+        );
+    }
+}

@@ -9,6 +9,9 @@ pub type Result<T> = std::result::Result<T, GrindError>;
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
 pub enum GrindError {
+    /// A gear-geometry or ISO 1328 quantity is out of range.
+    #[error(transparent)]
+    Geometry(#[from] gearcomp_geometry::GeometryError),
     /// A parameter is outside its allowed range (or not finite).
     #[error("{field} = {value} is out of range: expected {expected}")]
     OutOfRange {

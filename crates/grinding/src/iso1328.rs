@@ -1,5 +1,5 @@
-//! ISO 1328-1:2013 profile and helix evaluation of a flank deviation map, and the tolerances of
-//! an accuracy class.
+//! ISO 1328-1:2013 profile and helix evaluation of a flank deviation map; the tolerances of a
+//! class come from `gearcomp_geometry::iso1328` (re-exported here).
 //!
 //! The standard works in µm; values enter this module in mm (the crate's unit) and are
 //! converted to µm once, in [`DeviationMap::trace_um`].
@@ -7,7 +7,11 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_range, GrindError, Result};
+
 use crate::simulate::FlankGrid;
+pub use gearcomp_geometry::iso1328::{
+    helix_evaluation_range, profile_evaluation_range, round_tolerance_um, tolerances, Tolerances,
+};
 
 /// Deviation of a flank from its design over a (w, z) grid (transverse, mm, > 0 = material).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,136 +98,6 @@ pub fn evaluate_trace(x_mm: &[f64], f_um: &[f64], range_mm: (f64, f64)) -> Resul
     })
 }
 
-/// Profile evaluation range L_α from the active profile [w_start (SAP), w_end (tip)].
-///
-/// # Formula
-/// L_α starts at the start of the active profile and covers 95 % of the active length
-/// L_AE (the 5 % next to the tip are excluded).
-/// # Source
-/// ISO 1328-1:2013, profile evaluation range [STANDARD, as recalled; verify the clause].
-pub fn profile_range(active_mm: (f64, f64)) -> (f64, f64) {
-    (
-        active_mm.0,
-        active_mm.0 + 0.95 * (active_mm.1 - active_mm.0),
-    )
-}
-
-/// Helix evaluation range L_β of a face [z_start, z_end].
-///
-/// # Formula
-/// Each end is shortened by the smaller of 5 % of the face width b and one module m_n.
-/// # Source
-/// ISO 1328-1:2013, helix evaluation range [STANDARD, as recalled; verify the clause].
-pub fn helix_range(face_mm: (f64, f64), m_n_mm: f64) -> (f64, f64) {
-    let b = face_mm.1 - face_mm.0;
-    let cut = (0.05 * b).min(m_n_mm);
-    (face_mm.0 + cut, face_mm.1 - cut)
-}
-
-/// Rounds a calculated tolerance.
-///
-/// # Formula
-/// above 10 µm: to the nearest integer µm; 5…10 µm: to the nearest 0.5 µm; below 5 µm: to
-/// the nearest 0.1 µm.
-/// # Source
-/// ISO 1328-1:2013 rounding rule as quoted in anchors.md TV4 [STANDARD, text of the standard
-/// not available here: verify].
-pub fn round_iso1328_um(v_um: f64) -> f64 {
-    if v_um > 10.0 {
-        v_um.round()
-    } else if v_um >= 5.0 {
-        (v_um * 2.0).round() / 2.0
-    } else {
-        (v_um * 10.0).round() / 10.0
-    }
-}
-
-/// Tolerances of an accuracy class (µm), rounded per [`round_iso1328_um`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Tolerances {
-    /// Accuracy class A (1…11).
-    pub class: u8,
-    /// Single pitch tolerance f_pT.
-    pub f_pt_um: f64,
-    /// Total cumulative pitch tolerance F_pT.
-    pub total_pt_um: f64,
-    /// Profile slope tolerance f_HαT.
-    pub f_h_alpha_t_um: f64,
-    /// Profile form tolerance f_fαT.
-    pub f_f_alpha_t_um: f64,
-    /// Total profile tolerance F_αT.
-    pub total_alpha_t_um: f64,
-    /// Helix slope tolerance f_HβT.
-    pub f_h_beta_t_um: f64,
-    /// Helix form tolerance f_fβT.
-    pub f_f_beta_t_um: f64,
-    /// Total helix tolerance F_βT.
-    pub total_beta_t_um: f64,
-}
-
-/// Tolerances of class A for reference diameter d, normal module m_n and face width b.
-///
-/// # Formula
-/// φ = (√2)^(A−5);
-/// f_pT = (0.001d + 0.4m_n + 5)·φ; F_pT = (0.002d + 0.55√d + 0.7m_n + 12)·φ;
-/// f_HαT = (0.4m_n + 0.001d + 4)·φ; f_fαT = (0.55m_n + 5)·φ; F_αT = √(f_HαT² + f_fαT²);
-/// f_HβT = (0.05√d + 0.35√b + 4)·φ; f_fβT = (0.07√d + 0.45√b + 4)·φ; F_βT = √(f_HβT² + f_fβT²)
-/// (totals from the unrounded parts), every value then rounded.
-/// # Domain
-/// A = 1…11; d, m_n, b in mm within the standard's scope (5 ≤ d ≤ 15 000, 0.5 ≤ m_n ≤ 70,
-/// 4 ≤ b ≤ 1200).
-/// # Source
-/// ISO 1328-1:2013, formulas (5)–(12) [STANDARD] (as coded in a public implementation and
-/// anchors.md TV4).
-pub fn tolerances(d_mm: f64, m_n_mm: f64, b_mm: f64, class: u8) -> Result<Tolerances> {
-    check_range(
-        "d_mm",
-        d_mm,
-        5.0,
-        15_000.0,
-        "5 ..= 15000 mm (ISO 1328-1 scope)",
-    )?;
-    check_range(
-        "m_n_mm",
-        m_n_mm,
-        0.5,
-        70.0,
-        "0.5 ..= 70 mm (ISO 1328-1 scope)",
-    )?;
-    check_range(
-        "b_mm",
-        b_mm,
-        4.0,
-        1200.0,
-        "4 ..= 1200 mm (ISO 1328-1 scope)",
-    )?;
-    if !(1..=11).contains(&class) {
-        return Err(GrindError::OutOfRange {
-            field: "accuracy_class",
-            value: f64::from(class),
-            expected: "1 ..= 11",
-        });
-    }
-    let phi = std::f64::consts::SQRT_2.powi(i32::from(class) - 5);
-    let (sd, sb) = (d_mm.sqrt(), b_mm.sqrt());
-    let fha = (0.4 * m_n_mm + 0.001 * d_mm + 4.0) * phi;
-    let ffa = (0.55 * m_n_mm + 5.0) * phi;
-    let fhb = (0.05 * sd + 0.35 * sb + 4.0) * phi;
-    let ffb = (0.07 * sd + 0.45 * sb + 4.0) * phi;
-    let r = round_iso1328_um;
-    Ok(Tolerances {
-        class,
-        f_pt_um: r((0.001 * d_mm + 0.4 * m_n_mm + 5.0) * phi),
-        total_pt_um: r((0.002 * d_mm + 0.55 * sd + 0.7 * m_n_mm + 12.0) * phi),
-        f_h_alpha_t_um: r(fha),
-        f_f_alpha_t_um: r(ffa),
-        total_alpha_t_um: r(fha.hypot(ffa)),
-        f_h_beta_t_um: r(fhb),
-        f_f_beta_t_um: r(ffb),
-        total_beta_t_um: r(fhb.hypot(ffb)),
-    })
-}
-
 /// Profile and helix evaluation of a flank against a class.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FlankEvaluation {
@@ -305,8 +179,8 @@ impl DeviationMap {
     /// w range is taken as the active profile and its z range as the face width.
     pub fn evaluate(&self, tol: Tolerances, m_n_mm: f64) -> Result<FlankEvaluation> {
         let g = self.grid;
-        let pr = profile_range(g.w_range_mm);
-        let hr = helix_range(g.z_range_mm, m_n_mm);
+        let pr = profile_evaluation_range(g.w_range_mm);
+        let hr = helix_evaluation_range(g.z_range_mm, m_n_mm);
         let z_mid = 0.5 * (g.z_range_mm.0 + g.z_range_mm.1);
         let w_mid = 0.5 * (pr.0 + pr.1);
         let (x, f) = self.trace_um(true, z_mid, pr);
@@ -337,31 +211,6 @@ mod tests {
     use approx::assert_relative_eq;
 
     /// anchors.md TV4: class 6, d = 80 mm, m_n = 2 mm, b = 20 mm.
-    #[test]
-    fn class6_tolerances_tv4() {
-        let t = tolerances(80.0, 2.0, 20.0, 6).unwrap();
-        assert_eq!(t.f_pt_um, 8.5);
-        assert_eq!(t.total_pt_um, 26.0);
-        assert_eq!(t.f_h_alpha_t_um, 7.0);
-        assert_eq!(t.f_f_alpha_t_um, 8.5);
-        assert_eq!(t.total_alpha_t_um, 11.0);
-        assert_eq!(t.f_h_beta_t_um, 8.5);
-        assert_eq!(t.f_f_beta_t_um, 9.5);
-        assert_eq!(t.total_beta_t_um, 13.0);
-        assert!(tolerances(80.0, 2.0, 20.0, 12).is_err());
-        assert!(tolerances(f64::NAN, 2.0, 20.0, 6).is_err());
-    }
-
-    #[test]
-    fn rounding_rule() {
-        assert_eq!(round_iso1328_um(26.134), 26.0);
-        assert_eq!(round_iso1328_um(10.6), 11.0);
-        assert_eq!(round_iso1328_um(8.627), 8.5);
-        assert_eq!(round_iso1328_um(6.901), 7.0);
-        assert_eq!(round_iso1328_um(4.87), 4.9);
-        assert_eq!(round_iso1328_um(0.04), 0.0);
-    }
-
     /// Hand-computed trace: f = 0.2x + 0.05(x − 5)² µm at x = 0, 1, …, 10 mm.
     /// Mean line slope 0.2 (the parabola is symmetric) ⇒ f_H = 2.0 µm; mean of (x−5)² = 10 ⇒
     /// residual 0.05((x−5)² − 10) ∈ [−0.5, 0.75] ⇒ f_f = 1.25 µm; f(0) = 1.25, f(10) = 3.25,

@@ -224,10 +224,12 @@ pub fn representatives(classes: &[Vec<usize>], score: &[f64]) -> Vec<usize> {
     classes
         .iter()
         .filter_map(|cl| {
-            cl.iter().copied().fold(None, |best: Option<usize>, i| match best {
-                Some(b) if score[b] >= score[i] => Some(b),
-                _ => Some(i),
-            })
+            cl.iter()
+                .copied()
+                .fold(None, |best: Option<usize>, i| match best {
+                    Some(b) if score[b] >= score[i] => Some(b),
+                    _ => Some(i),
+                })
         })
         .collect()
 }
@@ -235,7 +237,9 @@ pub fn representatives(classes: &[Vec<usize>], score: &[f64]) -> Vec<usize> {
 fn range_normalise(x: &[f64]) -> Vec<f64> {
     let (lo, hi) = x
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
     let span = hi - lo;
     if span > 0.0 {
         x.iter().map(|v| (v - lo) / span).collect()
@@ -269,7 +273,10 @@ pub fn grey_relational_grades(reference: &[f64], series: &[&[f64]], rho: f64) ->
                 .collect()
         })
         .collect();
-    let dmin = deltas.iter().flatten().fold(f64::INFINITY, |a, &b| a.min(b));
+    let dmin = deltas
+        .iter()
+        .flatten()
+        .fold(f64::INFINITY, |a, &b| a.min(b));
     let dmax = deltas.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
     if dmax == 0.0 {
         return Ok(vec![1.0; series.len()]);
@@ -381,7 +388,9 @@ mod tests {
             let mut r = DMatrix::identity(c, c);
             for i in 0..c {
                 for j in i + 1..c {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    s = s
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
                     let v = (s >> 11) as f64 / (1u64 << 53) as f64;
                     r[(i, j)] = v;
                     r[(j, i)] = v;

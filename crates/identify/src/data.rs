@@ -256,7 +256,9 @@ pub fn read_csv(text: &str, name: &str, sel: &Selection, opts: ReadOptions) -> R
             c.push(*v);
         }
         if run_idx.is_some() {
-            t.runs.get_or_insert_with(Vec::new).push(vals[vals.len() - 1]);
+            t.runs
+                .get_or_insert_with(Vec::new)
+                .push(vals[vals.len() - 1]);
         }
         t.lines.push(line);
     }
@@ -329,8 +331,13 @@ mod tests {
         assert_eq!(t.target_names, vec!["d_um"]);
         assert_eq!(t.inputs[1], vec![2.0, 2.5, 3.0]);
         assert_eq!(t.lines, vec![2, 3, 4]);
-        let t = read_csv(GOOD, "g", &sel(&["rpm", "a_?"], &["*_um"]), ReadOptions::default())
-            .unwrap();
+        let t = read_csv(
+            GOOD,
+            "g",
+            &sel(&["rpm", "a_?"], &["*_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap();
         assert_eq!(t.input_names, vec!["rpm", "a_c"]);
         let e = read_csv(GOOD, "g", &sel(&["x*"], &[]), ReadOptions::default()).unwrap_err();
         assert!(e.to_string().contains("\"x*\" not found"), "{e}");
@@ -339,9 +346,14 @@ mod tests {
     #[test]
     fn bad_rows_are_listed_by_line_and_never_dropped_silently() {
         let text = "time_s,a_c,d_um\n0,1,5\n15,oops,6\n30,2\n45,2,\n20,3,8\n10,3,8\n60,3,NaN\n100,4,9\n115,4,9\n130,4,9\n";
-        let e = read_csv(text, "log.csv", &sel(&["a_c"], &["d_um"]), ReadOptions::default())
-            .unwrap_err()
-            .to_string();
+        let e = read_csv(
+            text,
+            "log.csv",
+            &sel(&["a_c"], &["d_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("5 bad row(s) at line(s) 3, 4, 5, 7, 8"), "{e}");
         assert!(e.contains("a_c = \"oops\" is not a number"), "{e}");
         let opts = ReadOptions {
@@ -352,8 +364,14 @@ mod tests {
         assert_eq!(t.time_s, vec![0.0, 20.0, 100.0, 115.0, 130.0]);
         let lines: Vec<String> = t.issues.iter().map(|i| i.to_string()).collect();
         assert_eq!(t.issues.len(), 6, "{lines:?}");
-        assert!(lines[1].starts_with("line 4: bad row: 2 fields"), "{lines:?}");
+        assert!(
+            lines[1].starts_with("line 4: bad row: 2 fields"),
+            "{lines:?}"
+        );
         assert!(lines[3].contains("does not increase"), "{lines:?}");
-        assert!(lines[5].starts_with("line 9: time gap of 80 s"), "{lines:?}");
+        assert!(
+            lines[5].starts_with("line 9: time gap of 80 s"),
+            "{lines:?}"
+        );
     }
 }

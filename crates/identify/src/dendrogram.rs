@@ -4,12 +4,19 @@ use crate::cluster::Dendrogram;
 use std::fmt::Write as _;
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// Draws the dendrogram: leaves at the bottom, λ (= |r| level) on the vertical axis, an
 /// optional dashed cut line at `cut_level`, and `highlight` leaves in bold red.
-pub fn dendrogram_svg(d: &Dendrogram, names: &[String], cut_level: Option<f64>, highlight: &[usize]) -> String {
+pub fn dendrogram_svg(
+    d: &Dendrogram,
+    names: &[String],
+    cut_level: Option<f64>,
+    highlight: &[usize],
+) -> String {
     let (w, h) = (900.0, 420.0);
     let (left, right, top, bottom) = (70.0, 20.0, 30.0, 90.0);
     let order = d.leaf_order();
@@ -76,7 +83,9 @@ pub fn dendrogram_svg(d: &Dendrogram, names: &[String], cut_level: Option<f64>, 
         );
     }
     for (i, &xi) in x.iter().enumerate() {
-        let name = names.get(i).map_or_else(|| format!("x{}", i + 1), |s| esc(s));
+        let name = names
+            .get(i)
+            .map_or_else(|| format!("x{}", i + 1), |s| esc(s));
         let hl = highlight.contains(&i);
         let _ = write!(
             s,

@@ -163,7 +163,11 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
         Split::TimeBefore(s) => table.time_s.iter().map(|t| t < s).collect(),
         Split::TestRuns(runs) => {
             let r = table.runs.as_ref().ok_or_else(|| {
-                invalid("split", "test runs", "a run column in the data (--run-column)")
+                invalid(
+                    "split",
+                    "test runs",
+                    "a run column in the data (--run-column)",
+                )
             })?;
             r.iter().map(|v| !runs.contains(v)).collect()
         }
@@ -207,9 +211,7 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
         return Ok(runs
             .iter()
             .zip(train)
-            .map(|(r, &m)| {
-                m.then(|| seen.iter().position(|s| s == r).unwrap_or(0) % k)
-            })
+            .map(|(r, &m)| m.then(|| seen.iter().position(|s| s == r).unwrap_or(0) % k))
             .collect());
     }
     let times: Vec<f64> = table
@@ -309,7 +311,7 @@ impl CvEngine {
             let qr = a.qr();
             let r = qr.r();
             let max_p = (0..cols.len()).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
-            if (0..cols.len()).any(|j| !(r[(j, j)].abs() > 1e-11 * max_p)) {
+            if (0..cols.len()).any(|j| !crate::regress::exceeds(r[(j, j)].abs(), 1e-11 * max_p)) {
                 return None;
             }
             let mut qtb = b;
@@ -329,7 +331,6 @@ impl CvEngine {
 
 struct Choice {
     cv: f64,
-    k: usize,
     tau: Option<f64>,
     alpha: Option<f64>,
     sensors: Vec<usize>,
@@ -345,7 +346,11 @@ fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
 }
 
 fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
-    x.iter().zip(mask).filter(|(_, &m)| m).map(|(v, _)| *v).collect()
+    x.iter()
+        .zip(mask)
+        .filter(|(_, &m)| m)
+        .map(|(v, _)| *v)
+        .collect()
 }
 
 /// Identifies one model per target of `table`.
@@ -381,7 +386,11 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
     let train = train_mask(table, &opts.split)?;
     let fold = folds(table, &train, opts.folds)?;
     let k_folds = opts.folds;
-    let tr_inputs: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, &train)).collect();
+    let tr_inputs: Vec<Vec<f64>> = table
+        .inputs
+        .iter()
+        .map(|x| select_rows(x, &train))
+        .collect();
     let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| v.as_slice()).collect();
     let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
     let absr = corr.map(f64::abs);
@@ -426,12 +435,20 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
         for x in &table.inputs {
             f.push(x.clone());
             if let Some(tau_s) = tau {
-                f.push(transform_series(&table.time_s, x, Transform::Rate { tau_s: *tau_s })?);
+                f.push(transform_series(
+                    &table.time_s,
+                    x,
+                    Transform::Rate { tau_s: *tau_s },
+                )?);
             }
         }
         features.push(f);
     }
-    let per_sensor = if opts.model == ModelKind::Dynamic { 2 } else { 1 };
+    let per_sensor = if opts.model == ModelKind::Dynamic {
+        2
+    } else {
+        1
+    };
     let engines: Vec<CvEngine> = features
         .iter()
         .map(|f| {
@@ -454,17 +471,23 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
                 .iter()
                 .enumerate()
                 .map(|(i, x)| {
-                    cluster::pearson(x, &ytr, &format!(
-                        "correlation({}, {})",
-                        table.input_names[i], table.target_names[j]
-                    ))
+                    cluster::pearson(
+                        x,
+                        &ytr,
+                        &format!(
+                            "correlation({}, {})",
+                            table.input_names[i], table.target_names[j]
+                        ),
+                    )
                     .map(f64::abs)
                 })
                 .collect::<Result<_>>()?,
-            RepresentativeBy::GreyRelational => cluster::grey_relational_grades(&ytr, &tr_refs, 0.5)?,
+            RepresentativeBy::GreyRelational => {
+                cluster::grey_relational_grades(&ytr, &tr_refs, 0.5)?
+            }
         };
         let mut best: Option<Choice> = None;
-        for (k, classes) in &class_sets {
+        for (_, classes) in &class_sets {
             let reps = cluster::representatives(classes, &score);
             match opts.model {
                 ModelKind::Dynamic => {
@@ -486,7 +509,6 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
                             if better(&best, v, sel.len()) {
                                 best = Some(Choice {
                                     cv: v,
-                                    k: *k,
                                     tau: taus[ti],
                                     alpha: None,
                                     sensors: sel.clone(),
@@ -502,7 +524,6 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
                         if better(&best, v, reps.len()) {
                             best = Some(Choice {
                                 cv: v,
-                                k: *k,
                                 tau: None,
                                 alpha: None,
                                 sensors: reps.clone(),
@@ -518,7 +539,6 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
                         if better(&best, v, reps.len()) {
                             best = Some(Choice {
                                 cv: v,
-                                k: *k,
                                 tau: None,
                                 alpha: Some(alpha),
                                 sensors: reps.clone(),
@@ -535,7 +555,9 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
             pivot: 0.0,
             tolerance: 0.0,
         })?;
-        out.push(finish(table, &train, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines)?);
+        out.push(finish(
+            table, &train, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,
+        )?);
     }
     let method = format!(
         "{} model; classes by {}; representative by {}; {}-fold cross-validation by {}",
@@ -553,7 +575,11 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
             RepresentativeBy::GreyRelational => "max grey relational grade (ρ = 0.5)",
         },
         k_folds,
-        if table.runs.is_some() { "run" } else { "contiguous time block" },
+        if table.runs.is_some() {
+            "run"
+        } else {
+            "contiguous time block"
+        },
     );
     Ok(Identification {
         correlation: corr,
@@ -578,7 +604,10 @@ fn ridge_cv(
     for f in 0..k {
         let tr: Vec<bool> = fold.iter().map(|g| g.is_some_and(|g| g != f)).collect();
         let va: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] == Some(f)).collect();
-        let cols: Vec<Vec<f64>> = sensors.iter().map(|&s| select_rows(inputs[s], &tr)).collect();
+        let cols: Vec<Vec<f64>> = sensors
+            .iter()
+            .map(|&s| select_rows(inputs[s], &tr))
+            .collect();
         let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
         let fit = regress::ridge(&refs, &select_rows(y, &tr), alpha, &names)?;
         for &i in &va {
@@ -641,7 +670,11 @@ fn finish(
     };
     model.validate(&format!("model of {}", table.target_names[j]))?;
     let predicted = predict(table, &model)?;
-    let e: Vec<f64> = table.targets[j].iter().zip(&predicted).map(|(y, p)| y - p).collect();
+    let e: Vec<f64> = table.targets[j]
+        .iter()
+        .zip(&predicted)
+        .map(|(y, p)| y - p)
+        .collect();
     let fold_rmse = if ch.alpha.is_none() {
         let fcols: Vec<usize> = ch
             .sensors
@@ -676,10 +709,6 @@ fn finish(
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
     })
-    .map(|m| {
-        debug_assert_eq!(m.classes.len(), ch.k);
-        m
-    })
 }
 
 /// Evaluates a linear model over the whole table with the engine's transform semantics.
@@ -705,7 +734,11 @@ pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
 /// Plain least squares on all inputs (the floor to beat): (train RMSE, test RMSE) per target.
 pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
     let train = train_mask(table, split)?;
-    let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, &train)).collect();
+    let cols: Vec<Vec<f64>> = table
+        .inputs
+        .iter()
+        .map(|x| select_rows(x, &train))
+        .collect();
     let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
     table
         .targets

@@ -7,6 +7,11 @@ use nalgebra::{DMatrix, DVector};
 /// Relative pivot threshold below which R is called rank deficient.
 const RANK_TOL: f64 = 1e-11;
 
+/// `v > threshold`, false for NaN: a pivot or spread that is NaN counts as too small.
+pub(crate) fn exceeds(v: f64, threshold: f64) -> bool {
+    v > threshold
+}
+
 /// A least-squares fit y ≈ b0 + Σ b_j·x_j.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinearFit {
@@ -68,15 +73,21 @@ fn design(columns: &[&[f64]], y: &[f64], names: &[String]) -> Result<DMatrix<f64
 /// Solves min ‖a·b − y‖ by Householder QR of `a` (full column rank required).
 ///
 /// Returns the solution and R⁻¹ (for the covariance). `names` label an error.
-pub fn lstsq_qr(a: DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<(DVector<f64>, DMatrix<f64>)> {
+pub fn lstsq_qr(
+    a: DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+) -> Result<(DVector<f64>, DMatrix<f64>)> {
     let p = a.ncols();
     let qr = a.qr();
     let r = qr.r();
     let mut qty = y.clone();
     qr.q_tr_mul(&mut qty);
     let max_pivot = (0..p).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
-    let min_pivot = (0..p).map(|j| r[(j, j)].abs()).fold(f64::INFINITY, f64::min);
-    if !(min_pivot > RANK_TOL * max_pivot) {
+    let min_pivot = (0..p)
+        .map(|j| r[(j, j)].abs())
+        .fold(f64::INFINITY, f64::min);
+    if !exceeds(min_pivot, RANK_TOL * max_pivot) {
         return Err(IdentifyError::RankDeficient {
             columns: names.join(", "),
             pivot: min_pivot,
@@ -97,7 +108,12 @@ pub fn lstsq_qr(a: DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<(
     Ok((b, r_inv))
 }
 
-fn summarise(coefficients: Vec<f64>, std_errors: Vec<f64>, a: &DMatrix<f64>, y: &[f64]) -> LinearFit {
+fn summarise(
+    coefficients: Vec<f64>,
+    std_errors: Vec<f64>,
+    a: &DMatrix<f64>,
+    y: &[f64],
+) -> LinearFit {
     let n = y.len();
     let b = DVector::from_column_slice(&coefficients);
     let fitted = a * &b;
@@ -159,7 +175,7 @@ pub fn ridge(columns: &[&[f64]], y: &[f64], alpha: f64, names: &[String]) -> Res
     for (j, c) in columns.iter().enumerate() {
         mean[j] = c.iter().sum::<f64>() / n as f64;
         sd[j] = (c.iter().map(|v| (v - mean[j]).powi(2)).sum::<f64>() / n as f64).sqrt();
-        if !(sd[j] > 0.0) {
+        if !exceeds(sd[j], 0.0) {
             return Err(invalid(
                 &format!("column {}", names.get(j).map_or("?", |s| s)),
                 "a constant column",

@@ -31,14 +31,22 @@ pub fn deg_to_rad(deg: f64) -> f64 {
 pub fn shrink_offset_um(w: &WorkpieceShrink, ta_c: f64) -> Result<f64> {
     let g = &w.gear;
     if !(ta_c.is_finite()) {
-        return Err(invalid("workpiece temperature Ta (°C)", ta_c, "a finite temperature"));
+        return Err(invalid(
+            "workpiece temperature Ta (°C)",
+            ta_c,
+            "a finite temperature",
+        ));
     }
     if g.teeth < 3 {
         return Err(invalid("gear.teeth", g.teeth, "z ≥ 3"));
     }
     let beta = deg_to_rad(g.helix_angle_deg);
-    if !(beta.abs() < deg_to_rad(60.0)) {
-        return Err(invalid("gear.helix_angle_deg", g.helix_angle_deg, "−60° < β < 60°"));
+    if beta.is_nan() || beta.abs() >= deg_to_rad(60.0) {
+        return Err(invalid(
+            "gear.helix_angle_deg",
+            g.helix_angle_deg,
+            "−60° < β < 60°",
+        ));
     }
     let alpha_n = deg_to_rad(g.pressure_angle_deg);
     let r_mm = g.normal_module_mm * f64::from(g.teeth) / (2.0 * beta.cos());
@@ -47,7 +55,11 @@ pub fn shrink_offset_um(w: &WorkpieceShrink, ta_c: f64) -> Result<f64> {
         ReferenceRadius::Pitch => ShrinkReference::Pitch,
         ReferenceRadius::Tip => {
             let da = g.tip_diameter_mm.ok_or_else(|| {
-                invalid("gear.tip_diameter_mm", "missing", "a tip diameter in mm for reference = tip")
+                invalid(
+                    "gear.tip_diameter_mm",
+                    "missing",
+                    "a tip diameter in mm for reference = tip",
+                )
             })?;
             ShrinkReference::Radius(da / 2.0)
         }

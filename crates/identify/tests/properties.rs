@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_core::model::Transform;
-use gearcomp_identify::cluster::{transitive_closure, lambda_cut, Dendrogram};
+use gearcomp_identify::cluster::{lambda_cut, transitive_closure, Dendrogram};
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection};
 use gearcomp_identify::regress::ols;
 use gearcomp_identify::transform::transform_series;

@@ -2,8 +2,12 @@
 //! "Clustering and regression test vector [DERIVED]", n = 8, c = 5).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use gearcomp_core::model::{LinearModel, ReferenceRadius, ShrinkGear, ShrinkMethod, Term, Transform};
-use gearcomp_identify::cluster::{correlation_matrix, lambda_cut, pearson, transitive_closure, Dendrogram};
+use gearcomp_core::model::{
+    LinearModel, ReferenceRadius, ShrinkGear, ShrinkMethod, Term, Transform,
+};
+use gearcomp_identify::cluster::{
+    correlation_matrix, lambda_cut, pearson, transitive_closure, Dendrogram,
+};
 use gearcomp_identify::regress::ols;
 use gearcomp_identify::workpiece::{shrink_offset_um, workpiece_shrink};
 use nalgebra::DMatrix;
@@ -47,7 +51,11 @@ fn seed003_correlation_rows_and_target_correlation() {
     ];
     for i in 0..5 {
         for j in 0..5 {
-            assert!((r[(i, j)] - rows[i][j]).abs() <= 5e-5, "r[{i}][{j}] = {}", r[(i, j)]);
+            assert!(
+                (r[(i, j)] - rows[i][j]).abs() <= 5e-5,
+                "r[{i}][{j}] = {}",
+                r[(i, j)]
+            );
         }
     }
     let rta = [0.3776, 0.9901, 0.9956, 0.9561, 0.4741];
@@ -61,7 +69,10 @@ fn seed003_correlation_rows_and_target_correlation() {
 fn seed003_closure_levels_classes_and_dendrogram() {
     let absr = corr().map(f64::abs);
     let (t, squarings) = transitive_closure(&absr);
-    assert!(squarings <= 3, "closure after {squarings} squarings (seed: 3)");
+    assert!(
+        squarings <= 3,
+        "closure after {squarings} squarings (seed: 3)"
+    );
     let d = Dendrogram::single_linkage(&absr);
     let levels: Vec<f64> = d.merges.iter().map(|m| m.level).collect();
     let expect = [0.9969, 0.9765, 0.9438, 0.4473];
@@ -92,7 +103,9 @@ fn seed003_regression_t1_t3_t4_and_shrink_chain() {
         assert!((x - e).abs() <= 5e-7, "{:?}", f.coefficients);
     }
     assert!((f.sse - 0.248499).abs() <= 5e-7, "Q = {}", f.sse);
-    let fitted = [37.960, 41.881, 45.910, 48.478, 50.237, 51.269, 53.067, 54.499];
+    let fitted = [
+        37.960, 41.881, 45.910, 48.478, 50.237, 51.269, 53.067, 54.499,
+    ];
     for (k, e) in fitted.iter().enumerate() {
         assert!((TA[k] - f.residuals[k] - e).abs() <= 5e-4);
     }
@@ -110,7 +123,11 @@ fn seed003_regression_t1_t3_t4_and_shrink_chain() {
         terms: ["T1", "T3", "T4"]
             .iter()
             .zip(&f.coefficients[1..])
-            .map(|(c, &k)| Term { channel: c.to_string(), coefficient: k, transform: Transform::Value })
+            .map(|(c, &k)| Term {
+                channel: c.to_string(),
+                coefficient: k,
+                transform: Transform::Value,
+            })
             .collect(),
     };
     let ta = f.predict(&[21.0, 29.0, 30.5]);
@@ -122,7 +139,15 @@ fn seed003_regression_t1_t3_t4_and_shrink_chain() {
         helix_angle_deg: 0.0,
         tip_diameter_mm: Some(126.0),
     };
-    let mut w = workpiece_shrink(temperature, gear, 20.0, 11.5e-6, ReferenceRadius::Pitch, ShrinkMethod::Exact).unwrap();
+    let mut w = workpiece_shrink(
+        temperature,
+        gear,
+        20.0,
+        11.5e-6,
+        ReferenceRadius::Pitch,
+        ShrinkMethod::Exact,
+    )
+    .unwrap();
     assert!((shrink_offset_um(&w, ta).unwrap() - 22.8488).abs() < 2e-4);
     w.reference = ReferenceRadius::Tip;
     assert!((shrink_offset_um(&w, ta).unwrap() - 31.2764).abs() < 2e-4);

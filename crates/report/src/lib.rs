@@ -226,19 +226,19 @@ impl HtmlReport {
 
     /// Adds a section heading.
     pub fn heading(&mut self, text: &str) -> &mut Self {
-        let _ = write!(self.body, "<h2>{}</h2>\n", escape(text));
+        let _ = writeln!(self.body, "<h2>{}</h2>", escape(text));
         self
     }
 
     /// Adds a paragraph of plain text.
     pub fn paragraph(&mut self, text: &str) -> &mut Self {
-        let _ = write!(self.body, "<p>{}</p>\n", escape(text));
+        let _ = writeln!(self.body, "<p>{}</p>", escape(text));
         self
     }
 
     /// Adds preformatted text (a console table, a model file).
     pub fn preformatted(&mut self, text: &str) -> &mut Self {
-        let _ = write!(self.body, "<pre>{}</pre>\n", escape(text));
+        let _ = writeln!(self.body, "<pre>{}</pre>", escape(text));
         self
     }
 
@@ -263,13 +263,13 @@ impl HtmlReport {
     /// Adds a chart drawn as inline SVG.
     pub fn chart(&mut self, chart: &Chart) -> Result<&mut Self> {
         let svg = chart.to_svg()?;
-        let _ = write!(self.body, "<figure>{svg}</figure>\n");
+        let _ = writeln!(self.body, "<figure>{svg}</figure>");
         Ok(self)
     }
 
     /// Adds an SVG drawn by the caller (e.g. a dendrogram); it is inserted as is.
     pub fn raw_svg(&mut self, svg: &str) -> &mut Self {
-        let _ = write!(self.body, "<figure>{svg}</figure>\n");
+        let _ = writeln!(self.body, "<figure>{svg}</figure>");
         self
     }
 
@@ -297,6 +297,7 @@ th{{background:#eee}}figure{{margin:1em 0}}pre{{background:#f6f6f6;padding:8px;o
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -10,6 +10,9 @@ pub type Result<T> = std::result::Result<T, ShapingError>;
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
 pub enum ShapingError {
+    /// A gear-geometry or ISO 1328 quantity is out of range.
+    #[error(transparent)]
+    Geometry(#[from] gearcomp_geometry::GeometryError),
     /// A parameter is outside its allowed range (or not finite).
     #[error("{field} = {value} {unit} is out of range: allowed {min} ..= {max} {unit}")]
     OutOfRange {

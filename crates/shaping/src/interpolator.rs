@@ -353,7 +353,7 @@ impl Interpolator {
     /// C2_k = ρ·(cpr_C2/cpr_C1)·C1_k (exact) + k_h·(cpr_C2/2π)·(Z(θ_k + ω_k·τ·T_s) − Z_0);
     /// v_C2 = ρ·ω_C1 + k_h·v_Z; a_C2 = k_h·a_Z (helical terms at the predicted angle, τ the
     /// dead-time compensation);
-    /// X = min(depth, f_r·(k + ramp(θ))) − lift(θ), with ramp = (1 − cos(θ − π))/2 and
+    /// X = min(depth, f_r·(k + ramp(θ))) − lift(θ) (depth from the start when f_r = 0), with ramp = (1 − cos(θ − π))/2 and
     /// lift = E·(1 − cos 2(θ − π))/2 on the return stroke θ ∈ [π, 2π), both 0 when cutting.
     ///
     /// # Source
@@ -432,7 +432,12 @@ impl Interpolator {
         } else {
             (0.0, 0.0, 0.0, 0.0)
         };
-        let infeed_raw = self.cfg.radial_feed_mm * (stroke_index as f64 + ramp);
+        // U = 0 means no infeed cycle: the cutter works at full depth from the first stroke.
+        let infeed_raw = if self.cfg.radial_feed_mm > 0.0 {
+            self.cfg.radial_feed_mm * (stroke_index as f64 + ramp)
+        } else {
+            self.cfg.depth_mm
+        };
         let (infeed, dinfeed) = if infeed_raw >= self.cfg.depth_mm {
             (self.cfg.depth_mm, 0.0)
         } else {

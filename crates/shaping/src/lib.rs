@@ -12,7 +12,7 @@
 //!   allocation-free, with a feasibility check before start.
 //! - [`servo`]: position loop around a velocity loop with feed-forward, quantisation, delay.
 //! - [`simulate`]: a cut in simulation: C2 tracking error and the helix slope deviation
-//!   f_Hβ, compared with [`iso1328`] tolerances.
+//!   f_Hβ, compared with ISO 1328-1 tolerances (`gearcomp_geometry::iso1328`).
 //! - [`gcode`]: the G83 cycle and its parser.
 //!
 //! Conventions (θ = 0 at the near dead point, axis directions, helix sign) are in
@@ -30,7 +30,6 @@ pub mod crank;
 pub mod error;
 pub mod gcode;
 pub mod interpolator;
-pub mod iso1328;
 pub mod ratio;
 pub mod servo;
 pub mod simulate;

@@ -13,8 +13,10 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{check_range, Result, ShapingError};
 use crate::interpolator::{Demands, Interpolator, InterpolatorConfig};
-use crate::iso1328::{helix_evaluation_length_mm, helix_slope_tolerance_um, round_tolerance_um};
 use crate::servo::{ServoAxis, ServoModel};
+use gearcomp_geometry::iso1328::{
+    helix_evaluation_range, round_tolerance_um, tolerances_unrounded,
+};
 
 /// What to simulate.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -139,7 +141,8 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     let cut = ic.cut;
     let beta = cut.beta_rad();
     let d_mm = cut.m_n_mm() * f64::from(cut.z_c1()) / beta.cos();
-    let tol_raw = helix_slope_tolerance_um(d_mm, cfg.face_width_mm, cfg.iso_class)?;
+    let tol_raw =
+        tolerances_unrounded(d_mm, cut.m_n_mm(), cfg.face_width_mm, cfg.iso_class)?.f_h_beta_t_um;
     // Base radius r_b = r·cos α_t, tan α_t = tan α_n / cos β (ISO 21771:2007, 5.2).
     let alpha_t = (cfg.pressure_angle_rad.tan() / beta.cos()).atan();
     let r_b1_mm = 0.5 * d_mm * alpha_t.cos();
@@ -155,7 +158,8 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     let last_start = ((f64::from(cfg.strokes) - 1.0) * cycles_per_stroke).ceil() as u64;
     let face_start = 0.5 * (stroke - cfg.face_width_mm);
     let face_end = face_start + cfg.face_width_mm;
-    let l_beta = helix_evaluation_length_mm(cfg.face_width_mm, cut.m_n_mm());
+    let (l_lo, l_hi) = helix_evaluation_range((0.0, cfg.face_width_mm), cut.m_n_mm());
+    let l_beta = l_hi - l_lo;
     let eval_lo = 0.5 * (stroke - l_beta);
     let eval_hi = eval_lo + l_beta;
 

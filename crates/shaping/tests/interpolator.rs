@@ -208,3 +208,14 @@ fn whole_cut_reaches_depth_and_keeps_the_exact_ratio() {
     assert_abs_diff_eq!(e.c1_revolutions, 488.0 * 2.4 / 360.0, epsilon = 1e-3);
     assert_abs_diff_eq!(e.cut_time_s, 488.0 * 0.2, epsilon = 2e-3);
 }
+
+#[test]
+fn zero_radial_feed_cuts_at_full_depth_from_the_start() {
+    let mut cfg = seed_config(300.0, 24_000.0);
+    cfg.radial_feed_mm = 0.0;
+    let mut ip = Interpolator::new(cfg).unwrap();
+    let first = ip.cycle(0);
+    assert_abs_diff_eq!(first.x_mm, 6.75, epsilon = 1e-12);
+    let e = execute_program(&cfg).unwrap();
+    assert_eq!(e.strokes, 150); // one workpiece turn only
+}

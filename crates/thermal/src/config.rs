@@ -52,22 +52,21 @@ fn one() -> usize {
 impl Default for SamplingConfig {
     fn default() -> Self {
         Self {
-            trigger: Trigger::EveryCycle,
+            trigger: Trigger::EveryCycle {},
             samples_per_average: 1,
-            time_filter: TimeFilterConfig::None,
+            time_filter: TimeFilterConfig::None {},
         }
     }
 }
 
 /// What makes the engine take a sample.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Trigger {
     /// Every call of `step`.
-    #[default]
-    EveryCycle,
+    EveryCycle {},
     /// Only when `Inputs::trigger` is set (stroke-position switch, spindle index).
-    Input,
+    Input {},
     /// A clock: one sample every `period_s` seconds of input time.
     Clock {
         /// Sample period in s, > 0.
@@ -75,13 +74,27 @@ pub enum Trigger {
     },
 }
 
+// Variants without data are written `Name {}` so that `deny_unknown_fields` also rejects
+// stray keys next to their `kind` (serde ignores extra keys on unit variants).
+
+impl Default for Trigger {
+    fn default() -> Self {
+        Trigger::EveryCycle {}
+    }
+}
+
+impl Default for TimeFilterConfig {
+    fn default() -> Self {
+        TimeFilterConfig::None {}
+    }
+}
+
 /// Time averaging of the N-sample averages.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TimeFilterConfig {
     /// No time averaging.
-    #[default]
-    None,
+    None {},
     /// First-order filter with time constant `tau_s`.
     FirstOrder {
         /// Time constant in s, > 0.
@@ -151,9 +164,9 @@ pub struct AxisConfig {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Application {
     /// To the scale reading: D′ = D + Cz (seed 001, linear-scale machines).
-    MeasuringSystem,
+    MeasuringSystem {},
     /// To the commanded position: Z′ = Z + Cz (seed 001, pulse-motor machines).
-    Command,
+    Command {},
     /// As pulses to an infeed motor, the rounding remainder carried (seed 000, 606–608).
     Pulses {
         /// Travel of one pulse in µm, > 0.
@@ -313,9 +326,9 @@ impl EngineConfig {
             })
             .collect();
         for f in files {
-            if !cfg.models.contains_key(&f) {
-                let model = ModelFile::load(&dir.join(&f))?;
-                cfg.models.insert(f, model);
+            if let std::collections::btree_map::Entry::Vacant(e) = cfg.models.entry(f) {
+                let model = ModelFile::load(&dir.join(e.key()))?;
+                e.insert(model);
             }
         }
         Ok(cfg)

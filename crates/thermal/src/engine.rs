@@ -242,7 +242,6 @@ struct ChannelState {
     stuck_ref: f64,
     stuck_since_s: f64,
     value: f64,
-    has_value: bool,
     fresh: bool,
     fault: Option<Fault>,
 }
@@ -250,7 +249,9 @@ struct ChannelState {
 impl ChannelState {
     /// Checks one reading; returns the engineering value or the fault.
     fn check(&mut self, r: Reading, time_s: f64) -> std::result::Result<f64, Fault> {
-        if !r.stamp_s.is_finite() || r.stamp_s < self.last_stamp_s {
+        // A stamp from the future or going backwards is out of order; −∞ (never read)
+        // falls through to the stale check.
+        if r.stamp_s.is_nan() || r.stamp_s < self.last_stamp_s || r.stamp_s > time_s {
             return Err(Fault::OutOfOrder);
         }
         self.last_stamp_s = r.stamp_s;
@@ -530,6 +531,8 @@ struct AxisState {
     terms: Vec<SignedTerm>,
     mask: u64,
     needs_position: bool,
+    /// The law depends on time or position, so it changes without a new average.
+    always_evaluate: bool,
     out: AxisOutput,
     carry_pulses: f64,
 }
@@ -546,6 +549,7 @@ pub struct Engine {
     last_time_s: f64,
     start_s: f64,
     stop: Option<StopReason>,
+    has_value_mask: u64,
 }
 
 fn resolve(field: &str, name: &str, names: &[String]) -> Result<usize> {
@@ -619,7 +623,7 @@ fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<Chan
                 "a finite offset in µm",
             )?;
         }
-        SensorKind::Celsius | SensorKind::Pt100 | SensorKind::Pt1000 => {}
+        SensorKind::Celsius {} | SensorKind::Pt100 {} | SensorKind::Pt1000 {} => {}
     }
     let (lo, hi) = if c.sensor.is_temperature() {
         (-273.15, 2000.0)
@@ -699,7 +703,7 @@ fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<Chan
         "≥ 0 in the channel unit",
     )?;
     let filter = match cfg.sampling.time_filter {
-        TimeFilterConfig::None => TimeFilter::None,
+        TimeFilterConfig::None {} => TimeFilter::None,
         TimeFilterConfig::FirstOrder { tau_s } => TimeFilter::Lag(FirstOrderLag::new(tau_s)),
         TimeFilterConfig::MovingWindow { averages } => {
             TimeFilter::Window(MovingWindow::new(averages))
@@ -720,7 +724,6 @@ fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<Chan
         stuck_ref: f64::NAN,
         stuck_since_s: 0.0,
         value: f64::NAN,
-        has_value: false,
         fresh: false,
         fault: None,
     })
@@ -913,7 +916,7 @@ fn build_axis(a: &AxisConfig, i: usize, names: &[String], cfg: &EngineConfig) ->
             )?;
             Some(pulse_um)
         }
-        Application::MeasuringSystem | Application::Command => None,
+        Application::MeasuringSystem {} | Application::Command {} => None,
     };
     check_range(
         &format!("{p}.max_offset_um"),
@@ -949,7 +952,14 @@ fn build_axis(a: &AxisConfig, i: usize, names: &[String], cfg: &EngineConfig) ->
     let needs_position = terms
         .iter()
         .any(|t| matches!(t.term, Term::Position { .. }));
+    let always_evaluate = terms.iter().any(|t| {
+        matches!(
+            t.term,
+            Term::Position { .. } | Term::TimeLinear { .. } | Term::TimeSqrt { .. }
+        )
+    });
     Ok(AxisState {
+        always_evaluate,
         pulse_um,
         dead_band_um: a.dead_band_um,
         max_offset_um: a.max_offset_um,
@@ -975,7 +985,7 @@ impl Engine {
             "1 ≤ N ≤ 4096",
         )?;
         match s.time_filter {
-            TimeFilterConfig::None => {}
+            TimeFilterConfig::None {} => {}
             TimeFilterConfig::FirstOrder { tau_s } => check_range(
                 "sampling.time_filter.tau_s",
                 tau_s,
@@ -1046,6 +1056,7 @@ impl Engine {
             last_time_s: f64::NEG_INFINITY,
             start_s: f64::NAN,
             stop: None,
+            has_value_mask: 0,
         })
     }
 
@@ -1115,8 +1126,8 @@ impl Engine {
             self.start_s = time_s;
         }
         let sample = match self.trigger {
-            Trigger::EveryCycle => true,
-            Trigger::Input => inputs.trigger,
+            Trigger::EveryCycle {} => true,
+            Trigger::Input {} => inputs.trigger,
             Trigger::Clock { period_s } => {
                 if time_s >= self.next_clock_s {
                     // Skip missed ticks rather than bursting to catch up.
@@ -1135,6 +1146,7 @@ impl Engine {
         };
 
         let mut faulted: u64 = 0;
+        let mut fresh: u64 = 0;
         for (i, (ch, r)) in self.channels.iter_mut().zip(inputs.readings).enumerate() {
             ch.fresh = false;
             match ch.check(*r, time_s) {
@@ -1158,8 +1170,9 @@ impl Engine {
                             TimeFilter::Lag(l) => l.update(time_s, avg),
                             TimeFilter::Window(w) => w.push(avg),
                         };
-                        ch.has_value = true;
                         ch.fresh = true;
+                        fresh |= 1u64 << i;
+                        self.has_value_mask |= 1u64 << i;
                         out.averaged = true;
                         // Seed 000 claims: an averaged value outside its limits stops the
                         // machine; the first violation is kept until acknowledged.
@@ -1182,7 +1195,7 @@ impl Engine {
         let t_since_start_s = time_s - self.start_s;
         let channels = &self.channels;
         for (ai, (ax, o)) in self.axes.iter_mut().zip(out.axes.iter_mut()).enumerate() {
-            for t in &mut ax.terms {
+            for t in ax.terms.iter_mut().filter(|_| fresh & ax.mask != 0) {
                 if let Term::Model(m) = &mut t.term {
                     m.machine.update(time_s, channels);
                     if let Some(w) = &mut m.workpiece {
@@ -1190,10 +1203,7 @@ impl Engine {
                     }
                 }
             }
-            let ready = channels
-                .iter()
-                .enumerate()
-                .all(|(i, c)| ax.mask & (1u64 << i) == 0 || c.has_value);
+            let ready = ax.mask & !self.has_value_mask == 0;
             let mut status;
             if self.stop.is_some() {
                 status = AxisStatus::Stopped;
@@ -1214,9 +1224,14 @@ impl Engine {
                         .or(Some(Alarm::PositionMissing { axis: ai as u8 }));
                     out.alarm_count = out.alarm_count.saturating_add(1);
                 } else {
-                    let mut law_um = 0.0;
-                    for t in &ax.terms {
-                        law_um += t.sign * t.term.value(channels, t_since_start_s, p_mm);
+                    // Averages change only at their instants: re-evaluate then, or every
+                    // cycle for time- and position-dependent laws.
+                    let mut law_um = ax.out.law_um;
+                    if ax.always_evaluate || fresh & ax.mask != 0 || law_um.is_nan() {
+                        law_um = 0.0;
+                        for t in &ax.terms {
+                            law_um += t.sign * t.term.value(channels, t_since_start_s, p_mm);
+                        }
                     }
                     if !law_um.is_finite() {
                         status = AxisStatus::Frozen;

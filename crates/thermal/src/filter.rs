@@ -49,6 +49,9 @@ impl BlockAverage {
 #[derive(Debug, Clone, Copy)]
 pub struct FirstOrderLag {
     tau_s: f64,
+    // The gain for the last Δt: a fixed cycle reuses it instead of calling exp().
+    last_dt_s: f64,
+    gain: f64,
     y: f64,
     t_last_s: f64,
     started: bool,
@@ -59,6 +62,8 @@ impl FirstOrderLag {
     pub fn new(tau_s: f64) -> Self {
         Self {
             tau_s,
+            last_dt_s: f64::NAN,
+            gain: 0.0,
             y: 0.0,
             t_last_s: 0.0,
             started: false,
@@ -80,7 +85,11 @@ impl FirstOrderLag {
             self.y = u;
         } else {
             let dt_s = (t_s - self.t_last_s).max(0.0);
-            self.y += (1.0 - (-dt_s / self.tau_s).exp()) * (u - self.y);
+            if dt_s != self.last_dt_s {
+                self.last_dt_s = dt_s;
+                self.gain = 1.0 - (-dt_s / self.tau_s).exp();
+            }
+            self.y += self.gain * (u - self.y);
         }
         self.t_last_s = t_s;
         self.y

@@ -141,11 +141,11 @@ pub fn grinder() -> PresetBundle {
         ],
         dt_s: 10.0,
     };
-    let pt = |n: &str| channel(n, SensorKind::Pt100, (-20.0, 80.0), (5.0, 45.0));
-    let cel = |n: &str| channel(n, SensorKind::Celsius, (-20.0, 80.0), (5.0, 60.0));
+    let pt = |n: &str| channel(n, SensorKind::Pt100 {}, (-20.0, 80.0), (5.0, 45.0));
+    let cel = |n: &str| channel(n, SensorKind::Celsius {}, (-20.0, 80.0), (5.0, 60.0));
     let config = EngineConfig {
         sampling: SamplingConfig {
-            trigger: Trigger::EveryCycle,
+            trigger: Trigger::EveryCycle {},
             samples_per_average: 6,
             time_filter: TimeFilterConfig::FirstOrder { tau_s: 300.0 },
         },
@@ -157,7 +157,7 @@ pub fn grinder() -> PresetBundle {
         ],
         axes: vec![AxisConfig {
             name: "Z".into(),
-            apply: Application::MeasuringSystem,
+            apply: Application::MeasuringSystem {},
             dead_band_um: 0.5,
             max_offset_um: 60.0,
             max_step_um: Some(0.5),
@@ -255,9 +255,9 @@ pub fn shaper() -> PresetBundle {
     let temp_limits = (f_to_c(50.0), f_to_c(100.0));
     let config = EngineConfig {
         sampling: SamplingConfig {
-            trigger: Trigger::Input,
+            trigger: Trigger::Input {},
             samples_per_average: 8,
-            time_filter: TimeFilterConfig::None,
+            time_filter: TimeFilterConfig::None {},
         },
         channels: vec![
             channel(
@@ -395,7 +395,7 @@ pub fn hobbing() -> PresetBundle {
         dt_s: 10.0,
     };
     let t0_c = machine.ambient_c(0.0);
-    let cel = |n: &str| channel(n, SensorKind::Celsius, (-20.0, 90.0), (5.0, 70.0));
+    let cel = |n: &str| channel(n, SensorKind::Celsius {}, (-20.0, 90.0), (5.0, 70.0));
     let mut config = EngineConfig {
         sampling: SamplingConfig {
             trigger: Trigger::Clock { period_s: 10.0 },
@@ -410,7 +410,7 @@ pub fn hobbing() -> PresetBundle {
         ],
         axes: vec![AxisConfig {
             name: "X".into(),
-            apply: Application::Command,
+            apply: Application::Command {},
             dead_band_um: 0.5,
             max_offset_um: 80.0,
             max_step_um: Some(0.5),

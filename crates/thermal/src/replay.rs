@@ -186,7 +186,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             };
         }
         let mut flag = |c: Option<usize>, what: &str| {
-            c.map_or(true, |c| {
+            c.is_none_or(|c| {
                 parse_flag(&record[c]).unwrap_or_else(|| {
                     out.bad_rows.push(BadRow {
                         line,

@@ -21,11 +21,11 @@ pub const CVD_C: f64 = -4.183e-12;
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum SensorKind {
     /// The raw value already is a temperature in °C.
-    Celsius,
+    Celsius {},
     /// Platinum RTD with R0 = 100 Ω (IEC 60751); raw value in Ω.
-    Pt100,
+    Pt100 {},
     /// Platinum RTD with R0 = 1000 Ω (IEC 60751); raw value in Ω.
-    Pt1000,
+    Pt1000 {},
     /// NTC thermistor, β model; raw value in Ω.
     NtcBeta {
         /// Resistance at the reference temperature, in Ω.
@@ -80,9 +80,9 @@ impl SensorKind {
             return None;
         }
         let v = match *self {
-            SensorKind::Celsius => raw,
-            SensorKind::Pt100 => rtd_temperature_c(raw, 100.0)?,
-            SensorKind::Pt1000 => rtd_temperature_c(raw, 1000.0)?,
+            SensorKind::Celsius {} => raw,
+            SensorKind::Pt100 {} => rtd_temperature_c(raw, 100.0)?,
+            SensorKind::Pt1000 {} => rtd_temperature_c(raw, 1000.0)?,
             SensorKind::NtcBeta {
                 r0_ohm,
                 t0_c,
@@ -100,11 +100,11 @@ impl SensorKind {
     /// The direction of a resistive sensor, used to name open and short circuits.
     pub fn resistive(&self) -> Resistive {
         match self {
-            SensorKind::Pt100 | SensorKind::Pt1000 => Resistive::PositiveCoefficient,
+            SensorKind::Pt100 {} | SensorKind::Pt1000 {} => Resistive::PositiveCoefficient,
             SensorKind::NtcBeta { .. } | SensorKind::NtcSteinhartHart { .. } => {
                 Resistive::NegativeCoefficient
             }
-            SensorKind::Celsius | SensorKind::Displacement { .. } => Resistive::No,
+            SensorKind::Celsius {} | SensorKind::Displacement { .. } => Resistive::No,
         }
     }
 
@@ -250,7 +250,7 @@ mod tests {
     fn pt1000_is_ten_times_pt100() {
         for (t, r) in IEC60751_PT100 {
             assert!((rtd_resistance_ohm(t, 1000.0) - 10.0 * r).abs() < 0.06);
-            let k = SensorKind::Pt1000.convert(10.0 * r).unwrap();
+            let k = SensorKind::Pt1000 {}.convert(10.0 * r).unwrap();
             assert!((k - t).abs() < 0.02);
         }
     }
@@ -288,7 +288,7 @@ mod tests {
     #[test]
     fn bad_raw_values_are_none_not_panics() {
         for raw in [f64::NAN, f64::INFINITY, -1.0, 0.0] {
-            assert!(SensorKind::Pt100.convert(raw).is_none());
+            assert!(SensorKind::Pt100 {}.convert(raw).is_none());
             let ntc = SensorKind::NtcBeta {
                 r0_ohm: 1e4,
                 t0_c: 25.0,

@@ -59,7 +59,8 @@ transform = TRANSFORM
 "#;
     let r = 0.002;
     let (tau, d) = (600.0, 900.0);
-    let cases: [(&str, Box<dyn Fn(f64) -> f64>, f64); 4] = [
+    type Expected = Box<dyn Fn(f64) -> f64>;
+    let cases: [(&str, Expected, f64); 4] = [
         ("{ kind = \"value\" }", Box::new(move |t| r * t), 1e-12),
         (
             "{ kind = \"delay\", delay_s = 900.0 }",

@@ -45,10 +45,16 @@ channel = "c13"
 coefficient = 0.9
 "#;
 
-/// The configuration: c00–c07 Pt100, c08–c11 NTC, c12–c14 °C, c15 displacement.
+/// The configuration: c00–c07 Pt100, c08–c11 NTC, c12–c14 °C, c15 displacement; N = 4.
 pub fn config() -> EngineConfig {
-    let mut t = String::from(
-        "[sampling]\nsamples_per_average = 4\ntime_filter = { kind = \"first_order\", tau_s = 60.0 }\n",
+    config_with_block(4)
+}
+
+/// The configuration with N samples per block average (N = 1: every cycle is an
+/// averaging instant, the worst case for the cycle time).
+pub fn config_with_block(n: usize) -> EngineConfig {
+    let mut t = format!(
+        "[sampling]\nsamples_per_average = {n}\ntime_filter = {{ kind = \"first_order\", tau_s = 60.0 }}\n",
     );
     for i in 0..16 {
         let sensor = match i {
@@ -130,9 +136,14 @@ sign = "minus"
     cfg
 }
 
-/// The engine.
+/// The engine (N = 4).
 pub fn engine() -> Engine {
     Engine::new(&config()).unwrap()
+}
+
+/// The engine with N samples per block average.
+pub fn engine_with_block(n: usize) -> Engine {
+    Engine::new(&config_with_block(n)).unwrap()
 }
 
 /// Fills the readings of cycle `k` (1 s cycles, warming machine) without allocating.
