@@ -153,7 +153,10 @@ fn grind_rejects_bad_input() {
             "singular",
         ),
         (vec!["grind", "simulate", "--grid-w", "1"], "n_w"),
-        (vec!["grind", "simulate", "--class", "12"], "flank tolerance class = 12"),
+        (
+            vec!["grind", "simulate", "--class", "12"],
+            "flank tolerance class = 12",
+        ),
     ] {
         let out = gearcomp().args(&args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
