@@ -11,9 +11,8 @@
 use gearcomp_core::model::{
     AxisModel, LinearModel, ReferenceRadius, ShrinkMethod, Transform, WorkpieceShrink,
 };
-use gearcomp_geometry::shrink::{
-    shrink_offset_exact_um, shrink_offset_first_order_um, ShrinkInput, ShrinkReference,
-};
+use gearcomp_geometry::involute::inv;
+use gearcomp_geometry::shrink::{shrink_offset_exact_um, ShrinkInput, ShrinkReference};
 
 use crate::config::{
     Application, AxisConfig, ChannelConfig, EngineConfig, TermConfig, TimeFilterConfig, Trigger,
@@ -21,8 +20,7 @@ use crate::config::{
 use crate::error::{check_range, invalid, Result, ThermalError};
 use crate::filter::{BlockAverage, DelayLine, FirstOrderLag, MovingWindow};
 use crate::law;
-use crate::sensor::Resistive;
-use crate::sensor::SensorKind;
+use crate::sensor::{self, Resistive, SensorKind};
 
 /// Most channels one engine reads (fault bookkeeping uses a 64-bit mask).
 pub const MAX_CHANNELS: usize = 64;
@@ -226,9 +224,95 @@ enum TimeFilter {
     Window(MovingWindow),
 }
 
+/// A channel's conversion with its per-sample constants computed once at build time.
+///
+/// Bit-identical to [`SensorKind::convert`] for a finite raw value (the only kind
+/// [`ChannelState::check`] passes on): the same operations in the same order, minus the
+/// checks of parameters that `build_channel` has already validated.
+#[derive(Debug, Clone, Copy)]
+enum Conversion {
+    Celsius,
+    Rtd {
+        r0_ohm: f64,
+    },
+    NtcBeta {
+        r0_ohm: f64,
+        inv_t0_per_k: f64,
+        beta_k: f64,
+    },
+    SteinhartHart {
+        a: f64,
+        b: f64,
+        c: f64,
+    },
+    Displacement {
+        gain_um_per_unit: f64,
+        offset_um: f64,
+    },
+}
+
+impl Conversion {
+    fn new(kind: &SensorKind) -> Self {
+        match *kind {
+            SensorKind::Celsius {} => Conversion::Celsius,
+            SensorKind::Pt100 {} => Conversion::Rtd { r0_ohm: 100.0 },
+            SensorKind::Pt1000 {} => Conversion::Rtd { r0_ohm: 1000.0 },
+            SensorKind::NtcBeta {
+                r0_ohm,
+                t0_c,
+                beta_k,
+            } => Conversion::NtcBeta {
+                r0_ohm,
+                inv_t0_per_k: 1.0 / (t0_c + sensor::ZERO_C_IN_K),
+                beta_k,
+            },
+            SensorKind::NtcSteinhartHart { a, b, c } => Conversion::SteinhartHart { a, b, c },
+            SensorKind::Displacement {
+                gain_um_per_unit,
+                offset_um,
+            } => Conversion::Displacement {
+                gain_um_per_unit,
+                offset_um,
+            },
+        }
+    }
+
+    /// Raw → engineering value, `None` where [`SensorKind::convert`] gives `None`.
+    #[inline]
+    fn convert(self, raw: f64) -> Option<f64> {
+        if !raw.is_finite() {
+            return None;
+        }
+        let v = match self {
+            Conversion::Celsius => raw,
+            Conversion::Rtd { r0_ohm } => sensor::rtd_temperature_c(raw, r0_ohm)?,
+            Conversion::NtcBeta {
+                r0_ohm,
+                inv_t0_per_k,
+                beta_k,
+            } => {
+                // R0 > 0 and β > 0 were validated at build time; R is checked per sample.
+                if raw <= 0.0 {
+                    return None;
+                }
+                sensor::ntc_beta_temperature_from_inv_t0_c(raw, r0_ohm, inv_t0_per_k, beta_k)?
+            }
+            Conversion::SteinhartHart { a, b, c } => {
+                sensor::steinhart_hart_temperature_c(raw, a, b, c)?
+            }
+            Conversion::Displacement {
+                gain_um_per_unit,
+                offset_um,
+            } => gain_um_per_unit * raw + offset_um,
+        };
+        v.is_finite().then_some(v)
+    }
+}
+
 #[derive(Debug, Clone)]
 struct ChannelState {
     kind: SensorKind,
+    conversion: Conversion,
     valid_min: f64,
     valid_max: f64,
     limit_min: f64,
@@ -261,7 +345,7 @@ impl ChannelState {
         if time_s - r.stamp_s > self.stale_timeout_s {
             return Err(Fault::Stale);
         }
-        let v = match self.kind.convert(r.raw) {
+        let v = match self.conversion.convert(r.raw) {
             Some(v) => v,
             // Only resistive sensors can fail to convert a finite raw value (R ≤ 0, or a
             // resistance off the ends of the curve).
@@ -377,12 +461,110 @@ impl LinearEval {
     }
 }
 
+/// The workpiece shrink of `gearcomp_geometry::shrink` with every term that does not
+/// depend on the temperature computed once at build time; the per-cycle arithmetic is the
+/// same operations in the same order, so the result is bit-identical to
+/// `shrink_offset_exact_um` / `shrink_offset_first_order_um` (NaN where they return an
+/// error).
+#[derive(Debug, Clone, Copy)]
+enum ShrinkEval {
+    /// δT = (r / tan α_t)·[inv α*_ρ − inv α_ρ], cos α*_ρ = r_b / (ρ·(1 + λ·ΔT_w)).
+    Exact {
+        expansion_per_k: f64,
+        /// r_b = r·cos α_t in mm.
+        base_radius_mm: f64,
+        /// ρ in mm.
+        rho_mm: f64,
+        /// 1000·r / tan α_t in µm.
+        scale_um: f64,
+        /// inv α_ρ.
+        inv_alpha_rho: f64,
+    },
+    /// δT ≈ r·λ·ΔT_w·tan α_ρ / tan α_t.
+    FirstOrder {
+        expansion_per_k: f64,
+        /// 1000·r in µm.
+        radius_um: f64,
+        tan_alpha_rho: f64,
+        tan_alpha_t: f64,
+    },
+}
+
+impl ShrinkEval {
+    /// Precomputes from a geometry that `shrink_offset_exact_um` accepted.
+    fn new(g: &ShrinkInput, method: ShrinkMethod) -> Self {
+        let r = g.reference_radius_mm;
+        let a = g.transverse_pressure_angle_rad;
+        let rho_mm = match g.reference {
+            ShrinkReference::Pitch => r,
+            ShrinkReference::Radius(rho) => rho,
+        };
+        let base_radius_mm = r * a.cos();
+        let a_rho = (base_radius_mm / rho_mm).clamp(-1.0, 1.0).acos();
+        match method {
+            ShrinkMethod::Exact => ShrinkEval::Exact {
+                expansion_per_k: g.expansion_per_k,
+                base_radius_mm,
+                rho_mm,
+                scale_um: 1000.0 * r / a.tan(),
+                inv_alpha_rho: inv(a_rho),
+            },
+            ShrinkMethod::FirstOrder => ShrinkEval::FirstOrder {
+                expansion_per_k: g.expansion_per_k,
+                radius_um: 1000.0 * r,
+                tan_alpha_rho: a_rho.tan(),
+                tan_alpha_t: a.tan(),
+            },
+        }
+    }
+
+    /// δT in µm for ΔT_w = `delta_temp_k`; NaN outside the formula's domain.
+    ///
+    /// # Formula
+    /// exact: δT = (r / tan α_t)·[inv α*_ρ − inv α_ρ], cos α*_ρ = r·cos α_t / (ρ·(1 + λ·ΔT_w));
+    /// first order: δT ≈ r·λ·ΔT_w·tan α_ρ / tan α_t
+    /// # Domain
+    /// |ΔT_w| ≤ 500 K and cos α*_ρ ≤ 1, as `gearcomp_geometry::shrink` checks.
+    /// # Source
+    /// seed 003, eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
+    #[inline]
+    fn offset_um(&self, delta_temp_k: f64) -> f64 {
+        if !(delta_temp_k.is_finite() && delta_temp_k.abs() <= 500.0) {
+            return f64::NAN;
+        }
+        match *self {
+            ShrinkEval::Exact {
+                expansion_per_k,
+                base_radius_mm,
+                rho_mm,
+                scale_um,
+                inv_alpha_rho,
+            } => {
+                let eps = expansion_per_k * delta_temp_k;
+                let c_star = base_radius_mm / (rho_mm * (1.0 + eps));
+                if c_star > 1.0 {
+                    return f64::NAN;
+                }
+                scale_um * (inv(c_star.acos()) - inv_alpha_rho)
+            }
+            ShrinkEval::FirstOrder {
+                expansion_per_k,
+                radius_um,
+                tan_alpha_rho,
+                tan_alpha_t,
+            } => {
+                let eps = expansion_per_k * delta_temp_k;
+                radius_um * eps * tan_alpha_rho / tan_alpha_t
+            }
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 struct WorkpieceEval {
     temperature: LinearEval,
     design_temp_c: f64,
-    template: ShrinkInput,
-    method: ShrinkMethod,
+    shrink: ShrinkEval,
 }
 
 impl WorkpieceEval {
@@ -423,8 +605,7 @@ impl WorkpieceEval {
         Ok(Self {
             temperature: LinearEval::build(&w.temperature, &format!("{field}.temperature"), names)?,
             design_temp_c: w.design_temp_c,
-            template,
-            method: w.method,
+            shrink: ShrinkEval::new(&template, w.method),
         })
     }
 
@@ -435,13 +616,8 @@ impl WorkpieceEval {
     /// # Source
     /// seed 003 eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
     fn value(&self) -> f64 {
-        let mut input = self.template;
-        input.delta_temp_k = self.temperature.value() - self.design_temp_c;
-        let r = match self.method {
-            ShrinkMethod::Exact => shrink_offset_exact_um(&input),
-            ShrinkMethod::FirstOrder => shrink_offset_first_order_um(&input),
-        };
-        r.unwrap_or(f64::NAN)
+        self.shrink
+            .offset_um(self.temperature.value() - self.design_temp_c)
     }
 }
 
@@ -711,6 +887,7 @@ fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<Chan
     };
     Ok(ChannelState {
         kind: c.sensor,
+        conversion: Conversion::new(&c.sensor),
         valid_min: c.valid_min,
         valid_max: c.valid_max,
         limit_min,
@@ -1085,22 +1262,23 @@ impl Engine {
         self.stop = None;
     }
 
+    #[inline]
     fn output(&self, time_s: f64) -> Output {
-        let mut axes = [AxisOutput::ZERO; MAX_AXES];
-        for (o, a) in axes.iter_mut().zip(&self.axes) {
-            *o = a.out;
-            o.pulses = 0;
-        }
-        Output {
+        let mut out = Output {
             time_s,
             status: EngineStatus::Running,
             alarm: None,
             alarm_count: 0,
             stop: self.stop,
             averaged: false,
-            axes,
+            axes: [AxisOutput::ZERO; MAX_AXES],
             n_axes: self.axes.len() as u8,
+        };
+        for (o, a) in out.axes.iter_mut().zip(&self.axes) {
+            *o = a.out;
+            o.pulses = 0;
         }
+        out
     }
 
     /// Runs one cycle. Allocation-free; never panics on any input values.
@@ -1112,14 +1290,16 @@ impl Engine {
                 got: inputs.readings.len().min(u16::MAX as usize) as u16,
                 expected: self.channels.len() as u16,
             });
-            return self.freeze_all(out);
+            self.freeze_all(&mut out);
+            return out;
         }
         if !(time_s.is_finite() && time_s > self.last_time_s) {
             out.raise(Alarm::TimeOutOfOrder {
                 time_s,
                 previous_s: self.last_time_s,
             });
-            return self.freeze_all(out);
+            self.freeze_all(&mut out);
+            return out;
         }
         self.last_time_s = time_s;
         if self.start_s.is_nan() {
@@ -1295,7 +1475,7 @@ impl Engine {
         out
     }
 
-    fn freeze_all(&mut self, mut out: Output) -> Output {
+    fn freeze_all(&mut self, out: &mut Output) {
         for (ax, o) in self.axes.iter_mut().zip(out.axes.iter_mut()) {
             ax.out.pulses = 0;
             ax.out.status = if self.stop.is_some() {
@@ -1310,6 +1490,144 @@ impl Engine {
         } else {
             EngineStatus::Alarm
         };
-        out
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use gearcomp_geometry::shrink::shrink_offset_first_order_um;
+
+    /// Same bits, or both NaN.
+    fn same(a: f64, b: f64) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    /// Raw values across each kind's range, its edges and beyond (open/short circuits).
+    fn raws() -> Vec<f64> {
+        let mut v = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -1.0,
+            0.0,
+            f64::MIN_POSITIVE,
+            1e-300,
+            f64::MAX,
+            1e300,
+        ];
+        let mut x = 1e-3;
+        while x < 1e8 {
+            v.push(x);
+            x *= 1.013_7;
+        }
+        v.extend((-400..=600).map(|k| k as f64 * 0.731));
+        v
+    }
+
+    /// The build-time conversion agrees bit for bit with the public
+    /// [`SensorKind::convert`] (the reference, tested against IEC 60751 and the β law in
+    /// `sensor`), including every `None`.
+    #[test]
+    fn precomputed_conversion_is_bit_identical_to_sensor_kind() {
+        let kinds = [
+            SensorKind::Celsius {},
+            SensorKind::Pt100 {},
+            SensorKind::Pt1000 {},
+            SensorKind::NtcBeta {
+                r0_ohm: 10_000.0,
+                t0_c: 25.0,
+                beta_k: 3950.0,
+            },
+            SensorKind::NtcBeta {
+                r0_ohm: 2252.0,
+                t0_c: 37.3,
+                beta_k: 3891.0,
+            },
+            SensorKind::NtcSteinhartHart {
+                a: 1.129_148e-3,
+                b: 2.341_25e-4,
+                c: 8.767_41e-8,
+            },
+            SensorKind::Displacement {
+                gain_um_per_unit: 100.0,
+                offset_um: -3.5,
+            },
+        ];
+        for k in kinds {
+            let c = Conversion::new(&k);
+            for raw in raws() {
+                let (a, b) = (c.convert(raw), k.convert(raw));
+                assert_eq!(a.is_some(), b.is_some(), "{k:?} at {raw}");
+                if let (Some(a), Some(b)) = (a, b) {
+                    assert!(same(a, b), "{k:?} at {raw}: {a} vs {b}");
+                }
+            }
+        }
+    }
+
+    /// The precomputed shrink agrees bit for bit with `gearcomp_geometry::shrink` (the
+    /// reference, tested there against the seed 003 vectors), NaN where it errs.
+    #[test]
+    fn precomputed_shrink_is_bit_identical_to_geometry() {
+        let geometries = [
+            (60.0, 20f64.to_radians(), ShrinkReference::Pitch),
+            (60.0, 20f64.to_radians(), ShrinkReference::Radius(63.0)),
+            (114.0, 21.17f64.to_radians(), ShrinkReference::Radius(118.0)),
+            (
+                30.0,
+                25f64.to_radians(),
+                ShrinkReference::Radius(30.0 * 25f64.to_radians().cos()),
+            ),
+        ];
+        let mut dts: Vec<f64> = (-700..=700).map(|k| k as f64 * 0.787).collect();
+        dts.extend([
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+            500.0,
+            -500.0,
+            0.0,
+            -0.0,
+        ]);
+        for (r, a, reference) in geometries {
+            for method in [ShrinkMethod::Exact, ShrinkMethod::FirstOrder] {
+                let mut input = ShrinkInput {
+                    reference_radius_mm: r,
+                    transverse_pressure_angle_rad: a,
+                    expansion_per_k: 11.5e-6,
+                    delta_temp_k: 0.0,
+                    reference,
+                };
+                let eval = ShrinkEval::new(&input, method);
+                for &dt in &dts {
+                    input.delta_temp_k = dt;
+                    let reference_um = match method {
+                        ShrinkMethod::Exact => shrink_offset_exact_um(&input),
+                        ShrinkMethod::FirstOrder => shrink_offset_first_order_um(&input),
+                    }
+                    .unwrap_or(f64::NAN);
+                    let got = eval.offset_um(dt);
+                    assert!(
+                        same(got, reference_um),
+                        "{method:?} r {r} ΔT {dt}: {got} vs {reference_um}"
+                    );
+                }
+            }
+        }
+        // The domain edge is reached: a large cooling of a gear referenced at its base
+        // circle is rejected by both.
+        let input = ShrinkInput {
+            reference_radius_mm: 30.0,
+            transverse_pressure_angle_rad: 25f64.to_radians(),
+            expansion_per_k: 11.5e-6,
+            delta_temp_k: -100.0,
+            reference: ShrinkReference::Radius(30.0 * 25f64.to_radians().cos()),
+        };
+        assert!(shrink_offset_exact_um(&input).is_err());
+        assert!(ShrinkEval::new(&input, ShrinkMethod::Exact)
+            .offset_um(-100.0)
+            .is_nan());
     }
 }

@@ -148,10 +148,16 @@ impl MovingWindow {
 pub struct DelayLine {
     delay_s: f64,
     spacing_s: f64,
-    t: Vec<f64>,
-    v: Vec<f64>,
+    // Fixed-size rings: an index reduced modulo the capacity needs no bounds check.
+    t: Box<[f64; DELAY_CAPACITY]>,
+    v: Box<[f64; DELAY_CAPACITY]>,
     head: usize,
     len: usize,
+    /// Points stored since the start; with `len`, turns `hint` into a ring position.
+    stored: u64,
+    /// The sequence number of the bracket's lower point found last time: the target
+    /// moves forward by about one cycle, so the next bracket is at or just after it.
+    hint: u64,
 }
 
 /// Points kept by a [`DelayLine`]; at a spacing of delay/(CAP/2) they span twice the delay.
@@ -163,10 +169,12 @@ impl DelayLine {
         Self {
             delay_s,
             spacing_s: delay_s / (DELAY_CAPACITY as f64 / 2.0),
-            t: vec![0.0; DELAY_CAPACITY],
-            v: vec![0.0; DELAY_CAPACITY],
+            t: Box::new([0.0; DELAY_CAPACITY]),
+            v: Box::new([0.0; DELAY_CAPACITY]),
             head: 0,
             len: 0,
+            stored: 0,
+            hint: 0,
         }
     }
 
@@ -195,6 +203,7 @@ impl DelayLine {
             self.v[self.head] = u;
             self.head = (self.head + 1) % DELAY_CAPACITY;
             self.len = (self.len + 1).min(DELAY_CAPACITY);
+            self.stored += 1;
         }
         let target = t_s - self.delay_s;
         let (t0, v0) = self.at(0);
@@ -211,16 +220,36 @@ impl DelayLine {
                 u
             };
         }
-        // Binary search for the last stored point at or before the target.
-        let (mut lo, mut hi) = (0usize, self.len - 1);
-        while hi - lo > 1 {
-            let mid = (lo + hi) / 2;
-            if self.at(mid).0 <= target {
-                lo = mid;
-            } else {
-                hi = mid;
+        // The last stored point at or before the target. Stored times never decrease, so
+        // that point is unique whichever way it is found: first a few steps forward from
+        // last cycle's, else a binary search. Here t[0] ≤ target < t[len − 1].
+        let first_seq = self.stored - self.len as u64;
+        let mut lo = usize::MAX;
+        if self.hint >= first_seq {
+            let k = ((self.hint - first_seq) as usize).min(self.len - 2);
+            if self.at(k).0 <= target {
+                for j in k..(k + 4).min(self.len - 1) {
+                    if self.at(j + 1).0 > target {
+                        lo = j;
+                        break;
+                    }
+                }
             }
         }
+        if lo == usize::MAX {
+            let mut hi;
+            (lo, hi) = (0usize, self.len - 1);
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if self.at(mid).0 <= target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+        }
+        self.hint = first_seq + lo as u64;
+        let hi = lo + 1;
         let (ta, va) = self.at(lo);
         let (tb, vb) = self.at(hi);
         if tb > ta {
@@ -269,6 +298,50 @@ mod tests {
         assert_eq!(w.push(6.0), 4.5);
         assert_eq!(w.push(9.0), 6.0);
         assert_eq!(w.push(12.0), 9.0);
+    }
+
+    /// Against a reference written the plain way (every stored point kept in a `Vec`, a
+    /// linear scan for the bracket): bit-identical for irregular steps, including gaps
+    /// longer than the delay (which defeat the forward search from last cycle's bracket)
+    /// and runs long enough to wrap the ring many times.
+    #[test]
+    fn delay_matches_linear_scan_reference_bit_for_bit() {
+        let delay_s = 50.0;
+        let spacing_s = delay_s / (DELAY_CAPACITY as f64 / 2.0);
+        let mut d = DelayLine::new(delay_s);
+        let mut stored: Vec<(f64, f64)> = Vec::new();
+        let mut t = 0.0;
+        for k in 0..20_000u32 {
+            t += match k % 97 {
+                0 => 80.0,
+                1..=3 => 0.01,
+                _ => 0.05 + f64::from(k % 7) * 0.11,
+            };
+            let u = (t * 0.05).sin() * 10.0 + t * 0.01;
+            let got = d.update(t, u);
+            if stored.last().is_none_or(|p| t - p.0 >= spacing_s) {
+                stored.push((t, u));
+            }
+            let ring = &stored[stored.len().saturating_sub(DELAY_CAPACITY)..];
+            let target = t - delay_s;
+            let (t0, v0) = ring[0];
+            let (tn, vn) = ring[ring.len() - 1];
+            let want = if target <= t0 {
+                v0
+            } else if target >= tn {
+                let span = t - tn;
+                if span > 0.0 {
+                    vn + (u - vn) * (target - tn) / span
+                } else {
+                    u
+                }
+            } else {
+                let j = ring.iter().rposition(|p| p.0 <= target).unwrap();
+                let ((ta, va), (tb, vb)) = (ring[j], ring[j + 1]);
+                va + (vb - va) * (target - ta) / (tb - ta)
+            };
+            assert_eq!(got.to_bits(), want.to_bits(), "t {t}: {got} vs {want}");
+        }
     }
 
     /// A ramp delayed by d is the ramp shifted by d, exactly (linear interpolation).

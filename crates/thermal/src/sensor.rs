@@ -124,6 +124,7 @@ impl SensorKind {
 /// −200 °C ≤ T ≤ 850 °C (the range of the standard).
 /// # Source
 /// IEC 60751:2008, 5.1.2 [STANDARD]
+#[inline]
 pub fn rtd_resistance_ohm(temp_c: f64, r0_ohm: f64) -> f64 {
     let c = if temp_c < 0.0 { CVD_C } else { 0.0 };
     r0_ohm
@@ -143,6 +144,7 @@ pub fn rtd_resistance_ohm(temp_c: f64, r0_ohm: f64) -> f64 {
 /// range rejects it. Returns `None` for R ≤ 0 or non-finite input.
 /// # Source
 /// IEC 60751:2008, 5.1.2 [STANDARD]; inversion [DERIVED]
+#[inline]
 pub fn rtd_temperature_c(r_ohm: f64, r0_ohm: f64) -> Option<f64> {
     if !(r_ohm.is_finite() && r_ohm > 0.0 && r0_ohm > 0.0) {
         return None;
@@ -177,7 +179,28 @@ pub fn ntc_beta_temperature_c(r_ohm: f64, r0_ohm: f64, t0_c: f64, beta_k: f64) -
     if !(r_ohm.is_finite() && r_ohm > 0.0 && r0_ohm > 0.0 && beta_k > 0.0) {
         return None;
     }
-    let inv_t = 1.0 / (t0_c + ZERO_C_IN_K) + (r_ohm / r0_ohm).ln() / beta_k;
+    ntc_beta_temperature_from_inv_t0_c(r_ohm, r0_ohm, 1.0 / (t0_c + ZERO_C_IN_K), beta_k)
+}
+
+/// [`ntc_beta_temperature_c`] with 1/T0 precomputed (the engine computes it once per
+/// channel at build time instead of once per sample; the result is bit-identical).
+///
+/// # Formula
+/// 1/T = 1/T0 + (1/β)·ln(R/R0)
+/// # Units
+/// `inv_t0_per_k` = 1/T0 in 1/K; R, R0 in Ω; β in K; result in °C.
+/// # Domain
+/// The caller has checked R > 0, R0 > 0, β > 0; `None` when 1/T ≤ 0.
+/// # Source
+/// Standard thermistor β equation (e.g. Vishay NTC application note) [STANDARD]
+#[inline]
+pub(crate) fn ntc_beta_temperature_from_inv_t0_c(
+    r_ohm: f64,
+    r0_ohm: f64,
+    inv_t0_per_k: f64,
+    beta_k: f64,
+) -> Option<f64> {
+    let inv_t = inv_t0_per_k + (r_ohm / r0_ohm).ln() / beta_k;
     (inv_t > 0.0).then(|| 1.0 / inv_t - ZERO_C_IN_K)
 }
 
@@ -204,6 +227,7 @@ pub fn ntc_beta_resistance_ohm(temp_c: f64, r0_ohm: f64, t0_c: f64, beta_k: f64)
 /// R > 0; `None` when 1/T ≤ 0.
 /// # Source
 /// Steinhart & Hart, Deep-Sea Research 15 (1968) 497 [STANDARD]
+#[inline]
 pub fn steinhart_hart_temperature_c(r_ohm: f64, a: f64, b: f64, c: f64) -> Option<f64> {
     if !(r_ohm.is_finite() && r_ohm > 0.0) {
         return None;
