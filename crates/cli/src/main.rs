@@ -13,6 +13,7 @@ mod cmd_fit;
 mod cmd_gear;
 mod cmd_grind;
 mod cmd_replay;
+mod cmd_serve;
 mod cmd_shape;
 
 /// Thermal compensation, electronic helical guide, worm dressing and exact involute gear
@@ -45,6 +46,9 @@ enum Command {
     /// Generating grinding with a dressed worm: contact path, worm-to-gear mapping,
     /// diagonal generating, ISO 1328 flank evaluation.
     Grind(cmd_grind::Args),
+    /// The compensation service: sensors in (simulator, MQTT, Modbus TCP), offsets out,
+    /// every sample kept in SQLite, HTTP API and dashboard.
+    Serve(cmd_serve::Args),
 }
 
 fn main() -> ExitCode {
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
         Command::Shape(a) => cmd_shape::run(a),
         Command::Dress(a) => cmd_dress::run(a),
         Command::Grind(a) => cmd_grind::run(a),
+        Command::Serve(a) => cmd_serve::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

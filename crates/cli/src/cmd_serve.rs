@@ -1,0 +1,75 @@
+//! `gearcomp serve`: the compensation service (see `docs/service.md`).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use gearcomp_service::{serve, Overrides, ServiceConfig};
+
+/// Runs the compensation service: sensors in, the engine in its cycle, offsets out, every
+/// sample kept, HTTP API and dashboard.
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "With no configuration it runs the embedded default: the simulated \
+grinder of the thermal presets, the record in ./gearcomp.db, the dashboard on \
+http://127.0.0.1:8080 (tokens printed at first start).\n\
+Examples:\n  gearcomp serve --speedup 60\n  gearcomp serve --config machine.toml\n  \
+gearcomp serve --db gearcomp.db --export-csv log.csv   (then: gearcomp fit log.csv --target measured_drift_um)"
+)]
+pub struct Args {
+    /// Service configuration (TOML); unknown keys are refused.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Database file (overrides storage.path).
+    #[arg(long)]
+    pub db: Option<PathBuf>,
+    /// HTTP port (overrides http.port; 0 picks a free port, printed on stdout).
+    #[arg(long)]
+    pub port: Option<u16>,
+    /// Simulated seconds per wall-clock second (simulator input only).
+    #[arg(long)]
+    pub speedup: Option<f64>,
+    /// Stop cleanly after this many wall-clock seconds.
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Export the record as a CSV for `gearcomp fit` and exit.
+    #[arg(long, value_name = "CSV")]
+    pub export_csv: Option<PathBuf>,
+    /// Print the SHA-256 of a token (for `[[auth.tokens]] sha256 = ...`) and exit.
+    #[arg(long, value_name = "TOKEN")]
+    pub hash_token: Option<String>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(t) = &args.hash_token {
+        println!("{}", gearcomp_service::auth::hash_token(t));
+        return Ok(());
+    }
+    let cfg = match &args.config {
+        Some(p) => ServiceConfig::load(p)?,
+        None => ServiceConfig::default(),
+    };
+    if let Some(out) = &args.export_csv {
+        let db = args.db.clone().unwrap_or_else(|| cfg.storage.path.clone());
+        if !db.exists() {
+            anyhow::bail!(
+                "invalid --db = {}: expected an existing record",
+                db.display()
+            );
+        }
+        let rows = gearcomp_service::storage::export_csv(&db, out)
+            .with_context(|| format!("export {} to {}", db.display(), out.display()))?;
+        println!("wrote {} ({rows} rows)", out.display());
+        return Ok(());
+    }
+    serve(
+        cfg,
+        Overrides {
+            duration_s: args.duration_s,
+            speedup: args.speedup,
+            port: args.port,
+            db: args.db,
+        },
+    )?;
+    Ok(())
+}

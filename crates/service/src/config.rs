@@ -1,0 +1,723 @@
+//! The service configuration (`machine.toml`): which machine, which inputs, where the
+//! record goes, how the API is reached.
+//!
+//! Every table denies unknown keys, so a misspelt key is an error naming it, not a setting
+//! silently ignored. [`ServiceConfig::validate`] checks ranges and names the key, the
+//! value and the allowed range. Relative paths are taken from the configuration file's
+//! folder.
+
+use std::net::IpAddr;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{check_range, invalid, Result, ServiceError};
+
+/// The whole service configuration.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServiceConfig {
+    /// Which machine this process serves.
+    #[serde(default)]
+    pub machine: MachineSection,
+    /// The compensation law (a preset or an engine configuration file).
+    #[serde(default)]
+    pub engine: EngineSection,
+    /// The engine cycle.
+    #[serde(default)]
+    pub cycle: CycleSection,
+    /// The SQLite record.
+    #[serde(default)]
+    pub storage: StorageSection,
+    /// The HTTP API and dashboard.
+    #[serde(default)]
+    pub http: HttpSection,
+    /// Access tokens.
+    #[serde(default)]
+    pub auth: AuthSection,
+    /// Where the sensor readings come from (and where the offset goes).
+    #[serde(default)]
+    pub input: InputSection,
+}
+
+/// The machine's identity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineSection {
+    /// Name used in MQTT topics and shown on the dashboard (letters, digits, `-`, `_`).
+    pub name: String,
+}
+
+impl Default for MachineSection {
+    fn default() -> Self {
+        Self { name: "sim".into() }
+    }
+}
+
+/// The compensation law.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EngineSection {
+    /// A simulator preset whose engine configuration is used: grinder, shaper, hobbing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// An engine configuration file (`gearcomp_thermal::EngineConfig` TOML).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+}
+
+/// The engine cycle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CycleSection {
+    /// Longest time between two engine steps, in s of service time; a complete scan of
+    /// every channel steps the engine at once. 0.001…3600 s.
+    #[serde(default = "default_cycle_period_s")]
+    pub period_s: f64,
+    /// Rate of the bumpless transfer after a model change, in µm per cycle, for axes whose
+    /// law has no `max_step_um`. 0.001…1000 µm.
+    #[serde(default = "default_bumpless_step_um")]
+    pub bumpless_step_um: f64,
+}
+
+fn default_cycle_period_s() -> f64 {
+    1.0
+}
+fn default_bumpless_step_um() -> f64 {
+    0.5
+}
+
+impl Default for CycleSection {
+    fn default() -> Self {
+        Self {
+            period_s: default_cycle_period_s(),
+            bumpless_step_um: default_bumpless_step_um(),
+        }
+    }
+}
+
+/// The SQLite record.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StorageSection {
+    /// Database file.
+    #[serde(default = "default_db")]
+    pub path: PathBuf,
+    /// Longest time between two commits, in wall-clock s (what a crash can lose).
+    /// 0.01…1 s.
+    #[serde(default = "default_commit_interval_s")]
+    pub commit_interval_s: f64,
+}
+
+fn default_db() -> PathBuf {
+    PathBuf::from("gearcomp.db")
+}
+fn default_commit_interval_s() -> f64 {
+    0.25
+}
+
+impl Default for StorageSection {
+    fn default() -> Self {
+        Self {
+            path: default_db(),
+            commit_interval_s: default_commit_interval_s(),
+        }
+    }
+}
+
+/// The HTTP API and dashboard.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HttpSection {
+    /// Address to bind; 127.0.0.1 unless the plant network needs otherwise.
+    #[serde(default = "default_bind")]
+    pub bind: IpAddr,
+    /// TCP port; 0 picks a free one (printed on stdout).
+    #[serde(default = "default_port")]
+    pub port: u16,
+}
+
+fn default_bind() -> IpAddr {
+    IpAddr::from([127, 0, 0, 1])
+}
+fn default_port() -> u16 {
+    8080
+}
+
+impl Default for HttpSection {
+    fn default() -> Self {
+        Self {
+            bind: default_bind(),
+            port: default_port(),
+        }
+    }
+}
+
+/// Access tokens.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AuthSection {
+    /// Configured tokens, stored as SHA-256 hashes; when empty and the database has none,
+    /// one operator and one read-only token are generated at first start and printed once.
+    #[serde(default)]
+    pub tokens: Vec<TokenEntry>,
+}
+
+/// A configured token.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TokenEntry {
+    /// What the token may do.
+    pub role: Role,
+    /// SHA-256 of the token, 64 lowercase hex digits (`gearcomp serve --hash-token`).
+    pub sha256: String,
+}
+
+/// Access roles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// Reads status, history, alarms and the model.
+    ReadOnly,
+    /// Also acknowledges alarms and changes the model (logged).
+    Operator,
+}
+
+impl Role {
+    /// The name stored in the database and the audit log.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::ReadOnly => "read_only",
+            Role::Operator => "operator",
+        }
+    }
+
+    /// Parses a stored name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "read_only" => Some(Role::ReadOnly),
+            "operator" => Some(Role::Operator),
+            _ => None,
+        }
+    }
+}
+
+/// Where the sensor readings come from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum InputSection {
+    /// The lumped thermal simulator of a preset machine (gearcomp-thermal).
+    Simulator {
+        /// Preset: grinder, shaper, hobbing (default: the engine preset, else grinder).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        preset: Option<String>,
+        /// Noise generator seed.
+        #[serde(default)]
+        seed: u64,
+        /// Simulated seconds per wall-clock second, 0.001…1e6.
+        #[serde(default = "one")]
+        speedup: f64,
+    },
+    /// MQTT: JSON readings on `<prefix>/<machine>/channel/<channel>`, the offset published
+    /// on `<prefix>/<machine>/offset/<axis>`.
+    #[cfg(feature = "mqtt")]
+    Mqtt(MqttInput),
+    /// Modbus TCP temperature modules; optionally the offset written to a register.
+    #[cfg(feature = "modbus")]
+    Modbus(ModbusInput),
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl Default for InputSection {
+    fn default() -> Self {
+        InputSection::Simulator {
+            preset: None,
+            seed: 0,
+            speedup: 1.0,
+        }
+    }
+}
+
+/// Reconnect back-off: the wait doubles from `min_s` up to `max_s` after each failure.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Backoff {
+    /// First wait, s (0.01…60).
+    #[serde(default = "backoff_min")]
+    pub min_s: f64,
+    /// Longest wait, s (min_s…600).
+    #[serde(default = "backoff_max")]
+    pub max_s: f64,
+}
+
+fn backoff_min() -> f64 {
+    0.2
+}
+fn backoff_max() -> f64 {
+    10.0
+}
+
+impl Default for Backoff {
+    fn default() -> Self {
+        Self {
+            min_s: backoff_min(),
+            max_s: backoff_max(),
+        }
+    }
+}
+
+impl Backoff {
+    /// The wait after `failures` consecutive failures (1 = first).
+    ///
+    /// # Formula
+    /// wait = min(max_s, min_s·2^(failures−1))
+    /// # Source
+    /// capped exponential back-off [CONVENTION, docs/service.md]
+    pub fn wait_s(&self, failures: u32) -> f64 {
+        let exp = failures.saturating_sub(1).min(30) as i32;
+        (self.min_s * 2f64.powi(exp)).min(self.max_s)
+    }
+
+    #[cfg_attr(not(any(feature = "mqtt", feature = "modbus")), allow(dead_code))]
+    fn validate(&self, field: &str) -> Result<()> {
+        check_range(
+            &format!("{field}.min_s"),
+            self.min_s,
+            0.01,
+            60.0,
+            "0.01…60 s",
+        )?;
+        check_range(
+            &format!("{field}.max_s"),
+            self.max_s,
+            self.min_s,
+            600.0,
+            "min_s…600 s",
+        )
+    }
+}
+
+/// MQTT input and output.
+#[cfg(feature = "mqtt")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MqttInput {
+    /// Broker host name or address.
+    pub host: String,
+    /// Broker port.
+    #[serde(default = "mqtt_port")]
+    pub port: u16,
+    /// Topic prefix.
+    #[serde(default = "mqtt_prefix")]
+    pub topic_prefix: String,
+    /// Client id (default `gearcomp-<machine>`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub client_id: Option<String>,
+    /// Keep-alive, s (5…3600).
+    #[serde(default = "mqtt_keep_alive")]
+    pub keep_alive_s: u64,
+    /// Publish the applied offset.
+    #[serde(default = "yes")]
+    pub publish_offset: bool,
+    /// Reconnect back-off.
+    #[serde(default)]
+    pub reconnect: Backoff,
+}
+
+#[cfg(feature = "mqtt")]
+fn mqtt_port() -> u16 {
+    1883
+}
+#[cfg(feature = "mqtt")]
+fn mqtt_prefix() -> String {
+    "gearcomp".into()
+}
+#[cfg(feature = "mqtt")]
+fn mqtt_keep_alive() -> u64 {
+    30
+}
+#[cfg(feature = "mqtt")]
+fn yes() -> bool {
+    true
+}
+
+/// Modbus TCP temperature modules.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusInput {
+    /// Polling period, s (0.01…3600).
+    #[serde(default = "one")]
+    pub poll_period_s: f64,
+    /// Reconnect back-off.
+    #[serde(default)]
+    pub reconnect: Backoff,
+    /// The modules.
+    pub modules: Vec<ModbusModule>,
+    /// Where the offset is written, if anywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_output: Option<ModbusOffsetOutput>,
+}
+
+/// One Modbus TCP module.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusModule {
+    /// Host name or address.
+    pub host: String,
+    /// Port.
+    #[serde(default = "modbus_port")]
+    pub port: u16,
+    /// Unit (slave) id.
+    #[serde(default = "modbus_unit")]
+    pub unit_id: u8,
+    /// Registers mapped to channels.
+    pub registers: Vec<RegisterMap>,
+}
+
+#[cfg(feature = "modbus")]
+fn modbus_port() -> u16 {
+    502
+}
+#[cfg(feature = "modbus")]
+fn modbus_unit() -> u8 {
+    1
+}
+
+/// Which register table.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegisterTable {
+    /// Function 04.
+    Input,
+    /// Function 03.
+    Holding,
+}
+
+/// One register read as one channel.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegisterMap {
+    /// Engine channel name.
+    pub channel: String,
+    /// Register address (0-based protocol address).
+    pub address: u16,
+    /// Input or holding register.
+    #[serde(default = "input_table")]
+    pub table: RegisterTable,
+    /// The register holds a two's-complement i16 (most temperature modules do).
+    #[serde(default = "yes_modbus")]
+    pub signed: bool,
+    /// Engineering value = register·scale + offset (e.g. 0.1 for tenths of °C).
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// See `scale`.
+    #[serde(default)]
+    pub offset: f64,
+    /// Lowest plausible register value; below it the reading is an alarm, not a value.
+    #[serde(default = "i16_min")]
+    pub raw_min: i32,
+    /// Highest plausible register value (modules report 0x7FFF / 0x8000 for a broken
+    /// sensor).
+    #[serde(default = "i16_max")]
+    pub raw_max: i32,
+}
+
+#[cfg(feature = "modbus")]
+fn input_table() -> RegisterTable {
+    RegisterTable::Input
+}
+#[cfg(feature = "modbus")]
+fn yes_modbus() -> bool {
+    true
+}
+#[cfg(feature = "modbus")]
+fn i16_min() -> i32 {
+    -32767
+}
+#[cfg(feature = "modbus")]
+fn i16_max() -> i32 {
+    32766
+}
+
+/// The offset written to a holding register of the first module.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusOffsetOutput {
+    /// Axis name.
+    pub axis: String,
+    /// Holding register address.
+    pub address: u16,
+    /// µm per register count (i16, two's complement), 0.001…1000.
+    #[serde(default = "tenth")]
+    pub um_per_count: f64,
+}
+
+#[cfg(feature = "modbus")]
+fn tenth() -> f64 {
+    0.1
+}
+
+impl ServiceConfig {
+    /// Parses a configuration text; `path` only names the file in messages.
+    pub fn from_toml_str(text: &str, path: &str) -> Result<Self> {
+        let cfg: Self = toml::from_str(text).map_err(|e| ServiceError::Config {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Reads and validates a configuration file, resolving relative paths against its
+    /// folder.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| ServiceError::Io {
+            action: "read",
+            path: path.display().to_string(),
+            source,
+        })?;
+        let mut cfg = Self::from_toml_str(&text, &path.display().to_string())?;
+        let dir = path.parent().unwrap_or_else(|| Path::new("."));
+        if cfg.storage.path.is_relative() {
+            cfg.storage.path = dir.join(&cfg.storage.path);
+        }
+        if let Some(f) = &cfg.engine.file {
+            if f.is_relative() {
+                cfg.engine.file = Some(dir.join(f));
+            }
+        }
+        Ok(cfg)
+    }
+
+    /// Checks every range; the error names the key, the value and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let name = &self.machine.name;
+        if name.is_empty()
+            || name.len() > 64
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(invalid(
+                "machine.name",
+                format!("{name:?}"),
+                "1–64 letters, digits, '-' or '_'",
+            ));
+        }
+        if self.engine.preset.is_some() && self.engine.file.is_some() {
+            return Err(invalid(
+                "engine",
+                "both preset and file",
+                "either engine.preset or engine.file",
+            ));
+        }
+        if let Some(p) = &self.engine.preset {
+            gearcomp_thermal::Preset::from_name(p)?;
+        }
+        check_range(
+            "cycle.period_s",
+            self.cycle.period_s,
+            0.001,
+            3600.0,
+            "0.001…3600 s",
+        )?;
+        check_range(
+            "cycle.bumpless_step_um",
+            self.cycle.bumpless_step_um,
+            0.001,
+            1000.0,
+            "0.001…1000 µm",
+        )?;
+        check_range(
+            "storage.commit_interval_s",
+            self.storage.commit_interval_s,
+            0.01,
+            1.0,
+            "0.01…1 s (a crash loses at most this)",
+        )?;
+        for (i, t) in self.auth.tokens.iter().enumerate() {
+            if t.sha256.len() != 64
+                || !t
+                    .sha256
+                    .chars()
+                    .all(|c| c.is_ascii_digit() || ('a'..='f').contains(&c))
+            {
+                return Err(invalid(
+                    format!("auth.tokens[{i}].sha256"),
+                    &t.sha256,
+                    "64 lowercase hex digits (SHA-256 of the token)",
+                ));
+            }
+        }
+        match &self.input {
+            InputSection::Simulator {
+                preset, speedup, ..
+            } => {
+                if let Some(p) = preset {
+                    gearcomp_thermal::Preset::from_name(p)?;
+                }
+                check_range("input.speedup", *speedup, 0.001, 1e6, "0.001…1e6")?;
+                if self.engine.file.is_none() {
+                    if let (Some(a), Some(b)) = (preset, &self.engine.preset) {
+                        if !a.eq_ignore_ascii_case(b) {
+                            return Err(invalid(
+                                "input.preset",
+                                a,
+                                format!("the engine preset {b:?} (or an engine.file)"),
+                            ));
+                        }
+                    }
+                }
+            }
+            #[cfg(feature = "mqtt")]
+            InputSection::Mqtt(m) => {
+                if m.host.is_empty() {
+                    return Err(invalid("input.host", "\"\"", "a broker host"));
+                }
+                if m.topic_prefix.is_empty() || m.topic_prefix.contains(['+', '#']) {
+                    return Err(invalid(
+                        "input.topic_prefix",
+                        &m.topic_prefix,
+                        "a non-empty topic without wildcards",
+                    ));
+                }
+                check_range(
+                    "input.keep_alive_s",
+                    m.keep_alive_s as f64,
+                    5.0,
+                    3600.0,
+                    "5…3600 s",
+                )?;
+                m.reconnect.validate("input.reconnect")?;
+            }
+            #[cfg(feature = "modbus")]
+            InputSection::Modbus(m) => {
+                check_range(
+                    "input.poll_period_s",
+                    m.poll_period_s,
+                    0.01,
+                    3600.0,
+                    "0.01…3600 s",
+                )?;
+                m.reconnect.validate("input.reconnect")?;
+                if m.modules.is_empty() {
+                    return Err(invalid("input.modules", 0, "at least one module"));
+                }
+                for (i, md) in m.modules.iter().enumerate() {
+                    for (j, r) in md.registers.iter().enumerate() {
+                        let f = format!("input.modules[{i}].registers[{j}]");
+                        check_range(&format!("{f}.scale"), r.scale, -1e6, 1e6, "finite, ≠ 0")?;
+                        if r.scale == 0.0 {
+                            return Err(invalid(format!("{f}.scale"), 0, "≠ 0"));
+                        }
+                        check_range(&format!("{f}.offset"), r.offset, -1e9, 1e9, "finite")?;
+                        let (lo, hi) = if r.signed {
+                            (-32768, 32767)
+                        } else {
+                            (0, 65535)
+                        };
+                        if r.raw_min < lo || r.raw_max > hi || r.raw_min > r.raw_max {
+                            return Err(invalid(
+                                format!("{f}.raw_min/raw_max"),
+                                format!("{}…{}", r.raw_min, r.raw_max),
+                                format!("{lo} ≤ raw_min ≤ raw_max ≤ {hi}"),
+                            ));
+                        }
+                    }
+                }
+                if let Some(o) = &m.offset_output {
+                    check_range(
+                        "input.offset_output.um_per_count",
+                        o.um_per_count,
+                        0.001,
+                        1000.0,
+                        "0.001…1000 µm",
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn empty_file_is_the_embedded_default() {
+        let c = ServiceConfig::from_toml_str("", "t").unwrap();
+        assert_eq!(c, ServiceConfig::default());
+        assert_eq!(c.http.bind, IpAddr::from([127, 0, 0, 1]));
+        assert!(matches!(c.input, InputSection::Simulator { .. }));
+    }
+
+    #[test]
+    fn unknown_keys_and_ranges_are_named() {
+        let e = ServiceConfig::from_toml_str("[http]\nprot = 1\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("prot") && e.contains("m.toml"), "{e}");
+        let e = ServiceConfig::from_toml_str("[cycle]\nperiod_s = 0.0\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("cycle.period_s") && e.contains("0.001…3600"),
+            "{e}"
+        );
+        let e = ServiceConfig::from_toml_str("[machine]\nname = \"a/b\"\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("machine.name"), "{e}");
+        let e = ServiceConfig::from_toml_str(
+            "[[auth.tokens]]\nrole = \"operator\"\nsha256 = \"xyz\"\n",
+            "m.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("auth.tokens[0].sha256"), "{e}");
+    }
+
+    #[test]
+    fn backoff_doubles_to_its_ceiling() {
+        let b = Backoff {
+            min_s: 0.25,
+            max_s: 3.0,
+        };
+        let w: Vec<f64> = (1..=6).map(|k| b.wait_s(k)).collect();
+        assert_eq!(w, vec![0.25, 0.5, 1.0, 2.0, 3.0, 3.0]);
+        assert_eq!(b.wait_s(u32::MAX), 3.0);
+    }
+
+    #[test]
+    fn round_trip_through_toml() {
+        let mut c = ServiceConfig::default();
+        c.machine.name = "gs-300_2".into();
+        c.http.port = 9000;
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics_on_any_text(s in "\\PC{0,200}") {
+            let _ = ServiceConfig::from_toml_str(&s, "p");
+        }
+
+        #[test]
+        fn never_panics_on_any_numbers(p in any::<f64>(), c in any::<f64>(), s in any::<f64>()) {
+            let text = format!("[cycle]\nperiod_s = {p:?}\n[storage]\ncommit_interval_s = {c:?}\n[input]\nkind = \"simulator\"\nspeedup = {s:?}\n");
+            let _ = ServiceConfig::from_toml_str(&text, "p");
+        }
+    }
+}

@@ -1,0 +1,743 @@
+//! The cycle thread: the engine steps here, on a plain OS thread with no async runtime, no
+//! allocation per cycle and only short uncontended locks. Inputs arrive over a bounded
+//! channel; records leave over another; the applied offset goes to the outputs through a
+//! `watch` cell (latest value wins, so a slow output never holds the cycle up).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use gearcomp_thermal::{
+    Alarm, AxisStatus, Engine, EngineConfig, EngineStatus, Fault, Inputs, Reading, StopReason,
+    MAX_AXES,
+};
+use serde::Serialize;
+
+use crate::storage::Record;
+
+/// The service clock: seconds of (possibly sped-up) time, continuing the record of
+/// earlier runs.
+#[derive(Debug, Clone, Copy)]
+pub struct Clock {
+    start: Instant,
+    origin_s: f64,
+    speedup: f64,
+}
+
+impl Clock {
+    /// A clock reading `origin_s` now and advancing `speedup` s per wall-clock second.
+    pub fn new(origin_s: f64, speedup: f64) -> Self {
+        Self {
+            start: Instant::now(),
+            origin_s,
+            speedup,
+        }
+    }
+
+    /// Current time, s.
+    ///
+    /// # Formula
+    /// t = origin + speedup·(wall time since start)
+    /// # Source
+    /// [CONVENTION, docs/service.md: the record's time continues across restarts]
+    pub fn now_s(&self) -> f64 {
+        self.origin_s + self.speedup * self.start.elapsed().as_secs_f64()
+    }
+
+    /// The time the clock started at, s.
+    pub fn origin_s(&self) -> f64 {
+        self.origin_s
+    }
+
+    /// Clock seconds per wall-clock second.
+    pub fn speedup(&self) -> f64 {
+        self.speedup
+    }
+
+    /// Wall-clock duration of `clock_s` seconds of service time.
+    pub fn wall(&self, clock_s: f64) -> Duration {
+        Duration::from_secs_f64((clock_s / self.speedup).clamp(0.0, 1e9))
+    }
+}
+
+/// A message to the cycle thread.
+#[derive(Debug)]
+pub enum InputMsg {
+    /// One raw reading of a channel (engine order).
+    Sample {
+        /// Channel index.
+        channel: u16,
+        /// Raw value in the sensor's unit; NaN marks a reading known to be bad.
+        raw: f64,
+        /// Acquisition time, s (service clock).
+        stamp_s: f64,
+    },
+    /// The machine state that comes with the next readings.
+    MachineState {
+        /// Between cuts (simulator: load/unload), where an offset change cannot mark a
+        /// flank.
+        safe_point: bool,
+    },
+    /// The source finished a scan of its channels: step now if anything is new (a scan of
+    /// every channel steps without it).
+    ScanEnd,
+    /// A reference value to keep with the record (simulator: probe drift).
+    Target {
+        /// Target index.
+        target: u16,
+        /// Value, µm.
+        value: f64,
+        /// Time, s.
+        stamp_s: f64,
+    },
+    /// An input-side alarm became active (kept until cleared).
+    RaiseAlarm {
+        /// Stable key, e.g. `mqtt.connection`.
+        key: String,
+        /// Text naming what, which value and what was expected.
+        message: String,
+    },
+    /// An input-side alarm is no longer active.
+    ClearAlarm {
+        /// The key it was raised with.
+        key: String,
+    },
+    /// Replace the engine (operator model change), with a bumpless transfer.
+    SwapEngine(Box<Engine>, Box<EngineConfig>),
+    /// The operator acknowledged the stop request.
+    AckStop,
+    /// Finish the cycle, flush and end.
+    Shutdown,
+}
+
+/// The offsets as they leave the process.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OffsetOut {
+    /// Cycle time, s.
+    pub time_s: f64,
+    /// Increments with every change (outputs skip values they have written).
+    pub seq: u64,
+    /// Applied offset per axis, µm.
+    pub offsets_um: [f64; MAX_AXES],
+    /// Axes in use.
+    pub n_axes: u8,
+    /// Wall-clock instant the scan that caused it completed.
+    pub scan_at: Option<Instant>,
+}
+
+impl Default for OffsetOut {
+    fn default() -> Self {
+        Self {
+            time_s: f64::NAN,
+            seq: 0,
+            offsets_um: [0.0; MAX_AXES],
+            n_axes: 0,
+            scan_at: None,
+        }
+    }
+}
+
+/// A channel as the API shows it.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiveChannel {
+    /// Name.
+    pub name: String,
+    /// Last raw reading.
+    pub raw: Option<f64>,
+    /// Its acquisition time, s.
+    pub stamp_s: Option<f64>,
+    /// Averaged, filtered value (°C or µm).
+    pub value: Option<f64>,
+    /// The fault of the last cycle.
+    pub fault: Option<&'static str>,
+}
+
+/// An axis as the API shows it.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiveAxis {
+    /// Name.
+    pub name: String,
+    /// Applied offset (what leaves the process), µm.
+    pub offset_um: f64,
+    /// The engine's offset, µm (differs from `offset_um` during a bumpless transfer).
+    pub engine_offset_um: f64,
+    /// Running compensation, µm.
+    pub target_um: f64,
+    /// Law value, µm.
+    pub law_um: Option<f64>,
+    /// Status.
+    pub status: &'static str,
+}
+
+/// The state the cycle publishes after every step.
+#[derive(Debug, Clone, Serialize)]
+pub struct Live {
+    /// Last cycle time, s.
+    pub time_s: f64,
+    /// Engine status.
+    pub status: &'static str,
+    /// Cycles run.
+    pub cycles: u64,
+    /// Samples received.
+    pub samples: u64,
+    /// Channels.
+    pub channels: Vec<LiveChannel>,
+    /// Axes.
+    pub axes: Vec<LiveAxis>,
+    /// The latched stop request.
+    pub stop: Option<String>,
+}
+
+impl Live {
+    /// The initial state for these names.
+    pub fn new(channels: &[String], axes: &[String]) -> Self {
+        Self {
+            time_s: f64::NAN,
+            status: "starting",
+            cycles: 0,
+            samples: 0,
+            channels: channels
+                .iter()
+                .map(|n| LiveChannel {
+                    name: n.clone(),
+                    raw: None,
+                    stamp_s: None,
+                    value: None,
+                    fault: None,
+                })
+                .collect(),
+            axes: axes
+                .iter()
+                .map(|n| LiveAxis {
+                    name: n.clone(),
+                    offset_um: 0.0,
+                    engine_offset_um: 0.0,
+                    target_um: 0.0,
+                    law_um: None,
+                    status: "starting",
+                })
+                .collect(),
+            stop: None,
+        }
+    }
+}
+
+/// Bumpless transfer after an engine swap: the output holds the last applied offset until
+/// the new engine has a value, then the difference decays at a fixed rate.
+///
+/// # Formula
+/// bias₀ = y_old − y_new(k₀) at the first ready cycle k₀;
+/// bias(k+1) = bias(k) − clamp(bias(k), −r, r);  output = y_new + bias
+/// so the output moves by at most r + |Δy_new| per cycle and reaches y_new after
+/// ⌈|bias₀|/r⌉ cycles.
+/// # Source
+/// bumpless transfer as used for controller mode changes [STANDARD control practice];
+/// the rate r is the axis's `max_step_um`, else `cycle.bumpless_step_um` [CONVENTION,
+/// docs/service.md]
+#[derive(Debug, Clone, Copy)]
+pub struct Bumpless {
+    bias_um: [f64; MAX_AXES],
+    rate_um: [f64; MAX_AXES],
+    hold_um: [f64; MAX_AXES],
+    pending: [bool; MAX_AXES],
+}
+
+impl Default for Bumpless {
+    fn default() -> Self {
+        Self {
+            bias_um: [0.0; MAX_AXES],
+            rate_um: [f64::INFINITY; MAX_AXES],
+            hold_um: [0.0; MAX_AXES],
+            pending: [false; MAX_AXES],
+        }
+    }
+}
+
+impl Bumpless {
+    /// Starts a transfer from the applied offsets `last_um` at rates `rate_um` (µm/cycle).
+    pub fn start(&mut self, last_um: &[f64], rate_um: &[f64]) {
+        for (i, (&l, &r)) in last_um.iter().zip(rate_um).enumerate().take(MAX_AXES) {
+            self.hold_um[i] = l;
+            self.rate_um[i] = r;
+            self.pending[i] = true;
+            self.bias_um[i] = 0.0;
+        }
+    }
+
+    /// The offset to apply for axis `i` given the engine's offset and whether the engine
+    /// has a value for it yet.
+    pub fn apply(&mut self, i: usize, engine_um: f64, ready: bool) -> f64 {
+        if i >= MAX_AXES {
+            return engine_um;
+        }
+        if self.pending[i] {
+            if !ready {
+                return self.hold_um[i];
+            }
+            self.pending[i] = false;
+            self.bias_um[i] = self.hold_um[i] - engine_um;
+        }
+        let r = self.rate_um[i];
+        let b = self.bias_um[i];
+        let out = engine_um + b;
+        self.bias_um[i] = b - b.clamp(-r, r);
+        out
+    }
+}
+
+fn status_name(s: AxisStatus) -> &'static str {
+    match s {
+        AxisStatus::Starting => "starting",
+        AxisStatus::Updated => "updated",
+        AxisStatus::Held => "held",
+        AxisStatus::Clamped => "clamped",
+        AxisStatus::Ramping => "ramping",
+        AxisStatus::WaitingSafePoint => "waiting_safe_point",
+        AxisStatus::Frozen => "frozen",
+        AxisStatus::Stopped => "stopped",
+    }
+}
+
+fn engine_status_name(s: EngineStatus) -> &'static str {
+    match s {
+        EngineStatus::Running => "running",
+        EngineStatus::Alarm => "alarm",
+        EngineStatus::StopRequested => "stop_requested",
+    }
+}
+
+/// The name of a channel fault.
+pub fn fault_name(f: Fault) -> &'static str {
+    match f {
+        Fault::NotANumber => "not_a_number",
+        Fault::OpenCircuit => "open_circuit",
+        Fault::ShortCircuit => "short_circuit",
+        Fault::OutOfRange => "out_of_range",
+        Fault::Stale => "stale",
+        Fault::Stuck => "stuck",
+        Fault::OutOfOrder => "out_of_order",
+    }
+}
+
+fn engine_alarm_key(a: Alarm) -> Option<&'static str> {
+    match a {
+        Alarm::Channel { .. } => None,
+        Alarm::TimeOutOfOrder { .. } => Some("engine.time_out_of_order"),
+        Alarm::InputCount { .. } => Some("engine.input_count"),
+        Alarm::PositionMissing { .. } => Some("engine.position_missing"),
+        Alarm::LawNotFinite { .. } => Some("engine.law_not_finite"),
+    }
+}
+
+/// Everything the cycle thread owns.
+pub struct Cycle {
+    engine: Engine,
+    config: EngineConfig,
+    clock: Clock,
+    period: Duration,
+    bumpless_step_um: f64,
+    records: SyncSender<Record>,
+    live: Arc<Mutex<Live>>,
+    offsets: tokio::sync::watch::Sender<OffsetOut>,
+    readings: Vec<Reading>,
+    fresh: Vec<bool>,
+    n_fresh: usize,
+    safe_point: bool,
+    last_time_s: f64,
+    prev_fault: Vec<Option<Fault>>,
+    prev_engine_alarm: Option<&'static str>,
+    prev_stop: bool,
+    input_alarms: std::collections::BTreeSet<String>,
+    bumpless: Bumpless,
+    applied_um: [f64; MAX_AXES],
+    seq: u64,
+    cycles: u64,
+    samples: u64,
+    scan_at: Option<Instant>,
+    last_step: Instant,
+    shutdown: Arc<AtomicBool>,
+}
+
+/// What the cycle needs to start.
+pub struct CycleParts {
+    /// The engine, built from `config`.
+    pub engine: Engine,
+    /// Its configuration (kept for model changes and the API).
+    pub config: EngineConfig,
+    /// The service clock.
+    pub clock: Clock,
+    /// Longest time between steps, s of service time.
+    pub period_s: f64,
+    /// Bumpless rate for axes without `max_step_um`, µm/cycle.
+    pub bumpless_step_um: f64,
+    /// Where records go.
+    pub records: SyncSender<Record>,
+    /// Shared status.
+    pub live: Arc<Mutex<Live>>,
+    /// Where the offsets go.
+    pub offsets: tokio::sync::watch::Sender<OffsetOut>,
+    /// Set when the service is stopping.
+    pub shutdown: Arc<AtomicBool>,
+}
+
+impl Cycle {
+    /// Builds the cycle with all its buffers.
+    pub fn new(p: CycleParts) -> Self {
+        let n = p.engine.channel_names().len();
+        let clock = p.clock;
+        Self {
+            period: clock.wall(p.period_s),
+            bumpless_step_um: p.bumpless_step_um,
+            readings: vec![
+                Reading {
+                    raw: f64::NAN,
+                    stamp_s: f64::NEG_INFINITY,
+                };
+                n
+            ],
+            fresh: vec![false; n],
+            n_fresh: 0,
+            safe_point: true,
+            last_time_s: f64::NEG_INFINITY,
+            prev_fault: vec![None; n],
+            prev_engine_alarm: None,
+            prev_stop: false,
+            input_alarms: Default::default(),
+            bumpless: Bumpless::default(),
+            applied_um: [0.0; MAX_AXES],
+            seq: 0,
+            cycles: 0,
+            samples: 0,
+            scan_at: None,
+            last_step: Instant::now(),
+            engine: p.engine,
+            config: p.config,
+            clock,
+            records: p.records,
+            live: p.live,
+            offsets: p.offsets,
+            shutdown: p.shutdown,
+        }
+    }
+
+    fn record(&self, r: Record) {
+        // A closed store means the service is ending; the cycle must not panic over it.
+        let _ = self.records.send(r);
+    }
+
+    fn raise(&self, time_s: f64, key: String, message: String) {
+        self.record(Record::AlarmRaised {
+            time_s,
+            key,
+            message,
+        });
+    }
+
+    /// Handles one message; returns false on shutdown.
+    pub fn handle(&mut self, msg: InputMsg) -> bool {
+        match msg {
+            InputMsg::Sample {
+                channel,
+                raw,
+                stamp_s,
+            } => {
+                let c = channel as usize;
+                self.samples += 1;
+                self.record(Record::Sample {
+                    time_s: stamp_s,
+                    channel,
+                    raw,
+                });
+                if let Some(r) = self.readings.get_mut(c) {
+                    *r = Reading { raw, stamp_s };
+                    if !self.fresh[c] {
+                        self.fresh[c] = true;
+                        self.n_fresh += 1;
+                    }
+                    if self.n_fresh == self.fresh.len() {
+                        self.scan_at = Some(Instant::now());
+                        self.step();
+                    }
+                }
+            }
+            InputMsg::MachineState { safe_point } => self.safe_point = safe_point,
+            InputMsg::ScanEnd => {
+                if self.n_fresh > 0 {
+                    self.scan_at = Some(Instant::now());
+                    self.step();
+                }
+            }
+            InputMsg::Target {
+                target,
+                value,
+                stamp_s,
+            } => self.record(Record::Target {
+                time_s: stamp_s,
+                target,
+                value,
+            }),
+            InputMsg::RaiseAlarm { key, message } => {
+                if self.input_alarms.insert(key.clone()) {
+                    self.raise(self.clock.now_s(), key, message);
+                }
+            }
+            InputMsg::ClearAlarm { key } => {
+                if self.input_alarms.remove(&key) {
+                    self.record(Record::AlarmCleared {
+                        time_s: self.clock.now_s(),
+                        key,
+                    });
+                }
+            }
+            InputMsg::SwapEngine(engine, config) => {
+                let rates: Vec<f64> = config
+                    .axes
+                    .iter()
+                    .map(|a| a.max_step_um.unwrap_or(self.bumpless_step_um))
+                    .collect();
+                let n = self.engine.axis_names().len();
+                self.bumpless.start(&self.applied_um[..n], &rates);
+                self.engine = *engine;
+                self.config = *config;
+            }
+            InputMsg::AckStop => self.engine.acknowledge_stop(),
+            InputMsg::Shutdown => return false,
+        }
+        true
+    }
+
+    /// Runs one engine step with the latest readings.
+    pub fn step(&mut self) {
+        let mut t = self.clock.now_s();
+        if t <= self.last_time_s {
+            // Two steps inside the clock's resolution: keep time strictly increasing.
+            t = self.last_time_s + 1e-6;
+        }
+        self.last_time_s = t;
+        let trigger = self.n_fresh > 0;
+        for f in &mut self.fresh {
+            *f = false;
+        }
+        self.n_fresh = 0;
+        self.last_step = Instant::now();
+        let out = self.engine.step(&Inputs {
+            time_s: t,
+            readings: &self.readings,
+            trigger,
+            safe_point: self.safe_point,
+            positions_mm: &[],
+        });
+        self.cycles += 1;
+
+        // Alarms on their edges only: a fault lasting an hour is one alarm.
+        for i in 0..self.prev_fault.len() {
+            let f = self.engine.channel_fault(i);
+            if f != self.prev_fault[i] {
+                let name = &self.engine.channel_names()[i];
+                if let Some(old) = self.prev_fault[i] {
+                    self.record(Record::AlarmCleared {
+                        time_s: t,
+                        key: format!("channel.{name}.{}", fault_name(old)),
+                    });
+                }
+                if let Some(new) = f {
+                    let r = self.readings[i];
+                    let range = self
+                        .config
+                        .channels
+                        .get(i)
+                        .map(|c| format!("{}…{}", c.valid_min, c.valid_max))
+                        .unwrap_or_default();
+                    self.raise(
+                        t,
+                        format!("channel.{name}.{}", fault_name(new)),
+                        format!(
+                            "channel {name}: {} (raw = {}, stamped {:.3} s at cycle {:.3} s; valid {range}); axes reading it are frozen",
+                            fault_name(new),
+                            r.raw,
+                            r.stamp_s,
+                            t
+                        ),
+                    );
+                }
+                self.prev_fault[i] = f;
+            }
+        }
+        let engine_alarm = out.alarm.and_then(engine_alarm_key);
+        if engine_alarm != self.prev_engine_alarm {
+            if let Some(k) = self.prev_engine_alarm {
+                self.record(Record::AlarmCleared {
+                    time_s: t,
+                    key: k.into(),
+                });
+            }
+            if let (Some(k), Some(a)) = (engine_alarm, out.alarm) {
+                self.raise(t, k.into(), format!("{a:?}"));
+            }
+            self.prev_engine_alarm = engine_alarm;
+        }
+        let stop = out.stop.is_some();
+        if stop != self.prev_stop {
+            if let Some(s) = out.stop {
+                self.raise(t, "engine.stop".into(), stop_text(&self.engine, s));
+            } else {
+                self.record(Record::AlarmCleared {
+                    time_s: t,
+                    key: "engine.stop".into(),
+                });
+            }
+            self.prev_stop = stop;
+        }
+
+        if out.averaged {
+            for i in 0..self.readings.len() {
+                let v = self.engine.channel_value(i);
+                if v.is_finite() {
+                    self.record(Record::Average {
+                        time_s: t,
+                        channel: i as u16,
+                        value: v,
+                    });
+                }
+            }
+        }
+        let mut changed = false;
+        let mut next = [0.0; MAX_AXES];
+        for (i, a) in out.axes().iter().enumerate() {
+            let ready = a.status != AxisStatus::Starting;
+            let y = self.bumpless.apply(i, a.offset_um, ready);
+            next[i] = y;
+            if y != self.applied_um[i] {
+                changed = true;
+            }
+        }
+        let n_axes = out.axes().len();
+        if changed || out.averaged {
+            for (i, a) in out.axes().iter().enumerate() {
+                self.record(Record::Offset {
+                    time_s: t,
+                    axis: i as u8,
+                    offset_um: next[i],
+                    target_um: a.target_um,
+                    law_um: a.law_um,
+                    status: status_name(a.status),
+                });
+            }
+        }
+        self.applied_um = next;
+        if changed || self.seq == 0 {
+            self.seq += 1;
+            let o = OffsetOut {
+                time_s: t,
+                seq: self.seq,
+                offsets_um: next,
+                n_axes: n_axes as u8,
+                scan_at: self.scan_at,
+            };
+            self.offsets.send_replace(o);
+        }
+        if let Ok(mut live) = self.live.lock() {
+            live.time_s = t;
+            live.status = engine_status_name(out.status);
+            live.cycles = self.cycles;
+            live.samples = self.samples;
+            for (i, c) in live.channels.iter_mut().enumerate() {
+                let r = self.readings[i];
+                c.raw = r.raw.is_finite().then_some(r.raw);
+                c.stamp_s = r.stamp_s.is_finite().then_some(r.stamp_s);
+                let v = self.engine.channel_value(i);
+                c.value = v.is_finite().then_some(v);
+                c.fault = self.engine.channel_fault(i).map(fault_name);
+            }
+            for (i, (l, a)) in live.axes.iter_mut().zip(out.axes()).enumerate() {
+                l.offset_um = next[i];
+                l.engine_offset_um = a.offset_um;
+                l.target_um = a.target_um;
+                l.law_um = a.law_um.is_finite().then_some(a.law_um);
+                l.status = status_name(a.status);
+            }
+            if stop != live.stop.is_some() {
+                live.stop = out.stop.map(|s| stop_text(&self.engine, s));
+            }
+        }
+    }
+
+    /// Runs until shutdown: steps on complete scans, and at the latest every period so a
+    /// silent input is detected as stale.
+    pub fn run(mut self, rx: Receiver<InputMsg>) {
+        loop {
+            if self.shutdown.load(Ordering::Acquire) {
+                break;
+            }
+            let due = self.last_step + self.period;
+            let wait = due.saturating_duration_since(Instant::now());
+            match rx.recv_timeout(wait) {
+                Ok(m) => {
+                    if !self.handle(m) {
+                        break;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => self.step(),
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            if self.last_step.elapsed() >= self.period {
+                self.step();
+            }
+        }
+        // Finish: whatever arrived is stepped once more so the record ends on a cycle.
+        while let Ok(m) = rx.try_recv() {
+            if !self.handle(m) {
+                break;
+            }
+        }
+        if self.n_fresh > 0 {
+            self.step();
+        }
+    }
+}
+
+fn stop_text(engine: &Engine, s: StopReason) -> String {
+    let name = engine
+        .channel_names()
+        .get(s.channel as usize)
+        .map_or("?", String::as_str);
+    format!(
+        "stop requested: channel {name} averaged value {} outside its limits {}…{}",
+        s.value, s.limit_min, s.limit_max
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+
+    #[test]
+    fn bumpless_holds_then_decays_linearly() {
+        let mut b = Bumpless::default();
+        b.start(&[10.0], &[2.0]);
+        // Not ready: hold the old output whatever the new engine says.
+        assert_eq!(b.apply(0, 0.0, false), 10.0);
+        // Ready at 3 µm: bias = 7, then 5, 3, 1, 0 (closed form max(7 − 2k, 0)).
+        let ys: Vec<f64> = (0..6).map(|_| b.apply(0, 3.0, true)).collect();
+        assert_eq!(ys, vec![10.0, 8.0, 6.0, 4.0, 3.0, 3.0]);
+    }
+
+    #[test]
+    fn bumpless_without_start_is_identity() {
+        let mut b = Bumpless::default();
+        for y in [0.0, 1.5, -3.0] {
+            assert_eq!(b.apply(0, y, true), y);
+        }
+    }
+
+    #[test]
+    fn clock_runs_at_speedup() {
+        let c = Clock::new(100.0, 1000.0);
+        std::thread::sleep(Duration::from_millis(20));
+        let t = c.now_s();
+        assert!((120.0..200.0).contains(&t), "{t}");
+        assert_eq!(c.wall(10.0), Duration::from_millis(10));
+    }
+}

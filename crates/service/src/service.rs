@@ -1,0 +1,417 @@
+//! Wires the service together: engine, store, cycle thread, inputs, HTTP; runs until a
+//! signal or the requested duration, then stops in order (inputs, cycle, store) so the
+//! last cycle is recorded and committed.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::sync_channel;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use gearcomp_thermal::presets::bundle;
+use gearcomp_thermal::{Engine, EngineConfig, Preset, Simulator};
+
+use crate::auth::Tokens;
+use crate::config::{InputSection, ServiceConfig};
+use crate::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut};
+use crate::error::{Result, ServiceError};
+use crate::http::{self, AppState, ModelInfo};
+use crate::storage::{self, StoreStats};
+
+/// Command-line overrides of the configuration.
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    /// Stop after this many wall-clock seconds (tests, demonstrations).
+    pub duration_s: Option<f64>,
+    /// Simulator speed-up.
+    pub speedup: Option<f64>,
+    /// HTTP port (0 = any free port).
+    pub port: Option<u16>,
+    /// Database file.
+    pub db: Option<PathBuf>,
+}
+
+/// Capacity of the input queue (messages).
+pub const INPUT_QUEUE: usize = 1 << 14;
+/// Capacity of the record queue (records); a full queue holds the cycle back rather than
+/// dropping a sample.
+pub const RECORD_QUEUE: usize = 1 << 16;
+
+/// The engine configuration and where it came from.
+pub fn engine_config(cfg: &ServiceConfig) -> Result<(EngineConfig, String)> {
+    if let Some(f) = &cfg.engine.file {
+        return Ok((EngineConfig::load(f)?, f.display().to_string()));
+    }
+    let p = preset_of(cfg)?;
+    Ok((bundle(p).config, format!("preset:{}", p.name())))
+}
+
+fn preset_of(cfg: &ServiceConfig) -> Result<Preset> {
+    let sim_preset = match &cfg.input {
+        InputSection::Simulator { preset, .. } => preset.clone(),
+        #[allow(unreachable_patterns)]
+        _ => None,
+    };
+    let name = cfg
+        .engine
+        .preset
+        .clone()
+        .or(sim_preset)
+        .unwrap_or_else(|| "grinder".into());
+    Ok(Preset::from_name(&name)?)
+}
+
+fn input_name(cfg: &ServiceConfig) -> String {
+    match &cfg.input {
+        InputSection::Simulator { .. } => "simulator".into(),
+        #[cfg(feature = "mqtt")]
+        InputSection::Mqtt(m) => format!("mqtt {}:{}", m.host, m.port),
+        #[cfg(feature = "modbus")]
+        InputSection::Modbus(m) => format!("modbus ({} module(s))", m.modules.len()),
+    }
+}
+
+/// Runs the service until ctrl-c, SIGTERM or the duration; returns after everything is
+/// flushed.
+pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
+    if let Some(p) = ov.port {
+        cfg.http.port = p;
+    }
+    if let Some(db) = ov.db {
+        cfg.storage.path = db;
+    }
+    if let (Some(s), InputSection::Simulator { speedup, .. }) = (ov.speedup, &mut cfg.input) {
+        *speedup = s;
+    }
+    cfg.validate()?;
+    if let Some(d) = ov.duration_s {
+        crate::error::check_range("--duration-s", d, 0.0, 1e9, "0…1e9 s")?;
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|source| ServiceError::Io {
+            action: "start",
+            path: "the async runtime".into(),
+            source,
+        })?;
+    rt.block_on(async {
+        let running = start(cfg).await?;
+        let db = running.db.clone();
+        {
+            let mut out = std::io::stdout().lock();
+            if let Some(g) = &running.generated {
+                let _ = writeln!(out, "operator token (shown once): {}", g.operator);
+                let _ = writeln!(out, "read-only token (shown once): {}", g.read_only);
+            }
+            let _ = writeln!(
+                out,
+                "gearcomp serve: machine {} ({}), record {}, listening on http://{}",
+                running.machine,
+                running.model_source,
+                storage::describe(&running.db).display(),
+                running.addr
+            );
+            let _ = out.flush();
+        }
+        wait_for_stop(ov.duration_s).await;
+        let n = running.stop().await?;
+        println!(
+            "gearcomp serve: stopped; {n} samples committed in {}",
+            storage::describe(&db).display()
+        );
+        Ok(())
+    })
+}
+
+async fn wait_for_stop(duration_s: Option<f64>) {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    let timer = async {
+        match duration_s {
+            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d)).await,
+            None => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+        _ = timer => {},
+    }
+}
+
+/// A started service.
+pub struct Running {
+    /// The HTTP address bound.
+    pub addr: std::net::SocketAddr,
+    /// Tokens generated at this (first) start, to be shown once.
+    pub generated: Option<crate::auth::Generated>,
+    /// The database file.
+    pub db: PathBuf,
+    /// Machine name.
+    pub machine: String,
+    /// Where the model came from.
+    pub model_source: String,
+    /// Store counters.
+    pub stats: Arc<StoreStats>,
+    shutdown: Arc<AtomicBool>,
+    tasks: Vec<tokio::task::JoinHandle<()>>,
+    sim_thread: Option<std::thread::JoinHandle<()>>,
+    in_tx: std::sync::mpsc::SyncSender<InputMsg>,
+    cycle_thread: std::thread::JoinHandle<()>,
+    writer: std::thread::JoinHandle<Result<()>>,
+    http_stop: tokio::sync::oneshot::Sender<()>,
+    server: tokio::task::JoinHandle<()>,
+}
+
+/// Starts every part of the service on the current tokio runtime (multi-threaded).
+pub async fn start(cfg: ServiceConfig) -> Result<Running> {
+    cfg.validate()?;
+    let (engine_cfg, model_source) = engine_config(&cfg)?;
+    let engine = Engine::new(&engine_cfg)?;
+    let channels: Vec<String> = engine.channel_names().to_vec();
+    let axes: Vec<String> = engine.axis_names().to_vec();
+
+    // Inputs that need the engine's channels are checked before anything starts.
+    let (speedup, sim, period_s) = match &cfg.input {
+        InputSection::Simulator {
+            seed, speedup: s, ..
+        } => {
+            let p = preset_of(&cfg)?;
+            let simulator = Simulator::new(bundle(p).machine, *seed)?;
+            let map = crate::sources::sim::channel_map(&simulator, &channels)?;
+            // The simulator scans every dt_s; a shorter tick would only re-sample held
+            // readings between scans.
+            let period_s = cfg.cycle.period_s.max(simulator.spec().dt_s);
+            (*s, Some((simulator, map)), period_s)
+        }
+        #[cfg(feature = "mqtt")]
+        InputSection::Mqtt(_) => (1.0, None, cfg.cycle.period_s),
+        #[cfg(feature = "modbus")]
+        InputSection::Modbus(m) => {
+            crate::sources::modbus::resolve(m, &channels, &axes)?;
+            (1.0, None, cfg.cycle.period_s)
+        }
+    };
+    let targets: Vec<String> = if sim.is_some() {
+        vec!["measured_drift_um".into()]
+    } else {
+        vec![]
+    };
+
+    let db_path = cfg.storage.path.clone();
+    let conn = storage::open(&db_path)?;
+    storage::register_names(&conn, &channels, &axes, &targets)?;
+    let last = storage::last_time_s(&conn)?;
+    // Resume the clock one second after the record ends so time stays increasing.
+    let origin_s = if last.is_finite() {
+        last.ceil() + 1.0
+    } else {
+        0.0
+    };
+    storage::close_stale_alarms(&conn, origin_s)?;
+    let (tokens, generated) = Tokens::load_or_generate(&conn, &cfg.auth.tokens)?;
+    conn.execute(
+        "INSERT INTO models (unix_s, source, config_toml) VALUES (?1, ?2, ?3)",
+        rusqlite::params![
+            storage::unix_now_s(),
+            model_source,
+            engine_cfg.to_toml_string().unwrap_or_default()
+        ],
+    )?;
+    let model_source_shown = model_source.clone();
+    let stats = Arc::new(StoreStats::default());
+    let existing = storage::count(&conn, "samples")?;
+    stats.committed_samples.store(existing, Ordering::Release);
+
+    let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
+        .await
+        .map_err(|source| ServiceError::Io {
+            action: "bind",
+            path: format!("{}:{}", cfg.http.bind, cfg.http.port),
+            source,
+        })?;
+    let addr = listener.local_addr().map_err(|source| ServiceError::Io {
+        action: "bind",
+        path: format!("{}:{}", cfg.http.bind, cfg.http.port),
+        source,
+    })?;
+    let clock = Clock::new(origin_s, speedup);
+    let shutdown = Arc::new(AtomicBool::new(false));
+    let (rec_tx, rec_rx) = sync_channel(RECORD_QUEUE);
+    let (in_tx, in_rx) = sync_channel::<InputMsg>(INPUT_QUEUE);
+    let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
+    let live = Arc::new(Mutex::new(Live::new(&channels, &axes)));
+
+    let commit = Duration::from_secs_f64(cfg.storage.commit_interval_s);
+    let stats_w = stats.clone();
+    let writer = std::thread::Builder::new()
+        .name("gearcomp-store".into())
+        .spawn(move || storage::writer_loop(conn, rec_rx, commit, stats_w))
+        .map_err(|source| ServiceError::Io {
+            action: "start",
+            path: "the store thread".into(),
+            source,
+        })?;
+    let cycle = Cycle::new(CycleParts {
+        engine,
+        config: engine_cfg.clone(),
+        clock,
+        period_s,
+        bumpless_step_um: cfg.cycle.bumpless_step_um,
+        records: rec_tx.clone(),
+        live: live.clone(),
+        offsets: off_tx,
+        shutdown: shutdown.clone(),
+    });
+    let cycle_thread = std::thread::Builder::new()
+        .name("gearcomp-cycle".into())
+        .spawn(move || cycle.run(in_rx))
+        .map_err(|source| ServiceError::Io {
+            action: "start",
+            path: "the cycle thread".into(),
+            source,
+        })?;
+
+    let mut sim_thread = None;
+    #[cfg_attr(not(any(feature = "mqtt", feature = "modbus")), allow(unused_mut))]
+    let mut tasks: Vec<tokio::task::JoinHandle<()>> = Vec::new();
+    if let Some((simulator, map)) = sim {
+        let tx = in_tx.clone();
+        let sd = shutdown.clone();
+        sim_thread = Some(
+            std::thread::Builder::new()
+                .name("gearcomp-sim".into())
+                .spawn(move || crate::sources::sim::run(simulator, map, clock, tx, sd))
+                .map_err(|source| ServiceError::Io {
+                    action: "start",
+                    path: "the simulator thread".into(),
+                    source,
+                })?,
+        );
+    }
+    match &cfg.input {
+        InputSection::Simulator { .. } => {}
+        #[cfg(feature = "mqtt")]
+        InputSection::Mqtt(m) => {
+            tasks.push(tokio::spawn(crate::sources::mqtt::run(
+                crate::sources::mqtt::MqttParts {
+                    cfg: m.clone(),
+                    machine: cfg.machine.name.clone(),
+                    channels: channels.clone(),
+                    axes: axes.clone(),
+                    clock,
+                    tx: in_tx.clone(),
+                    offsets: off_rx.clone(),
+                },
+            )));
+        }
+        #[cfg(feature = "modbus")]
+        InputSection::Modbus(m) => {
+            let parts = crate::sources::modbus::ModbusParts {
+                cfg: m.clone(),
+                channels: channels.clone(),
+                axes: axes.clone(),
+                clock,
+                tx: in_tx.clone(),
+                offsets: off_rx.clone(),
+            };
+            tasks.push(tokio::spawn(async move {
+                let _ = crate::sources::modbus::run(parts).await;
+            }));
+        }
+    }
+    drop(off_rx);
+
+    let state = Arc::new(AppState {
+        db: db_path.clone(),
+        machine: cfg.machine.name.clone(),
+        input: input_name(&cfg),
+        live,
+        tokens,
+        cycle: in_tx.clone(),
+        records: rec_tx.clone(),
+        model: Mutex::new(ModelInfo {
+            source: model_source.clone(),
+            config: engine_cfg,
+        }),
+        stats: stats.clone(),
+        clock,
+        started: Instant::now(),
+    });
+    let (http_stop_tx, http_stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(async move {
+        let _ = axum::serve(listener, http::router(state))
+            .with_graceful_shutdown(async {
+                let _ = http_stop_rx.await;
+            })
+            .await;
+    });
+
+    Ok(Running {
+        addr,
+        generated,
+        db: db_path,
+        machine: cfg.machine.name.clone(),
+        model_source: model_source_shown,
+        stats,
+        shutdown,
+        tasks,
+        sim_thread,
+        in_tx,
+        cycle_thread,
+        writer,
+        http_stop: http_stop_tx,
+        server,
+    })
+}
+
+impl Running {
+    /// Stops in order (inputs, then the cycle finishing its step, then the store
+    /// committing) and returns the number of committed samples.
+    pub async fn stop(self) -> Result<u64> {
+        self.shutdown.store(true, Ordering::Release);
+        for t in &self.tasks {
+            t.abort();
+        }
+        // The server holds a record sender: it goes first so the store can see the end.
+        let _ = self.http_stop.send(());
+        let _ = self.server.await;
+        let (sim_thread, in_tx, cycle_thread, writer) =
+            (self.sim_thread, self.in_tx, self.cycle_thread, self.writer);
+        let joined = tokio::task::spawn_blocking(move || {
+            if let Some(t) = sim_thread {
+                let _ = t.join();
+            }
+            let _ = in_tx.send(InputMsg::Shutdown);
+            drop(in_tx);
+            let c = cycle_thread.join().is_ok();
+            let w = writer.join();
+            (c, w)
+        })
+        .await
+        .map_err(|_| ServiceError::Stopped("shutdown"))?;
+        if !joined.0 {
+            return Err(ServiceError::Stopped("the cycle thread"));
+        }
+        match joined.1 {
+            Ok(r) => r?,
+            Err(_) => return Err(ServiceError::Stopped("the store thread")),
+        }
+        Ok(self.stats.committed_samples.load(Ordering::Acquire))
+    }
+}

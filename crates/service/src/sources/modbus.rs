@@ -1,0 +1,402 @@
+//! Modbus TCP temperature modules (tokio-modbus): registers polled, scaled and checked;
+//! optionally the applied offset written to a holding register of the first module.
+//!
+//! A register value outside its plausible range (modules report 0x7FFF/0x8000 for an open
+//! sensor) raises an alarm naming module, register, value and range, and is handed to the
+//! engine as NaN, which freezes the axes reading that channel. A lost connection is
+//! retried with exponential back-off.
+
+use std::net::SocketAddr;
+use std::sync::mpsc::SyncSender;
+use std::time::Duration;
+
+use tokio::sync::watch;
+use tokio_modbus::prelude::*;
+
+use crate::config::{ModbusInput, ModbusModule, RegisterMap, RegisterTable};
+use crate::cycle::{Clock, InputMsg, OffsetOut};
+
+/// Converts a register word into the engineering value.
+///
+/// # Formula
+/// r = word as i16 (signed) or u16;  value = r·scale + offset, valid when raw_min ≤ r ≤ raw_max
+/// # Source
+/// Modbus application protocol V1.1b3 §4.2 (16-bit big-endian registers) [STANDARD];
+/// linear scaling as in temperature-module manuals [CONVENTION, docs/service.md]
+pub fn decode_register(word: u16, map: &RegisterMap) -> Result<f64, String> {
+    let r: i32 = if map.signed {
+        i32::from(word as i16)
+    } else {
+        i32::from(word)
+    };
+    if r < map.raw_min || r > map.raw_max {
+        return Err(format!(
+            "register {} ({:?}) = {r}: outside the plausible range {}…{} (sensor open or shorted?)",
+            map.address, map.table, map.raw_min, map.raw_max
+        ));
+    }
+    Ok(f64::from(r) * map.scale + map.offset)
+}
+
+/// Converts an offset into a signed register word.
+///
+/// # Formula
+/// counts = round(offset_um / um_per_count), written as i16 two's complement
+/// # Source
+/// Modbus application protocol V1.1b3 §6.6 (Write Single Register) [STANDARD]; the
+/// absolute-value, fixed-point encoding is this service's [CONVENTION, docs/service.md]
+pub fn encode_offset(offset_um: f64, um_per_count: f64) -> Result<u16, String> {
+    let c = (offset_um / um_per_count).round();
+    if !(c.is_finite() && c >= f64::from(i16::MIN) && c <= f64::from(i16::MAX)) {
+        return Err(format!(
+            "offset {offset_um} µm = {c} counts of {um_per_count} µm: outside the register range −32768…32767"
+        ));
+    }
+    Ok((c as i16) as u16)
+}
+
+/// Everything the Modbus adapter needs.
+pub struct ModbusParts {
+    /// The configuration.
+    pub cfg: ModbusInput,
+    /// Engine channels in order.
+    pub channels: Vec<String>,
+    /// Axis names in order.
+    pub axes: Vec<String>,
+    /// The service clock.
+    pub clock: Clock,
+    /// To the cycle.
+    pub tx: SyncSender<InputMsg>,
+    /// From the cycle.
+    pub offsets: watch::Receiver<OffsetOut>,
+}
+
+/// Checks that every mapped channel and the offset axis exist; returns the channel index
+/// of every register, per module.
+pub fn resolve(
+    cfg: &ModbusInput,
+    channels: &[String],
+    axes: &[String],
+) -> crate::error::Result<Vec<Vec<u16>>> {
+    let mut out = Vec::new();
+    for (i, m) in cfg.modules.iter().enumerate() {
+        let mut v = Vec::new();
+        for (j, r) in m.registers.iter().enumerate() {
+            let c = channels
+                .iter()
+                .position(|c| c == &r.channel)
+                .ok_or_else(|| {
+                    crate::error::invalid(
+                        format!("input.modules[{i}].registers[{j}].channel"),
+                        &r.channel,
+                        format!("an engine channel: {}", channels.join(", ")),
+                    )
+                })?;
+            v.push(c as u16);
+        }
+        out.push(v);
+    }
+    if let Some(o) = &cfg.offset_output {
+        if !axes.contains(&o.axis) {
+            return Err(crate::error::invalid(
+                "input.offset_output.axis",
+                &o.axis,
+                format!("an engine axis: {}", axes.join(", ")),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
+    let _ = tx.try_send(m);
+}
+
+async fn connect(m: &ModbusModule) -> std::io::Result<client::Context> {
+    let addr: SocketAddr = tokio::net::lookup_host((m.host.as_str(), m.port))
+        .await?
+        .next()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::NotFound, "no address"))?;
+    tokio::time::timeout(
+        Duration::from_secs(3),
+        client::tcp::connect_slave(addr, Slave(m.unit_id)),
+    )
+    .await
+    .map_err(|_| std::io::Error::new(std::io::ErrorKind::TimedOut, "connect timed out"))?
+}
+
+/// Runs every module until the task is aborted.
+pub async fn run(p: ModbusParts) -> crate::error::Result<()> {
+    let index = resolve(&p.cfg, &p.channels, &p.axes)?;
+    let offset_axis = p
+        .cfg
+        .offset_output
+        .as_ref()
+        .and_then(|o| p.axes.iter().position(|a| a == &o.axis));
+    // A JoinSet aborts the module tasks when this future is dropped (service stop).
+    let mut tasks = tokio::task::JoinSet::new();
+    for (i, (m, idx)) in p.cfg.modules.iter().cloned().zip(index).enumerate() {
+        let out = if i == 0 {
+            p.cfg.offset_output.clone().zip(offset_axis)
+        } else {
+            None
+        };
+        tasks.spawn(run_module(
+            i,
+            m,
+            idx,
+            p.cfg.clone(),
+            out,
+            p.clock,
+            p.tx.clone(),
+            p.offsets.clone(),
+        ));
+    }
+    while tasks.join_next().await.is_some() {}
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn run_module(
+    i: usize,
+    m: ModbusModule,
+    index: Vec<u16>,
+    cfg: ModbusInput,
+    out: Option<(crate::config::ModbusOffsetOutput, usize)>,
+    clock: Clock,
+    tx: SyncSender<InputMsg>,
+    mut offsets: watch::Receiver<OffsetOut>,
+) {
+    let conn_key = format!("modbus.{i}.connection");
+    let period = Duration::from_secs_f64(cfg.poll_period_s);
+    let mut failures = 0u32;
+    let mut written_seq = 0u64;
+    loop {
+        let mut ctx = match connect(&m).await {
+            Ok(c) => c,
+            Err(e) => {
+                failures = failures.saturating_add(1);
+                let wait_s = cfg.reconnect.wait_s(failures);
+                send(
+                    &tx,
+                    InputMsg::RaiseAlarm {
+                        key: conn_key.clone(),
+                        message: format!(
+                            "Modbus module {i} at {}:{} (unit {}): {e}; retrying with back-off ({wait_s} s)",
+                            m.host, m.port, m.unit_id
+                        ),
+                    },
+                );
+                tokio::time::sleep(Duration::from_secs_f64(wait_s)).await;
+                continue;
+            }
+        };
+        failures = 0;
+        send(
+            &tx,
+            InputMsg::ClearAlarm {
+                key: conn_key.clone(),
+            },
+        );
+        let mut tick = tokio::time::interval(period);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        'poll: loop {
+            tick.tick().await;
+            for (r, &ch) in m.registers.iter().zip(&index) {
+                let res = tokio::time::timeout(Duration::from_secs(3), async {
+                    match r.table {
+                        RegisterTable::Input => ctx.read_input_registers(r.address, 1).await,
+                        RegisterTable::Holding => ctx.read_holding_registers(r.address, 1).await,
+                    }
+                })
+                .await;
+                let stamp_s = clock.now_s();
+                let key = format!("modbus.{i}.register.{}", r.address);
+                match res {
+                    Ok(Ok(Ok(words))) => {
+                        let Some(&w) = words.first() else { continue };
+                        match decode_register(w, r) {
+                            Ok(v) => {
+                                send(&tx, InputMsg::ClearAlarm { key });
+                                send(
+                                    &tx,
+                                    InputMsg::Sample {
+                                        channel: ch,
+                                        raw: v,
+                                        stamp_s,
+                                    },
+                                );
+                            }
+                            Err(msg) => {
+                                send(
+                                    &tx,
+                                    InputMsg::RaiseAlarm {
+                                        key,
+                                        message: format!(
+                                            "Modbus module {i}, channel {}: {msg}",
+                                            r.channel
+                                        ),
+                                    },
+                                );
+                                send(
+                                    &tx,
+                                    InputMsg::Sample {
+                                        channel: ch,
+                                        raw: f64::NAN,
+                                        stamp_s,
+                                    },
+                                );
+                            }
+                        }
+                    }
+                    Ok(Ok(Err(exc))) => send(
+                        &tx,
+                        InputMsg::RaiseAlarm {
+                            key,
+                            message: format!(
+                                "Modbus module {i}, register {}: exception {exc:?}",
+                                r.address
+                            ),
+                        },
+                    ),
+                    Ok(Err(e)) => {
+                        send(
+                            &tx,
+                            InputMsg::RaiseAlarm {
+                                key: conn_key.clone(),
+                                message: format!("Modbus module {i}: {e}; reconnecting"),
+                            },
+                        );
+                        break 'poll;
+                    }
+                    Err(_) => {
+                        send(
+                            &tx,
+                            InputMsg::RaiseAlarm {
+                                key: conn_key.clone(),
+                                message: format!(
+                                    "Modbus module {i}: no answer within 3 s; reconnecting"
+                                ),
+                            },
+                        );
+                        break 'poll;
+                    }
+                }
+            }
+            send(&tx, InputMsg::ScanEnd);
+            if let Some((o, axis)) = &out {
+                let snap = *offsets.borrow_and_update();
+                if snap.seq != written_seq && (*axis) < snap.n_axes as usize {
+                    let okey = "modbus.offset_output".to_string();
+                    match encode_offset(snap.offsets_um[*axis], o.um_per_count) {
+                        Ok(word) => {
+                            match ctx.write_single_register(o.address, word).await {
+                                Ok(Ok(())) => {
+                                    // Only a confirmed write counts; a failed one is
+                                    // retried with the newest value at the next poll.
+                                    written_seq = snap.seq;
+                                    send(&tx, InputMsg::ClearAlarm { key: okey });
+                                }
+                                Ok(Err(exc)) => send(
+                                    &tx,
+                                    InputMsg::RaiseAlarm {
+                                        key: okey,
+                                        message: format!(
+                                            "Modbus offset write to register {}: exception {exc:?}; retrying",
+                                            o.address
+                                        ),
+                                    },
+                                ),
+                                Err(e) => {
+                                    send(
+                                        &tx,
+                                        InputMsg::RaiseAlarm {
+                                            key: okey,
+                                            message: format!(
+                                                "Modbus offset write to register {}: {e}; retrying",
+                                                o.address
+                                            ),
+                                        },
+                                    );
+                                    break 'poll;
+                                }
+                            }
+                        }
+                        Err(msg) => {
+                            written_seq = snap.seq;
+                            send(
+                                &tx,
+                                InputMsg::RaiseAlarm {
+                                    key: okey,
+                                    message: msg,
+                                },
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        failures = failures.saturating_add(1);
+        tokio::time::sleep(Duration::from_secs_f64(cfg.reconnect.wait_s(failures))).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use proptest::prelude::*;
+
+    fn map(signed: bool, scale: f64, offset: f64) -> RegisterMap {
+        RegisterMap {
+            channel: "t".into(),
+            address: 7,
+            table: RegisterTable::Input,
+            signed,
+            scale,
+            offset,
+            raw_min: if signed { -32767 } else { 0 },
+            raw_max: if signed { 32766 } else { 65535 },
+        }
+    }
+
+    #[test]
+    fn two_complement_and_scaling() {
+        // 0xFF9C = −100 as i16 → −10.0 °C at 0.1 °C/count.
+        assert_eq!(
+            decode_register(0xFF9C, &map(true, 0.1, 0.0)).unwrap(),
+            -10.0
+        );
+        assert_eq!(decode_register(215, &map(true, 0.1, 0.0)).unwrap(), 21.5);
+        // Unsigned with an offset: 4–20 mA module, 0…65535 → −50…150 °C.
+        let m = map(false, 200.0 / 65535.0, -50.0);
+        assert!((decode_register(65535, &m).unwrap() - 150.0).abs() < 1e-12);
+        // The open-sensor codes are refused.
+        assert!(decode_register(0x7FFF, &map(true, 0.1, 0.0))
+            .unwrap_err()
+            .contains("32767"));
+        assert!(decode_register(0x8000, &map(true, 0.1, 0.0)).is_err());
+    }
+
+    #[test]
+    fn offset_encoding() {
+        assert_eq!(encode_offset(-12.34, 0.1).unwrap(), (-123i16) as u16);
+        assert_eq!(encode_offset(3276.7, 0.1).unwrap(), 32767);
+        assert!(encode_offset(3276.8, 0.1).is_err());
+        assert!(encode_offset(f64::NAN, 0.1).is_err());
+    }
+
+    proptest! {
+        #[test]
+        fn decode_never_panics(w in any::<u16>(), signed in any::<bool>(), scale in -1e3f64..1e3) {
+            let _ = decode_register(w, &map(signed, scale, 0.0));
+        }
+
+        #[test]
+        fn encode_round_trips(counts in -32768i32..=32767) {
+            let um = f64::from(counts) * 0.1;
+            let w = encode_offset(um, 0.1).unwrap();
+            prop_assert_eq!(i32::from(w as i16), counts);
+        }
+    }
+}

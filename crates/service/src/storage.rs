@@ -1,0 +1,653 @@
+//! The record: every raw sample, averaged value, offset written, target and alarm, in an
+//! embedded SQLite database (WAL).
+//!
+//! One writer thread receives [`Record`]s over a bounded channel and commits them in
+//! batches: a transaction is committed at the latest `commit_interval_s` after it was
+//! opened, so a crash or power cut loses at most that much (≤ 1 s by configuration).
+//! `synchronous = FULL` in WAL mode makes a committed transaction durable, and SQLite's WAL
+//! recovery guarantees the file opens cleanly after a kill (tested by killing the
+//! process mid-write). The count of committed samples is published in [`StoreStats`]: a
+//! sample is *acknowledged* once it is counted there.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
+use serde::Serialize;
+
+use crate::error::{Result, ServiceError};
+
+/// One thing to keep; every variant except the alarms is `Copy` and allocation-free.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Record {
+    /// A raw reading as it arrived.
+    Sample {
+        /// Acquisition time, s (service clock).
+        time_s: f64,
+        /// Channel index.
+        channel: u16,
+        /// Raw value (Ω, °C, µm: the channel's sensor unit).
+        raw: f64,
+    },
+    /// An averaged, time-filtered value formed by the engine.
+    Average {
+        /// Cycle time, s.
+        time_s: f64,
+        /// Channel index.
+        channel: u16,
+        /// Value in °C or µm.
+        value: f64,
+    },
+    /// The offset of one axis after a cycle (logged when averaged or changed).
+    Offset {
+        /// Cycle time, s.
+        time_s: f64,
+        /// Axis index.
+        axis: u8,
+        /// Applied offset (what goes to the CNC), µm.
+        offset_um: f64,
+        /// Running compensation the offset moves to, µm.
+        target_um: f64,
+        /// The law's value, µm (NaN before the first evaluation).
+        law_um: f64,
+        /// Axis status name.
+        status: &'static str,
+    },
+    /// A reference value delivered with the inputs (e.g. a probe's measured drift).
+    Target {
+        /// Time, s.
+        time_s: f64,
+        /// Target index (see `targets` table).
+        target: u16,
+        /// Value, µm.
+        value: f64,
+    },
+    /// An alarm became active.
+    AlarmRaised {
+        /// Time, s.
+        time_s: f64,
+        /// Stable key (kind and subject), used to clear it.
+        key: String,
+        /// Human-readable text naming field, value and range.
+        message: String,
+    },
+    /// An alarm is no longer active.
+    AlarmCleared {
+        /// Time, s.
+        time_s: f64,
+        /// Key given when raised.
+        key: String,
+    },
+    /// An operator acknowledged an alarm.
+    AlarmAcknowledged {
+        /// Alarm row id.
+        id: i64,
+        /// Token id of the operator.
+        by: String,
+    },
+    /// An operator action for the audit log.
+    Audit {
+        /// Token id (first 8 hex digits of the token's hash).
+        token_id: String,
+        /// Role of the token.
+        role: &'static str,
+        /// What was done.
+        action: &'static str,
+        /// Details.
+        detail: String,
+    },
+    /// A model put in use.
+    Model {
+        /// Where it came from.
+        source: String,
+        /// The engine configuration, TOML.
+        config_toml: String,
+    },
+}
+
+/// Counters published by the writer thread.
+#[derive(Debug, Default)]
+pub struct StoreStats {
+    /// Samples committed (acknowledged) since the service started, plus those found at start.
+    pub committed_samples: AtomicU64,
+    /// Highest committed sample row id.
+    pub last_sample_id: AtomicU64,
+    /// Transactions committed since start.
+    pub commits: AtomicU64,
+}
+
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS channels (idx INTEGER PRIMARY KEY, name TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS axes (idx INTEGER PRIMARY KEY, name TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS targets (idx INTEGER PRIMARY KEY, name TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS samples (id INTEGER PRIMARY KEY, time_s REAL NOT NULL,
+    channel INTEGER NOT NULL, raw REAL);
+CREATE INDEX IF NOT EXISTS samples_time ON samples(channel, time_s);
+CREATE TABLE IF NOT EXISTS averages (id INTEGER PRIMARY KEY, time_s REAL NOT NULL,
+    channel INTEGER NOT NULL, value REAL);
+CREATE INDEX IF NOT EXISTS averages_time ON averages(time_s);
+CREATE TABLE IF NOT EXISTS offsets (id INTEGER PRIMARY KEY, time_s REAL NOT NULL,
+    axis INTEGER NOT NULL, offset_um REAL, target_um REAL, law_um REAL, status TEXT NOT NULL);
+CREATE INDEX IF NOT EXISTS offsets_time ON offsets(time_s);
+CREATE TABLE IF NOT EXISTS target_values (id INTEGER PRIMARY KEY, time_s REAL NOT NULL,
+    target INTEGER NOT NULL, value REAL);
+CREATE INDEX IF NOT EXISTS target_values_time ON target_values(time_s);
+CREATE TABLE IF NOT EXISTS alarms (id INTEGER PRIMARY KEY, time_s REAL NOT NULL,
+    key TEXT NOT NULL, message TEXT NOT NULL, cleared_s REAL,
+    acknowledged_by TEXT, acknowledged_unix_s REAL);
+CREATE TABLE IF NOT EXISTS tokens (id INTEGER PRIMARY KEY, role TEXT NOT NULL,
+    sha256 TEXT NOT NULL UNIQUE, created_unix_s REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY, unix_s REAL NOT NULL,
+    token_id TEXT NOT NULL, role TEXT NOT NULL, action TEXT NOT NULL, detail TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS models (id INTEGER PRIMARY KEY, unix_s REAL NOT NULL,
+    source TEXT NOT NULL, config_toml TEXT NOT NULL);
+";
+
+/// Opens (creating if needed) the database, with WAL and the schema.
+pub fn open(path: &Path) -> Result<Connection> {
+    let conn = Connection::open(path)?;
+    conn.busy_timeout(Duration::from_secs(5))?;
+    conn.pragma_update(None, "journal_mode", "WAL")?;
+    conn.pragma_update(None, "synchronous", "FULL")?;
+    conn.execute_batch(SCHEMA)?;
+    Ok(conn)
+}
+
+/// Opens the database for reading only (API queries, export).
+pub fn open_read(path: &Path) -> Result<Connection> {
+    let conn = Connection::open_with_flags(
+        path,
+        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )?;
+    conn.busy_timeout(Duration::from_secs(5))?;
+    Ok(conn)
+}
+
+/// Seconds since the Unix epoch (for audit rows only; the record uses the service clock).
+pub fn unix_now_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// Writes the names of channels, axes and targets; an existing database must use the
+/// same channel order (the record would be misread otherwise).
+pub fn register_names(
+    conn: &Connection,
+    channels: &[String],
+    axes: &[String],
+    targets: &[String],
+) -> Result<()> {
+    for (table, names) in [("channels", channels), ("axes", axes), ("targets", targets)] {
+        for (i, n) in names.iter().enumerate() {
+            let existing: Option<String> = conn
+                .query_row(
+                    &format!("SELECT name FROM {table} WHERE idx = ?1"),
+                    [i as i64],
+                    |r| r.get(0),
+                )
+                .optional()?;
+            match existing {
+                Some(e) if &e != n => {
+                    return Err(crate::error::invalid(
+                        format!("{table}[{i}]"),
+                        n,
+                        format!(
+                            "{e:?} as recorded in this database (use a new database for a new channel layout)"
+                        ),
+                    ))
+                }
+                Some(_) => {}
+                None => {
+                    conn.execute(
+                        &format!("INSERT INTO {table} (idx, name) VALUES (?1, ?2)"),
+                        params![i as i64, n],
+                    )?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The latest time in the record, s (the service clock resumes after it).
+pub fn last_time_s(conn: &Connection) -> Result<f64> {
+    let mut t = f64::NEG_INFINITY;
+    for table in ["samples", "averages", "offsets", "target_values", "alarms"] {
+        let v: Option<f64> =
+            conn.query_row(&format!("SELECT MAX(time_s) FROM {table}"), [], |r| {
+                r.get(0)
+            })?;
+        if let Some(v) = v {
+            t = t.max(v);
+        }
+    }
+    Ok(t)
+}
+
+/// Alarms left open by a previous run are closed at `time_s` (their causes are re-raised
+/// by the new run if still present).
+pub fn close_stale_alarms(conn: &Connection, time_s: f64) -> Result<()> {
+    conn.execute(
+        "UPDATE alarms SET cleared_s = ?1 WHERE cleared_s IS NULL",
+        [time_s],
+    )?;
+    Ok(())
+}
+
+/// Runs the writer loop until every sender is dropped; commits at least every
+/// `commit_interval`. This thread is the only writer while the service runs: a second
+/// writer would wait on SQLite's lock, which the batching holds almost all the time.
+pub fn writer_loop(
+    mut conn: Connection,
+    rx: Receiver<Record>,
+    commit_interval: Duration,
+    stats: Arc<StoreStats>,
+) -> Result<()> {
+    let mut done = false;
+    while !done {
+        // Block for the first record so an idle service does not spin.
+        let first = match rx.recv() {
+            Ok(r) => r,
+            Err(_) => break,
+        };
+        let opened = Instant::now();
+        let tx = conn.transaction()?;
+        let mut samples = 0u64;
+        let mut last_id = 0u64;
+        {
+            let mut ins_sample = tx
+                .prepare_cached("INSERT INTO samples (time_s, channel, raw) VALUES (?1, ?2, ?3)")?;
+            let mut ins_avg = tx.prepare_cached(
+                "INSERT INTO averages (time_s, channel, value) VALUES (?1, ?2, ?3)",
+            )?;
+            let mut ins_off = tx.prepare_cached(
+                "INSERT INTO offsets (time_s, axis, offset_um, target_um, law_um, status) \
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+            )?;
+            let mut ins_tgt = tx.prepare_cached(
+                "INSERT INTO target_values (time_s, target, value) VALUES (?1, ?2, ?3)",
+            )?;
+            let mut rec = Some(first);
+            loop {
+                if let Some(r) = rec.take() {
+                    match r {
+                        Record::Sample {
+                            time_s,
+                            channel,
+                            raw,
+                        } => {
+                            ins_sample.execute(params![time_s, channel, finite(raw)])?;
+                            samples += 1;
+                            last_id = tx.last_insert_rowid() as u64;
+                        }
+                        Record::Average {
+                            time_s,
+                            channel,
+                            value,
+                        } => {
+                            ins_avg.execute(params![time_s, channel, finite(value)])?;
+                        }
+                        Record::Offset {
+                            time_s,
+                            axis,
+                            offset_um,
+                            target_um,
+                            law_um,
+                            status,
+                        } => {
+                            ins_off.execute(params![
+                                time_s,
+                                axis,
+                                finite(offset_um),
+                                finite(target_um),
+                                finite(law_um),
+                                status
+                            ])?;
+                        }
+                        Record::Target {
+                            time_s,
+                            target,
+                            value,
+                        } => {
+                            ins_tgt.execute(params![time_s, target, finite(value)])?;
+                        }
+                        Record::AlarmRaised {
+                            time_s,
+                            key,
+                            message,
+                        } => {
+                            tx.execute(
+                                "INSERT INTO alarms (time_s, key, message) VALUES (?1, ?2, ?3)",
+                                params![time_s, key, message],
+                            )?;
+                        }
+                        Record::AlarmCleared { time_s, key } => {
+                            tx.execute(
+                                "UPDATE alarms SET cleared_s = ?1 WHERE key = ?2 AND cleared_s IS NULL",
+                                params![time_s, key],
+                            )?;
+                        }
+                        Record::AlarmAcknowledged { id, by } => {
+                            tx.execute(
+                                "UPDATE alarms SET acknowledged_by = ?1, acknowledged_unix_s = ?2 WHERE id = ?3",
+                                params![by, unix_now_s(), id],
+                            )?;
+                        }
+                        Record::Audit {
+                            token_id,
+                            role,
+                            action,
+                            detail,
+                        } => audit(&tx, &token_id, role, action, &detail)?,
+                        Record::Model {
+                            source,
+                            config_toml,
+                        } => {
+                            tx.execute(
+                                "INSERT INTO models (unix_s, source, config_toml) VALUES (?1, ?2, ?3)",
+                                params![unix_now_s(), source, config_toml],
+                            )?;
+                        }
+                    }
+                }
+                let left = commit_interval.saturating_sub(opened.elapsed());
+                if left.is_zero() {
+                    break;
+                }
+                match rx.recv_timeout(left) {
+                    Ok(r) => rec = Some(r),
+                    Err(RecvTimeoutError::Timeout) => break,
+                    Err(RecvTimeoutError::Disconnected) => {
+                        done = true;
+                        break;
+                    }
+                }
+            }
+        }
+        tx.commit()?;
+        stats.commits.fetch_add(1, Ordering::Relaxed);
+        if samples > 0 {
+            stats.last_sample_id.store(last_id, Ordering::Release);
+            stats
+                .committed_samples
+                .fetch_add(samples, Ordering::Release);
+        }
+    }
+    Ok(())
+}
+
+/// SQLite stores NaN as NULL; keep that explicit.
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// Counts committed rows of a table (for status and tests).
+pub fn count(conn: &Connection, table: &str) -> Result<u64> {
+    let n: i64 = conn.query_row(&format!("SELECT COUNT(*) FROM {table}"), [], |r| r.get(0))?;
+    Ok(n.max(0) as u64)
+}
+
+/// Names of a name table (`channels`, `axes`, `targets`) in index order.
+pub fn names(conn: &Connection, table: &str) -> Result<Vec<String>> {
+    let mut st = conn.prepare(&format!("SELECT name FROM {table} ORDER BY idx"))?;
+    let rows = st.query_map([], |r| r.get::<_, String>(0))?;
+    Ok(rows.collect::<std::result::Result<_, _>>()?)
+}
+
+/// One point of a time series.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Point {
+    /// Time, s (service clock).
+    pub time_s: f64,
+    /// Value (null when not finite).
+    pub value: Option<f64>,
+}
+
+/// Which series a history query reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeriesKind {
+    /// Raw samples.
+    Raw,
+    /// Averaged values.
+    Average,
+}
+
+/// A time range with a row limit; the newest rows are kept when the limit cuts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Range {
+    /// From, s (inclusive).
+    pub from_s: f64,
+    /// To, s (inclusive).
+    pub to_s: f64,
+    /// Most rows returned.
+    pub limit: u32,
+}
+
+/// A channel's history in a time range.
+pub fn channel_history(
+    conn: &Connection,
+    channel: u16,
+    kind: SeriesKind,
+    range: Range,
+) -> Result<Vec<Point>> {
+    let sql = match kind {
+        SeriesKind::Raw => {
+            "SELECT time_s, raw FROM samples WHERE channel = ?1 AND time_s BETWEEN ?2 AND ?3 \
+             ORDER BY time_s DESC, id DESC LIMIT ?4"
+        }
+        SeriesKind::Average => {
+            "SELECT time_s, value FROM averages WHERE channel = ?1 AND time_s BETWEEN ?2 AND ?3 \
+             ORDER BY time_s DESC, id DESC LIMIT ?4"
+        }
+    };
+    let mut st = conn.prepare_cached(sql)?;
+    let rows = st.query_map(
+        params![channel, range.from_s, range.to_s, range.limit],
+        |r| {
+            Ok(Point {
+                time_s: r.get(0)?,
+                value: r.get(1)?,
+            })
+        },
+    )?;
+    let mut v: Vec<Point> = rows.collect::<std::result::Result<_, _>>()?;
+    v.reverse();
+    Ok(v)
+}
+
+/// One logged offset.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OffsetRow {
+    /// Cycle time, s.
+    pub time_s: f64,
+    /// Axis name.
+    pub axis: String,
+    /// Applied offset, µm.
+    pub offset_um: Option<f64>,
+    /// Running compensation, µm.
+    pub target_um: Option<f64>,
+    /// Law value, µm.
+    pub law_um: Option<f64>,
+    /// Axis status.
+    pub status: String,
+}
+
+/// Offsets in a time range (all axes).
+pub fn offset_history(conn: &Connection, range: Range) -> Result<Vec<OffsetRow>> {
+    let axes = names(conn, "axes")?;
+    let mut st = conn.prepare_cached(
+        "SELECT time_s, axis, offset_um, target_um, law_um, status FROM offsets \
+         WHERE time_s BETWEEN ?1 AND ?2 ORDER BY time_s DESC, id DESC LIMIT ?3",
+    )?;
+    let rows = st.query_map(params![range.from_s, range.to_s, range.limit], |r| {
+        let axis: i64 = r.get(1)?;
+        Ok(OffsetRow {
+            time_s: r.get(0)?,
+            axis: axes
+                .get(axis.max(0) as usize)
+                .cloned()
+                .unwrap_or_else(|| axis.to_string()),
+            offset_um: r.get(2)?,
+            target_um: r.get(3)?,
+            law_um: r.get(4)?,
+            status: r.get(5)?,
+        })
+    })?;
+    let mut v: Vec<OffsetRow> = rows.collect::<std::result::Result<_, _>>()?;
+    v.reverse();
+    Ok(v)
+}
+
+/// One alarm.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AlarmRow {
+    /// Row id (used to acknowledge).
+    pub id: i64,
+    /// Raised at, s.
+    pub time_s: f64,
+    /// Kind and subject.
+    pub key: String,
+    /// Text.
+    pub message: String,
+    /// Cleared at, s (None while active).
+    pub cleared_s: Option<f64>,
+    /// Who acknowledged it (token id), if anyone.
+    pub acknowledged_by: Option<String>,
+}
+
+/// Alarms, newest first; only active (not cleared) or unacknowledged ones when asked.
+pub fn alarms(conn: &Connection, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>> {
+    let sql = if active_only {
+        "SELECT id, time_s, key, message, cleared_s, acknowledged_by FROM alarms \
+         WHERE cleared_s IS NULL OR acknowledged_by IS NULL ORDER BY id DESC LIMIT ?1"
+    } else {
+        "SELECT id, time_s, key, message, cleared_s, acknowledged_by FROM alarms \
+         ORDER BY id DESC LIMIT ?1"
+    };
+    let mut st = conn.prepare_cached(sql)?;
+    let rows = st.query_map([limit], |r| {
+        Ok(AlarmRow {
+            id: r.get(0)?,
+            time_s: r.get(1)?,
+            key: r.get(2)?,
+            message: r.get(3)?,
+            cleared_s: r.get(4)?,
+            acknowledged_by: r.get(5)?,
+        })
+    })?;
+    Ok(rows.collect::<std::result::Result<_, _>>()?)
+}
+
+/// Writes an audit row (operator actions).
+pub fn audit(
+    conn: &Connection,
+    token_id: &str,
+    role: &str,
+    action: &str,
+    detail: &str,
+) -> Result<()> {
+    conn.execute(
+        "INSERT INTO audit (unix_s, token_id, role, action, detail) VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![unix_now_s(), token_id, role, action, detail],
+    )?;
+    Ok(())
+}
+
+/// Exports the record as a CSV that `gearcomp fit` reads: `time_s`, one column per
+/// channel (averaged value, °C or µm), one per target (e.g. `measured_drift_um`), one per
+/// axis (`<axis>_offset_um`). One row per time at which the engine formed averages;
+/// targets and offsets take their latest value at or before that time. Returns the rows
+/// written.
+pub fn export_csv(db: &Path, out: &Path) -> Result<usize> {
+    let conn = open_read(db)?;
+    let channels = names(&conn, "channels")?;
+    let targets = names(&conn, "targets")?;
+    let axes = names(&conn, "axes")?;
+    let file = std::fs::File::create(out).map_err(|source| ServiceError::Io {
+        action: "create",
+        path: out.display().to_string(),
+        source,
+    })?;
+    let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
+    let mut header = vec!["time_s".to_string()];
+    header.extend(channels.iter().cloned());
+    header.extend(targets.iter().cloned());
+    header.extend(axes.iter().map(|a| format!("{a}_offset_um")));
+    w.write_record(&header)?;
+
+    // Merge the three time-ordered streams in one pass.
+    let mut st_avg =
+        conn.prepare("SELECT time_s, channel, value FROM averages ORDER BY time_s, id")?;
+    let mut st_tgt =
+        conn.prepare("SELECT time_s, target, value FROM target_values ORDER BY time_s, id")?;
+    let mut st_off =
+        conn.prepare("SELECT time_s, axis, offset_um FROM offsets ORDER BY time_s, id")?;
+    type Row = (f64, i64, Option<f64>);
+    let map =
+        |r: &rusqlite::Row<'_>| -> rusqlite::Result<Row> { Ok((r.get(0)?, r.get(1)?, r.get(2)?)) };
+    let avg: Vec<Row> = st_avg
+        .query_map([], map)?
+        .collect::<std::result::Result<_, _>>()?;
+    let tgt: Vec<Row> = st_tgt
+        .query_map([], map)?
+        .collect::<std::result::Result<_, _>>()?;
+    let off: Vec<Row> = st_off
+        .query_map([], map)?
+        .collect::<std::result::Result<_, _>>()?;
+    let nc = channels.len();
+    let mut row_vals = vec![f64::NAN; nc + targets.len() + axes.len()];
+    let (mut it, mut io) = (0usize, 0usize);
+    let mut rows = 0usize;
+    let mut i = 0usize;
+    while i < avg.len() {
+        let t = avg[i].0;
+        while it < tgt.len() && tgt[it].0 <= t {
+            let (_, k, v) = tgt[it];
+            if let Some(slot) = row_vals.get_mut(nc + k.max(0) as usize) {
+                *slot = v.unwrap_or(f64::NAN);
+            }
+            it += 1;
+        }
+        while io < off.len() && off[io].0 <= t {
+            let (_, k, v) = off[io];
+            if let Some(slot) = row_vals.get_mut(nc + targets.len() + k.max(0) as usize) {
+                *slot = v.unwrap_or(f64::NAN);
+            }
+            io += 1;
+        }
+        while i < avg.len() && avg[i].0 == t {
+            let (_, k, v) = avg[i];
+            if let Some(slot) = row_vals
+                .get_mut(k.max(0) as usize)
+                .filter(|_| (k as usize) < nc)
+            {
+                *slot = v.unwrap_or(f64::NAN);
+            }
+            i += 1;
+        }
+        // A row is only useful to the fit when every column has a value.
+        if row_vals.iter().all(|v| v.is_finite()) {
+            let mut rec = Vec::with_capacity(row_vals.len() + 1);
+            rec.push(format!("{t}"));
+            rec.extend(row_vals.iter().map(|v| format!("{v}")));
+            w.write_record(&rec)?;
+            rows += 1;
+        }
+    }
+    w.flush().map_err(|source| ServiceError::Io {
+        action: "write",
+        path: out.display().to_string(),
+        source,
+    })?;
+    Ok(rows)
+}
+
+/// The database path a configuration points at, for messages.
+pub fn describe(path: &Path) -> PathBuf {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
+}

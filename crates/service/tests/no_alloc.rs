@@ -1,0 +1,68 @@
+//! The cycle's per-sample and per-step path allocates nothing once running (counted with
+//! an instrumented global allocator; only this test runs in this binary).
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod common;
+
+use std::alloc::System;
+use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::sync_channel;
+use std::sync::{Arc, Mutex};
+
+use gearcomp_service::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut};
+use gearcomp_thermal::{Engine, EngineConfig};
+use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
+
+#[global_allocator]
+static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+
+#[test]
+fn samples_and_steps_allocate_nothing() {
+    let cfg = EngineConfig::from_toml_str(&common::engine_ab(60.0)).unwrap();
+    let engine = Engine::new(&cfg).unwrap();
+    let (rec_tx, rec_rx) = sync_channel(1 << 16);
+    let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
+    let live = Arc::new(Mutex::new(Live::new(
+        engine.channel_names(),
+        engine.axis_names(),
+    )));
+    let clock = Clock::new(0.0, 1.0);
+    let mut cycle = Cycle::new(CycleParts {
+        engine,
+        config: cfg,
+        clock,
+        period_s: 1.0,
+        bumpless_step_um: 0.5,
+        records: rec_tx,
+        live: live.clone(),
+        offsets: off_tx,
+        shutdown: Arc::new(AtomicBool::new(false)),
+    });
+    let mut scan = |k: usize| {
+        let a = 24.0 + (k % 7) as f64 * 0.1;
+        for (c, raw) in [(0u16, a), (1u16, 20.0)] {
+            assert!(cycle.handle(InputMsg::Sample {
+                channel: c,
+                raw,
+                stamp_s: clock.now_s(),
+            }));
+        }
+        cycle.step();
+    };
+    for k in 0..20 {
+        scan(k);
+    }
+    let region = Region::new(GLOBAL);
+    for k in 0..1000 {
+        scan(k);
+    }
+    let stats = region.change();
+    assert_eq!(stats.allocations, 0, "{stats:?}");
+    assert_eq!(stats.reallocations, 0, "{stats:?}");
+    // The work was done: 1000 scans of 2 samples plus offsets went to the store.
+    let n = rec_rx.try_iter().count();
+    assert!(n >= 1020 * 2, "{n}");
+    let o = *off_rx.borrow();
+    assert!((o.offsets_um[0] - -3.75 * (24.0 + (999 % 7) as f64 * 0.1 - 20.0)).abs() < 1e-9);
+    assert_eq!(live.lock().unwrap().cycles, 2040);
+}
