@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use gearcomp_dressing::campaign::{plan, Correction, PlanRow, PlanSpec};
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
 use gearcomp_dressing::envelope::DressingSetup;
-use gearcomp_dressing::kinematics::{k_r, solve_bsp2, AxesBsp2, AxisCorrection, DressPose};
+use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
 use gearcomp_dressing::solve::{
     solve_four_point, solve_three_point, FourPoint, NewtonOptions, ThreePoint,
@@ -283,24 +283,7 @@ struct AxesOut {
 }
 
 fn axes_for(setup: &DressingSetup, dk: &AxisCorrection) -> anyhow::Result<AxesOut> {
-    let n = setup.nominal;
-    let pose = DressPose {
-        phi_s_rad: dk.dphi_s_rad,
-        nu_zs_mm: 0.0,
-        gamma_rad: n.gamma_rad + dk.dgamma_rad,
-        d_mm: n.d_mm + dk.dd_mm,
-        nu_ya_mm: n.nu_ya_mm + dk.dnu_ya_mm,
-        phi_a_rad: 0.0,
-    };
-    let reference = AxesBsp2 {
-        b1_rad: 0.0,
-        v1_mm: 0.0,
-        a1_rad: n.gamma_rad,
-        x1_mm: n.d_mm,
-        z1_mm: 0.0,
-        b3_rad: 0.0,
-    };
-    let a = solve_bsp2(&k_r(&pose), &reference)?;
+    let a = setup.machine_axes(dk)?;
     Ok(AxesOut {
         b1_deg: deg(a.b1_rad),
         v1_mm: a.v1_mm,

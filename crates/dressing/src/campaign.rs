@@ -4,7 +4,7 @@
 use crate::dresser::Dresser;
 use crate::envelope::DressingSetup;
 use crate::error::{DressError, Result};
-use crate::kinematics::{k_r, solve_bsp2, AxesBsp2, AxisCorrection, DressPose};
+use crate::kinematics::{AxesBsp2, AxisCorrection};
 use crate::solve::{solve_three_point, NewtonOptions, ThreePoint};
 use crate::worm::{Flank, Worm};
 use serde::{Deserialize, Serialize};
@@ -138,23 +138,7 @@ pub fn plan(design: &Worm, dresser: &Dresser, spec: &PlanSpec) -> Result<Vec<Pla
         let opposite_cut_mm = setup.opposite_flank_cut(spec.flank, &dk)?;
         let jacket_depth_mm = setup.jacket_depth(&dk);
         let n = setup.nominal;
-        let pose = DressPose {
-            phi_s_rad: dk.dphi_s_rad,
-            nu_zs_mm: 0.0,
-            gamma_rad: n.gamma_rad + dk.dgamma_rad,
-            d_mm: n.d_mm + dk.dd_mm,
-            nu_ya_mm: n.nu_ya_mm + dk.dnu_ya_mm,
-            phi_a_rad: 0.0,
-        };
-        let reference = AxesBsp2 {
-            b1_rad: 0.0,
-            v1_mm: 0.0,
-            a1_rad: n.gamma_rad,
-            x1_mm: n.d_mm,
-            z1_mm: 0.0,
-            b3_rad: 0.0,
-        };
-        let axes = solve_bsp2(&k_r(&pose), &reference)?;
+        let axes = setup.machine_axes(&dk)?;
         rows.push(PlanRow {
             d_s_mm: d_s,
             d0_mm: n.d_mm,

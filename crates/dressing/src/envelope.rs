@@ -4,7 +4,7 @@
 
 use crate::dresser::{Dresser, Nominal};
 use crate::error::{DressError, Result};
-use crate::kinematics::AxisCorrection;
+use crate::kinematics::{k_r, solve_bsp2, AxesBsp2, AxisCorrection, DressPose};
 use crate::transform::{rigid_inverse, rotation, rx, rz, translation, tx, ty};
 use crate::worm::{Flank, Worm};
 use nalgebra::{Matrix3, Vector3};
@@ -67,6 +67,33 @@ pub(crate) struct GEval {
 }
 
 impl DressingSetup {
+    /// Machine-(5) axis values (B1, V1, A1, X1, Z1, B3) that realise the corrected dressing
+    /// pose at φ_S = Δφ_S, ν_zS = 0, taking the uncorrected setting as the reference for the
+    /// choice among equivalent axis sets.
+    ///
+    /// # Source
+    /// seed 004, eqs. (1) and (5) [SEED]; digest §3 (inverse kinematics) [RECONSTRUCTED]
+    pub fn machine_axes(&self, dk: &AxisCorrection) -> Result<AxesBsp2> {
+        let n = self.nominal;
+        let pose = DressPose {
+            phi_s_rad: dk.dphi_s_rad,
+            nu_zs_mm: 0.0,
+            gamma_rad: n.gamma_rad + dk.dgamma_rad,
+            d_mm: n.d_mm + dk.dd_mm,
+            nu_ya_mm: n.nu_ya_mm + dk.dnu_ya_mm,
+            phi_a_rad: 0.0,
+        };
+        let reference = AxesBsp2 {
+            b1_rad: 0.0,
+            v1_mm: 0.0,
+            a1_rad: n.gamma_rad,
+            x1_mm: n.d_mm,
+            z1_mm: 0.0,
+            b3_rad: 0.0,
+        };
+        solve_bsp2(&k_r(&pose), &reference)
+    }
+
     /// Setup for `worm` (current diameter) and a `dresser` designed for the new worm.
     pub fn new(worm: Worm, dresser: Dresser) -> Self {
         let nominal = Nominal::for_worm(&worm, dresser.spec.d_a_mm);
