@@ -4,13 +4,17 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use gearcomp_dressing::campaign::{plan, Correction, PlanRow, PlanSpec};
+use gearcomp_dressing::campaign::{
+    plan_with_options, profile_stretch, Correction, PlanOptions, PlanRow, PlanSpec,
+    StretchReference,
+};
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
 use gearcomp_dressing::envelope::DressingSetup;
 use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
 use gearcomp_dressing::solve::{
-    solve_four_point, solve_three_point, FourPoint, NewtonOptions, ThreePoint,
+    axial_position_for_contact_point, solve_four_point, solve_three_point, FourPoint,
+    NewtonOptions, ThreePoint,
 };
 use gearcomp_dressing::worm::{Flank, Worm};
 use gearcomp_report::{Chart, HtmlReport, Series};
@@ -99,6 +103,16 @@ struct SolveCfg {
     crowning_um: Option<f64>,
     /// Explicit targets [fraction of the active profile, f in µm] (3 or 4 of them).
     points: Option<Vec<[f64; 2]>>,
+    /// Worm point the contact line must pass through: ν_zS as fifth unknown (eq. (14)/(19)).
+    contact_point: Option<ContactPointCfg>,
+}
+
+/// Worm point (w, b) of the contact line: w as a fraction of the active profile, b in mm.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ContactPointCfg {
+    w_fraction: f64,
+    b_mm: f64,
 }
 
 fn right() -> Flank {
@@ -117,6 +131,16 @@ struct PlanCfg {
     crowning_um: f64,
     #[serde(default = "budget")]
     budget_mm: f64,
+    /// Choose each dressing's worm profile angle so the profile stretching is zero (claim 2).
+    #[serde(default)]
+    zero_stretch: bool,
+    /// Half-width of that profile-angle search (degrees).
+    #[serde(default = "alpha_search")]
+    alpha_search_deg: f64,
+}
+
+fn alpha_search() -> f64 {
+    10.0
 }
 
 fn three_point() -> Correction {
@@ -271,6 +295,21 @@ struct SolveOut {
     opposite_flank_cut_um: f64,
     jacket_depth_um: f64,
     contact_line: Vec<(f64, f64)>,
+    /// ν_zS as fifth unknown: present when [solve] has a contact_point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    contact_point: Option<ContactPointOut>,
+}
+
+#[derive(Debug, Serialize)]
+struct ContactPointOut {
+    w_mm: f64,
+    b_mm: f64,
+    /// Worm axial position at which the contact line passes (w, b).
+    nu_zs_mm: f64,
+    /// Machine (5) at that position.
+    axes_bsp2: AxesOut,
+    /// The contact line there, (w mm, b mm).
+    contact_line: Vec<(f64, f64)>,
 }
 
 #[derive(Debug, Serialize)]
@@ -283,7 +322,11 @@ struct AxesOut {
 }
 
 fn axes_for(setup: &DressingSetup, dk: &AxisCorrection) -> anyhow::Result<AxesOut> {
-    let a = setup.machine_axes(dk)?;
+    axes_at(setup, dk, 0.0)
+}
+
+fn axes_at(setup: &DressingSetup, dk: &AxisCorrection, nu_zs_mm: f64) -> anyhow::Result<AxesOut> {
+    let a = setup.machine_axes_at(dk, nu_zs_mm)?;
     Ok(AxesOut {
         b1_deg: deg(a.b1_rad),
         v1_mm: a.v1_mm,
@@ -371,11 +414,38 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
     };
     let dk = sol.dk;
     let ws: Vec<f64> = (0..=20).map(|i| at(f64::from(i) / 20.0)).collect();
+    let line0 = contact_line(&setup, fl, &ws, &dk)?;
+    let contact_point = match &sc.contact_point {
+        None => None,
+        Some(cp) => {
+            if !(0.0..=1.0).contains(&cp.w_fraction) {
+                bail!(
+                    "[solve] contact_point.w_fraction = {} is outside the allowed range 0 ..= 1",
+                    cp.w_fraction
+                );
+            }
+            if !cp.b_mm.is_finite() || cp.b_mm.abs() > 1e4 {
+                bail!(
+                    "[solve] contact_point.b_mm = {} is outside the allowed range -10000 ..= 10000",
+                    cp.b_mm
+                );
+            }
+            let w0 = at(cp.w_fraction);
+            // Fifth unknown: with ΔK constant the contact line only translates with ν_zS.
+            let nu = axial_position_for_contact_point(&setup, fl, w0, cp.b_mm, &dk)?;
+            Some(ContactPointOut {
+                w_mm: w0,
+                b_mm: cp.b_mm,
+                nu_zs_mm: nu,
+                axes_bsp2: axes_at(&setup, &dk, nu)?,
+                contact_line: line0.iter().map(|(w, b)| (*w, b - nu)).collect(),
+            })
+        }
+    };
     let prof = setup.profile(fl, &ws, &dk)?;
-    let r1 = setup.association(fl, w_nf, &k0)?;
-    let r2 = setup.association(fl, w_na, &k0)?;
-    let w1 = setup.roll_dressed_by(fl, r1, &dk, w_nf)?;
-    let w2 = setup.roll_dressed_by(fl, r2, &dk, w_na)?;
+    // P_FS against the new worm dressed uncorrected (docs/dressing.md).
+    let reference = StretchReference::new(&worm, &setup.dresser, fl)?;
+    let stretch = profile_stretch(&setup, fl, &reference, &dk, (w_nf, w_na))?;
     let out = SolveOut {
         method: format!("{:?}", sc.method),
         flank: fl,
@@ -392,10 +462,11 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             .zip(prof.iter())
             .map(|(w, f)| (*w, f * 1e3))
             .collect(),
-        stretch_percent: 100.0 * ((w2 - w1) / (w_na - w_nf) - 1.0),
+        stretch_percent: 100.0 * stretch,
         opposite_flank_cut_um: 1e3 * setup.opposite_flank_cut(fl, &dk)?,
         jacket_depth_um: 1e3 * setup.jacket_depth(&dk),
-        contact_line: contact_line(&setup, fl, &ws, &dk)?,
+        contact_line: line0,
+        contact_point,
     };
     if c.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
@@ -419,6 +490,15 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             "stretching P_FS {:+.3} %, opposite flank cut {:.2} um, jacket {:.2} um below root",
             out.stretch_percent, out.opposite_flank_cut_um, out.jacket_depth_um
         );
+        if let Some(cp) = &out.contact_point {
+            println!(
+                "contact line through (w {:.5} mm, b {:.4} mm) at worm axial position nu_zS {:.5} mm",
+                cp.w_mm, cp.b_mm, cp.nu_zs_mm
+            );
+            let a = &cp.axes_bsp2;
+            println!("machine (5) there: B1 {:.6} deg, V1 {:.4} mm, A1 {:.5} deg, X1 {:.5} mm, Z1 {:.5} mm",
+                a.b1_deg, a.v1_mm, a.a1_deg, a.x1_mm, a.z1_mm);
+        }
     }
     if let Some(path) = &c.report {
         let mut r = HtmlReport::new("gearcomp dress solve");
@@ -430,13 +510,33 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             &Chart::new("Profile modification f_nFS", "w [mm]", "f [um]")
                 .with(Series::line("f_nFS(w; dK)", out.profile_um.clone())),
         )?;
-        r.chart(
-            &Chart::new("Contact line worm-dresser at nu_zS = 0", "w [mm]", "b [mm]")
-                .with(Series::points("contact line", out.contact_line.clone())),
-        )?;
+        let mut lines = Chart::new("Contact line worm-dresser", "w [mm]", "b [mm]")
+            .with(Series::points("at nu_zS = 0", out.contact_line.clone()));
+        if let Some(cp) = &out.contact_point {
+            lines = lines
+                .with(Series::points(
+                    format!("at nu_zS = {:.4} mm", cp.nu_zs_mm),
+                    cp.contact_line.clone(),
+                ))
+                .with(Series::points("prescribed point", vec![(cp.w_mm, cp.b_mm)]));
+        }
+        r.chart(&lines)?;
         r.write(path)?;
     }
     Ok(())
+}
+
+/// A plan row with the angles the interface shows in degrees.
+#[derive(Debug, Serialize)]
+struct PlanRowOut<'a> {
+    /// Worm normal profile angle at d_S/2 used for this dressing.
+    alpha_n_deg: f64,
+    /// Profile angle of the unchanged helicoid at d_S/2.
+    alpha_keep_deg: f64,
+    /// Δγ in degrees.
+    dgamma_deg: f64,
+    #[serde(flatten)]
+    row: &'a PlanRow,
 }
 
 fn run_plan(c: &Common) -> anyhow::Result<()> {
@@ -454,13 +554,33 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
         crowning_mm: pc.crowning_um * 1e-3,
         budget_mm: pc.budget_mm,
     };
-    let rows: Vec<PlanRow> = plan(&worm, &dresser, &spec)?;
+    if !pc.alpha_search_deg.is_finite() || !(0.01..=20.0).contains(&pc.alpha_search_deg) {
+        bail!(
+            "[plan] alpha_search_deg = {} is outside the allowed range 0.01 ..= 20",
+            pc.alpha_search_deg
+        );
+    }
+    let options = PlanOptions {
+        zero_stretch: pc.zero_stretch,
+        alpha_search_rad: rad(pc.alpha_search_deg),
+    };
+    let rows: Vec<PlanRow> = plan_with_options(&worm, &dresser, &spec, &options)?;
     if c.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        let out: Vec<PlanRowOut<'_>> = rows
+            .iter()
+            .map(|r| PlanRowOut {
+                alpha_n_deg: deg(r.alpha_n_rad),
+                alpha_keep_deg: deg(r.alpha_keep_rad),
+                dgamma_deg: deg(r.dk.dgamma_rad),
+                row: r,
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         println!(
-            "{:>8} {:>12} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} flags",
+            "{:>8} {:>10} {:>12} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} flags",
             "d_S mm",
+            "alpha deg",
             "dphi rad",
             "dgam deg",
             "dd mm",
@@ -478,8 +598,8 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
                 (false, true) => "UNDERCUT",
                 (false, false) => "",
             };
-            println!("{:>8.2} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
-                r.d_s_mm, r.dk.dphi_s_rad, deg(r.dk.dgamma_rad), r.dk.dd_mm, r.dk.dnu_ya_mm,
+            println!("{:>8.2} {:>10.5} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
+                r.d_s_mm, deg(r.alpha_n_rad), r.dk.dphi_s_rad, deg(r.dk.dgamma_rad), r.dk.dd_mm, r.dk.dnu_ya_mm,
                 r.deviation_max_um, r.deviation_range_um, 100.0 * r.stretch,
                 1e3 * r.opposite_cut_mm, 1e3 * r.jacket_depth_mm);
         }

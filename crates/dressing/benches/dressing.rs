@@ -1,5 +1,6 @@
 //! Benchmarks of gearcomp-dressing: one envelope point (baseline), the 3- and 4-point solves,
-//! a 20-dressing worm life plan, and the full simulation's throughput (vector–dresser tests per
+//! the topological solves (one position; the 9-position D6 program), a 20-dressing worm life
+//! plan, and the full simulation's throughput (vector–dresser tests per
 //! second) against grid size and time step. Quote results as ratios to the baseline.
 #![allow(missing_docs, clippy::unwrap_used, clippy::expect_used)]
 
@@ -11,6 +12,10 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{simulate, SimSpec};
 use gearcomp_dressing::solve::{
     solve_four_point, solve_three_point, FourPoint, NewtonOptions, ThreePoint,
+};
+use gearcomp_dressing::topology::{
+    solve_topological_four_point, solve_topological_three_point, topological_program,
+    TopoFourPoint, TopoThreePoint, WidthPoly,
 };
 use gearcomp_dressing::worm::{Flank, Worm};
 use std::hint::black_box;
@@ -69,6 +74,45 @@ fn benches(c: &mut Criterion) {
     };
     g.bench_function("four_point_g1_d1", |bch| {
         bch.iter(|| solve_four_point(&g1, black_box(&p4), k0, &NewtonOptions::default()).unwrap())
+    });
+    // Topological 3-point with width-dependent association (22), one contact-line position.
+    let p3t = TopoThreePoint {
+        flank: fl,
+        w_mm: [at(0.05), at(0.5), at(0.95)].map(WidthPoly::constant),
+        f_mm: [
+            WidthPoly::constant(0.0),
+            WidthPoly::linear(-0.1e-3, -0.2e-3 / 40.0),
+            WidthPoly::constant(0.0),
+        ],
+        w_assoc_mm: WidthPoly::linear(b, -0.3 / 40.0),
+        r_a_mm: WidthPoly::constant(r_tip),
+        w0_mm: at(0.5),
+    };
+    g.bench_function("topo3_one_position_g1z5", |bch| {
+        bch.iter(|| {
+            solve_topological_three_point(&z5, black_box(&p3t), 20.0, k0, &NewtonOptions::default())
+                .unwrap()
+        })
+    });
+    // D6: the 9-component 4-point program over 40 mm of width (9 positions, continuation).
+    let p4t = TopoFourPoint {
+        flank: fl,
+        w_mm: [at(0.1), at(0.37), at(0.63), at(0.9)].map(WidthPoly::constant),
+        f_mm: std::array::from_fn(|_| WidthPoly::linear(0.0, 2e-3 / 40.0)),
+        w0_mm: at(0.5),
+    };
+    let opts6 = NewtonOptions {
+        tol_mm: 1e-6,
+        ..NewtonOptions::default()
+    };
+    let b0s: Vec<f64> = (0..9).map(|i| 5.0 * f64::from(i)).collect();
+    g.bench_function("topo4_program_9_positions_g1z5", |bch| {
+        bch.iter(|| {
+            topological_program(black_box(&b0s), k0, |b0, k| {
+                solve_topological_four_point(&z5, &p4t, b0, k, &opts6)
+            })
+            .unwrap()
+        })
     });
     let ds: Vec<f64> = (0..20).map(|i| 280.0 - 3.0 * f64::from(i)).collect();
     let spec = PlanSpec {

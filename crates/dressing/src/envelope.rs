@@ -74,18 +74,32 @@ impl DressingSetup {
     /// # Source
     /// seed 004, eqs. (1) and (5) [SEED]; digest §3 (inverse kinematics) [RECONSTRUCTED]
     pub fn machine_axes(&self, dk: &AxisCorrection) -> Result<AxesBsp2> {
+        self.machine_axes_at(dk, 0.0)
+    }
+
+    /// Machine-(5) axis values when the worm is at axial position ν_zS of the lead-coupled
+    /// dressing motion (φ_S = ν_zS/p + Δφ_S), e.g. where the contact line passes a chosen point.
+    ///
+    /// # Formula
+    /// K_R(φ_S = ν_zS/p + Δφ_S, ν_zS, γ_0 + Δγ, d_0 + Δd, ν_yA,0 + Δν_yA) → (5), B1 unwrapped
+    /// next to ν_zS/p
+    /// # Source
+    /// seed 004, eqs. (1), (5), E90 (lead coupling) [SEED]; digest §3 [RECONSTRUCTED]
+    pub fn machine_axes_at(&self, dk: &AxisCorrection, nu_zs_mm: f64) -> Result<AxesBsp2> {
+        DressError::check("nu_zs_mm", nu_zs_mm, -1e5, 1e5)?;
         let n = self.nominal;
+        let turn = nu_zs_mm / self.worm.p_mm;
         let pose = DressPose {
-            phi_s_rad: dk.dphi_s_rad,
-            nu_zs_mm: 0.0,
+            phi_s_rad: turn + dk.dphi_s_rad,
+            nu_zs_mm,
             gamma_rad: n.gamma_rad + dk.dgamma_rad,
             d_mm: n.d_mm + dk.dd_mm,
             nu_ya_mm: n.nu_ya_mm + dk.dnu_ya_mm,
             phi_a_rad: 0.0,
         };
         let reference = AxesBsp2 {
-            b1_rad: 0.0,
-            v1_mm: 0.0,
+            b1_rad: turn,
+            v1_mm: nu_zs_mm,
             a1_rad: n.gamma_rad,
             x1_mm: n.d_mm,
             z1_mm: 0.0,
@@ -325,7 +339,16 @@ impl DressingSetup {
             ((q.x * q.x + q.y * q.y).sqrt(), q.z - p * psi)
         };
         let side = self.dresser.side(flank);
-        let (u0, _, _) = side.u_of_w.eval(w_mm);
+        // Start at the dresser point that dressed the same depth below the tip on the new worm:
+        // the uncorrected centre distance follows the root, so worm radius r of the current worm
+        // sits where r + (d_0,design − d_0) sat on the design worm (a geometric guess, not the
+        // screw evaluation, to keep the two methods independent).
+        let lowered = self.dresser.design_nominal.d_mm - self.nominal.d_mm;
+        let w_design = self
+            .dresser
+            .design_worm
+            .roll_from_radius(self.worm.radius_from_roll(w_mm) + lowered);
+        let (u0, _, _) = side.u_of_w.eval(w_design);
         let (mut za, mut s) = (u0 * side.z_sign, 0.0);
         let lead = 2.0 * PI * p;
         let resid = |za: f64, s: f64| -> Option<(f64, f64, f64)> {

@@ -51,6 +51,11 @@ impl AxisCorrection {
     pub fn to_array(self) -> [f64; 4] {
         [self.dphi_s_rad, self.dgamma_rad, self.dd_mm, self.dnu_ya_mm]
     }
+    /// Every component multiplied by `k`.
+    pub fn scaled(self, k: f64) -> Self {
+        let a = self.to_array();
+        Self::from_array([k * a[0], k * a[1], k * a[2], k * a[3]])
+    }
 }
 
 /// K_R, the worm–dresser chain: maps dresser coordinates into worm coordinates.

@@ -13,6 +13,8 @@
 //! - [`simulation`]: the full time-stepped (w, b)-grid simulation and the contact line;
 //! - [`solve`]: 3-point (with radius association), 4-point (minimum norm) and curve-fit solvers
 //!   (damped Newton, natural-monotonicity test, scaled unknowns, Tikhonov-filtered steps);
+//! - [`topology`]: topological dressing, ΔK(ν_zS) over the worm width, the 9-component 4-point
+//!   and the width-dependent 3-point solves, the dressed worm f_nFS(w, b) as a grid;
 //! - [`campaign`]: the plan of a worm's whole life (claims 1–2).
 //!
 //! Design trade-off: the dresser flank is tabulated once (exact envelope at 1201 stations,
@@ -41,6 +43,7 @@ pub mod kinematics;
 pub mod simulation;
 pub mod solve;
 pub mod spline;
+pub mod topology;
 pub mod transform;
 pub mod worm;
 

@@ -4,6 +4,7 @@
 use crate::envelope::DressingSetup;
 use crate::error::{DressError, Result};
 use crate::kinematics::AxisCorrection;
+use crate::topology::CorrectionSchedule;
 use crate::worm::Flank;
 use nalgebra::Vector3;
 
@@ -52,6 +53,27 @@ pub struct SimResult {
 /// # Source
 /// seed 004, E97–E104, Fig. 1 [SEED]; signed vectors digest §4.A.1 notes [RECONSTRUCTED]
 pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> Result<SimResult> {
+    simulate_scheduled(setup, spec, dk)
+}
+
+/// Runs the vector-shortening simulation with a correction that varies with the worm's axial
+/// position, ΔK(ν_zS) (topological dressing): at time t the dresser pose is chain (1) with
+/// φ_S = t + Δφ_S(ν_zS), ν_zS = p t, γ_0 + Δγ(ν_zS), d_0 + Δd(ν_zS), ν_yA,0 + Δν_yA(ν_zS).
+///
+/// Nothing is assumed about how fast ΔK varies: the vectors are shortened by the true
+/// time-stepped motion, so this is the reference for the quasi-static model of
+/// [`crate::topology::quasi_static_point`].
+///
+/// # Formula
+/// p_A = X(t)⁻¹ (R_z(t) q + p t e_z), X(t) = R_z(−Δφ_S)·R_x(−γ)·T_x(−d)·T_y(ν_yA) at ΔK(p t)
+/// # Source
+/// seed 004, E97–E104, E114–E120 (ΔK over the width) [SEED]; time-varying ΔK digest §4.A.5
+/// [RECONSTRUCTED]
+pub fn simulate_scheduled<S: CorrectionSchedule + ?Sized>(
+    setup: &DressingSetup,
+    spec: &SimSpec,
+    schedule: &S,
+) -> Result<SimResult> {
     DressError::check("dt_rad", spec.dt_rad, 1e-7, 0.1)?;
     DressError::check("stock_mm", spec.stock_mm, 1e-4, 5.0)?;
     DressError::check("inside_mm", spec.inside_mm, 0.0, 5.0)?;
@@ -63,23 +85,38 @@ pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> R
             max: f64::INFINITY,
         });
     }
+    for &v in spec.w_mm.iter().chain(spec.b_mm.iter()) {
+        DressError::check("grid coordinate (w_mm, b_mm)", v, -1e5, 1e5)?;
+    }
     let worm = &setup.worm;
-    let fr = setup.frame(dk);
     let nw = spec.w_mm.len();
     let nb = spec.b_mm.len();
-    // Per row: envelope time at the axial section and the half-window in which the stock can be
-    // touched; t*(w, b) = t*_ref − (b − b_ref)/p because the flank is screw-invariant.
+    // Time window: per row the envelope time at the axial section and the half-window in which
+    // the stock can be touched; t*(w, b) = t*_ref − (b − b_ref)/p because the flank is
+    // screw-invariant. A varying ΔK moves t* a little, so the window is the union over ΔK
+    // sampled across the first estimate's axial range.
+    let window = |dk: &AxisCorrection, lo: &mut f64, hi: &mut f64| -> Result<()> {
+        for &w in &spec.w_mm {
+            let d = setup.dress_point(spec.flank, w, dk)?;
+            let b_ref = worm.b_axial_section(spec.flank, w);
+            let reach = (spec.stock_mm - d.f_mm).max(0.0) + spec.inside_mm;
+            let half = 1.5 * (2.0 * d.g_s.abs() * reach / d.g_tt).sqrt() + 2.0 * spec.dt_rad;
+            for &b in &spec.b_mm {
+                let ts = d.t_rad - (b - b_ref) / worm.p_mm;
+                *lo = lo.min(ts - half);
+                *hi = hi.max(ts + half);
+            }
+        }
+        Ok(())
+    };
     let mut t_lo = f64::INFINITY;
     let mut t_hi = f64::NEG_INFINITY;
-    for &w in &spec.w_mm {
-        let d = setup.dress_point(spec.flank, w, dk)?;
-        let b_ref = worm.b_axial_section(spec.flank, w);
-        let reach = (spec.stock_mm - d.f_mm).max(0.0) + spec.inside_mm;
-        let half = 1.5 * (2.0 * d.g_s.abs() * reach / d.g_tt).sqrt() + 2.0 * spec.dt_rad;
-        for &b in &spec.b_mm {
-            let ts = d.t_rad - (b - b_ref) / worm.p_mm;
-            t_lo = t_lo.min(ts - half);
-            t_hi = t_hi.max(ts + half);
+    window(&schedule.at(0.0), &mut t_lo, &mut t_hi)?;
+    if !schedule.is_constant() {
+        let (a, b) = (t_lo, t_hi);
+        for i in 0..=8 {
+            let t = a + (b - a) * f64::from(i) / 8.0;
+            window(&schedule.at(worm.p_mm * t), &mut t_lo, &mut t_hi)?;
         }
     }
     let k0 = (t_lo / spec.dt_rad).floor() as i64;
@@ -98,8 +135,12 @@ pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> R
     let mut cuts = vec![0u32; nw * nb];
     let mut tests = 0u64;
     let u_max = setup.dresser.u_max();
+    let mut fr = setup.frame(&schedule.at(0.0));
     for k in k0..=k1 {
         let t = k as f64 * spec.dt_rad;
+        if !schedule.is_constant() {
+            fr = setup.frame(&schedule.at(worm.p_mm * t));
+        }
         for (i, (p, n)) in pts.iter().enumerate() {
             tests += 1;
             let end = setup.g_eval(&fr, p, n, len[i], t);

@@ -110,6 +110,58 @@ impl Worm {
         })
     }
 
+    /// The same worm (current diameter, tip and root) re-profiled to normal profile angle α_n at
+    /// its current reference diameter d_S, the normal base pitch being kept so that it still
+    /// grinds the same gear (eq. (20)): a different helicoid (r_b, β_b, lead) that the old
+    /// dresser then dresses. Apply after [`Self::worn`] (which works from the design module).
+    ///
+    /// # Formula
+    /// m_n′ = m_n cos α_n0 / cos α_n;  (r_b, β_b, p_z) = worm as helical gear (z_S, d_S, m_n′, α_n)
+    /// # Domain
+    /// 5° ≤ α_n ≤ 45°
+    /// # Source
+    /// seed 004, claim 2, E147–E150, eq. (20) [SEED]; digest §4.A.15 option B [RECONSTRUCTED]
+    pub fn with_profile_angle(&self, alpha_n_rad: f64) -> Result<Self> {
+        DressError::check(
+            "alpha_n_rad",
+            alpha_n_rad,
+            5f64.to_radians(),
+            45f64.to_radians(),
+        )?;
+        let m_n = crate::gear::normal_module_for_profile_angle(
+            self.m_n_mm,
+            self.alpha_n_rad,
+            alpha_n_rad,
+        );
+        let h = worm_params(self.z_s, self.d_s_mm, m_n, alpha_n_rad)?;
+        Ok(Self {
+            m_n_mm: m_n,
+            alpha_n_rad,
+            r_b_mm: h.r_b_mm,
+            beta_b_rad: h.beta_b_rad,
+            p_mm: h.lead_mm / (2.0 * PI),
+            ..*self
+        })
+    }
+
+    /// Normal profile angle of this worm's helicoid at radius r (the angle it has at d_S/2
+    /// without re-profiling).
+    ///
+    /// # Formula
+    /// cos α_t = r_b / r, tan β(r) = r / p, tan α_n = tan α_t · cos β(r)
+    /// # Source
+    /// ISO 21771:2007 4.3 (helical gear relations at any radius) [STANDARD]
+    pub fn profile_angle_at(&self, r_mm: f64) -> f64 {
+        let alpha_t = (self.r_b_mm / r_mm).clamp(-1.0, 1.0).acos();
+        let beta = (r_mm / self.p_mm).atan();
+        (alpha_t.tan() * beta.cos()).atan()
+    }
+
+    /// Normal base pitch p_bn = 2π r_b cos β_b / z_S (mm): what must match the gear (eq. (20)).
+    pub fn normal_base_pitch_mm(&self) -> f64 {
+        2.0 * PI * self.r_b_mm * self.beta_b_rad.cos() / f64::from(self.z_s)
+    }
+
     /// Axial pitch p_x = p_z / z_S (mm).
     pub fn axial_pitch_mm(&self) -> f64 {
         2.0 * PI * self.p_mm / f64::from(self.z_s)

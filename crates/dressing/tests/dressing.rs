@@ -225,3 +225,30 @@ proptest! {
         prop_assert!((x.r_a_mm - y.r_a_mm).abs() < 1e-6);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    /// The same agreement on worn worms (dresser designed for the new worm), including the
+    /// fillet region below w_Nf and re-profiled helicoids.
+    #[test]
+    fn screw_evaluation_matches_analytic_envelope_on_worn_worms(
+        shrink in 0.0..0.2f64, q in -0.05..1.0f64, dalpha_deg in -0.2..0.2f64,
+        dphi in -1e-3..1e-3f64, dgam in -0.005..0.005f64, dd in -0.02..0.02f64,
+    ) {
+        let s = common::g1_z5();
+        let d = 160.0 * (1.0 - shrink);
+        let worn = s.worm.worn(d).unwrap();
+        let worm = worn
+            .with_profile_angle(worn.profile_angle_at(d / 2.0) + dalpha_deg.to_radians())
+            .unwrap();
+        let setup = gearcomp_dressing::envelope::DressingSetup::new(worm, s.dresser.clone());
+        let (a, b) = setup.active_profile(Flank::Right).unwrap();
+        let w = a + q * (b - a);
+        let dk = AxisCorrection::from_array([dphi, dgam, dd, 0.0]);
+        let x = setup.dress_point(Flank::Right, w, &dk).unwrap();
+        let y = setup.dress_point_meshing(Flank::Right, w, &dk).unwrap();
+        prop_assert!((x.f_mm - y.f_mm).abs() < 0.05e-3, "{} vs {}", x.f_mm, y.f_mm);
+        prop_assert!((x.r_a_mm - y.r_a_mm).abs() < 1e-6);
+    }
+}

@@ -9,13 +9,17 @@ use serde::{Deserialize, Serialize};
 /// Rounds a calculated tolerance as ISO 1328-1:2013 prescribes.
 ///
 /// # Formula
-/// above 10 µm: to the nearest whole µm; 5 … 10 µm: to the nearest 0.5 µm; below 5 µm: to
-/// the nearest 0.1 µm.
+/// greater than 10 µm: to the nearest whole µm; 5 … 10 µm: to the nearest 0.5 µm; below
+/// 5 µm: to the nearest 0.1 µm. At the boundaries both neighbouring rules give the same
+/// value (10.0 and 5.0), so the open/closed choice cannot change a result.
 /// # Source
-/// ISO 1328-1:2013, rounding of calculated tolerance values [STANDARD], as quoted in
-/// research anchors.md TV4; the standard's own text was not available to check.
+/// ISO 1328-1:2013, 5.2.3 (rounding of calculated tolerance values) [STANDARD]. The clause's
+/// wording ("if greater than 10 µm, round to the nearest integer micrometre", "… to the
+/// nearest 0,5 µm", "… to the nearest 0,1 µm", page 34) was checked against a public
+/// project that cites the standard's text layer page by page; the standard itself was not
+/// at hand.
 pub fn round_tolerance_um(value_um: f64) -> f64 {
-    if value_um >= 10.0 {
+    if value_um > 10.0 {
         value_um.round()
     } else if value_um >= 5.0 {
         (value_um * 2.0).round() / 2.0
@@ -197,6 +201,13 @@ mod tests {
         assert_eq!(round_tolerance_um(8.627), 8.5);
         assert_eq!(round_tolerance_um(6.901), 7.0);
         assert_eq!(round_tolerance_um(4.87), 4.9);
+        // The three bands meet without a jump: each boundary value is kept by both rules.
+        assert_eq!(round_tolerance_um(10.0), 10.0);
+        assert_eq!(round_tolerance_um(10.2), 10.0);
+        assert_eq!(round_tolerance_um(9.8), 10.0);
+        assert_eq!(round_tolerance_um(5.0), 5.0);
+        assert_eq!(round_tolerance_um(4.96), 5.0);
+        assert_eq!(round_tolerance_um(5.2), 5.0);
         let a6 = tolerances_unrounded(80.0, 2.0, 20.0, 6).unwrap();
         let a7 = tolerances_unrounded(80.0, 2.0, 20.0, 7).unwrap();
         assert!((a7.f_h_beta_t_um / a6.f_h_beta_t_um - std::f64::consts::SQRT_2).abs() < 1e-12);

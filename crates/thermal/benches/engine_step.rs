@@ -9,7 +9,7 @@
 mod common;
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
-use gearcomp_thermal::{Inputs, Reading};
+use gearcomp_thermal::{Inputs, Output, Reading};
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("engine_step");
@@ -42,27 +42,38 @@ fn bench(c: &mut Criterion) {
     // N = 4: the configured engine (laws re-evaluated at averaging instants, every 4th
     // cycle, and every cycle for time/position terms); N = 1: every cycle averages and
     // re-evaluates every law, transform and the workpiece shrink (worst case).
+    // `step_into` writes into a caller-owned output (how a control loop keeps it);
+    // `step` returns the output by value (the wrapper the service and CLI call).
     for (label, n) in [("16ch-3axes-N4", 4usize), ("16ch-3axes-N1-worst", 1)] {
-        let mut engine = common::engine_with_block(n);
-        let mut k: u64 = 0;
-        g.bench_function(BenchmarkId::new("step", label), |b| {
-            b.iter(|| {
-                let mut r = table[(k % 1024) as usize];
-                let t = k as f64;
-                for x in &mut r {
-                    x.stamp_s = t;
-                }
-                k += 1;
-                let out = engine.step(&Inputs {
-                    time_s: t,
-                    readings: black_box(&r),
-                    trigger: true,
-                    safe_point: true,
-                    positions_mm: &positions,
-                });
-                black_box(out.axes()[0].offset_um)
-            })
-        });
+        for by_value in [false, true] {
+            let mut engine = common::engine_with_block(n);
+            let mut out = Output::EMPTY;
+            let mut k: u64 = 0;
+            let name = if by_value { "step" } else { "step_into" };
+            g.bench_function(BenchmarkId::new(name, label), |b| {
+                b.iter(|| {
+                    let mut r = table[(k % 1024) as usize];
+                    let t = k as f64;
+                    for x in &mut r {
+                        x.stamp_s = t;
+                    }
+                    k += 1;
+                    let inputs = Inputs {
+                        time_s: t,
+                        readings: black_box(&r),
+                        trigger: true,
+                        safe_point: true,
+                        positions_mm: &positions,
+                    };
+                    if by_value {
+                        out = engine.step(&inputs);
+                    } else {
+                        engine.step_into(&inputs, &mut out);
+                    }
+                    black_box(out.axes()[0].offset_um)
+                })
+            });
+        }
     }
     g.finish();
 }

@@ -204,6 +204,18 @@ pub struct Output {
 }
 
 impl Output {
+    /// A neutral output (no axes) to pass to [`Engine::step_into`], which fills it.
+    pub const EMPTY: Output = Output {
+        time_s: f64::NAN,
+        status: EngineStatus::Running,
+        alarm: None,
+        alarm_count: 0,
+        stop: None,
+        averaged: false,
+        axes: [AxisOutput::ZERO; MAX_AXES],
+        n_axes: 0,
+    };
+
     /// Per-axis results, in configuration order.
     pub fn axes(&self) -> &[AxisOutput] {
         &self.axes[..self.n_axes as usize]
@@ -283,59 +295,85 @@ impl Conversion {
         if !raw.is_finite() {
             return None;
         }
-        let v = match self {
+        let v = self.convert_finite(raw);
+        v.is_finite().then_some(v)
+    }
+
+    /// [`Conversion::convert`] of a raw value the caller has checked finite, with NaN or
+    /// ±∞ where `convert` gives `None` (the validity range, finite by construction,
+    /// rejects them without a separate test).
+    #[inline(always)]
+    fn convert_finite(self, raw: f64) -> f64 {
+        match self {
             Conversion::Celsius => raw,
-            Conversion::Rtd { r0_ohm } => sensor::rtd_temperature_c(raw, r0_ohm)?,
+            Conversion::Rtd { r0_ohm } => {
+                // R0 > 0 was validated at build time; R is checked per sample.
+                if raw > 0.0 {
+                    sensor::rtd_temperature_positive_c(raw, r0_ohm)
+                } else {
+                    f64::NAN
+                }
+            }
             Conversion::NtcBeta {
                 r0_ohm,
                 inv_t0_per_k,
                 beta_k,
             } => {
                 // R0 > 0 and β > 0 were validated at build time; R is checked per sample.
-                if raw <= 0.0 {
-                    return None;
+                if raw > 0.0 {
+                    sensor::ntc_beta_temperature_from_inv_t0_c(raw, r0_ohm, inv_t0_per_k, beta_k)
+                        .unwrap_or(f64::NAN)
+                } else {
+                    f64::NAN
                 }
-                sensor::ntc_beta_temperature_from_inv_t0_c(raw, r0_ohm, inv_t0_per_k, beta_k)?
             }
             Conversion::SteinhartHart { a, b, c } => {
-                sensor::steinhart_hart_temperature_c(raw, a, b, c)?
+                sensor::steinhart_hart_temperature_c(raw, a, b, c).unwrap_or(f64::NAN)
             }
             Conversion::Displacement {
                 gain_um_per_unit,
                 offset_um,
             } => gain_um_per_unit * raw + offset_um,
-        };
-        v.is_finite().then_some(v)
+        }
     }
 }
 
+/// One channel's configuration and state, its fields in the order the cycle reads them.
 #[derive(Debug, Clone)]
 struct ChannelState {
-    kind: SensorKind,
+    last_stamp_s: f64,
+    stale_timeout_s: f64,
+    /// Bits of the last raw value that converted to a valid value (a NaN pattern, which a
+    /// checked raw value never has, before the first): the conversion is a pure function
+    /// of the raw bits, so a sensor whose raw value repeats (a quantised ADC count, a
+    /// fieldbus value held between updates) skips the ln/√ of the conversion.
+    cached_raw_bits: u64,
+    /// The valid value `cached_raw_bits` converted to.
+    cached_value: f64,
     conversion: Conversion,
     valid_min: f64,
     valid_max: f64,
-    limit_min: f64,
-    limit_max: f64,
-    stale_timeout_s: f64,
-    stuck_timeout_s: f64,
-    stuck_tolerance: f64,
-    block: BlockAverage,
-    filter: TimeFilter,
-    last_stamp_s: f64,
     stuck_ref: f64,
     stuck_since_s: f64,
+    stuck_tolerance: f64,
+    stuck_timeout_s: f64,
+    block: BlockAverage,
+    filter: TimeFilter,
     value: f64,
-    fresh: bool,
+    limit_min: f64,
+    limit_max: f64,
+    resistive: Resistive,
     fault: Option<Fault>,
 }
 
 impl ChannelState {
     /// Checks one reading; returns the engineering value or the fault.
+    #[inline(always)]
     fn check(&mut self, r: Reading, time_s: f64) -> std::result::Result<f64, Fault> {
         // A stamp from the future or going backwards is out of order; −∞ (never read)
-        // falls through to the stale check.
-        if r.stamp_s.is_nan() || r.stamp_s < self.last_stamp_s || r.stamp_s > time_s {
+        // falls through to the stale check. Written as one negated test so a NaN stamp
+        // (every comparison false) is out of order without a separate NaN test.
+        if !(r.stamp_s >= self.last_stamp_s && r.stamp_s <= time_s) {
             return Err(Fault::OutOfOrder);
         }
         self.last_stamp_s = r.stamp_s;
@@ -345,31 +383,14 @@ impl ChannelState {
         if time_s - r.stamp_s > self.stale_timeout_s {
             return Err(Fault::Stale);
         }
-        let v = match self.conversion.convert(r.raw) {
-            Some(v) => v,
-            // Only resistive sensors can fail to convert a finite raw value (R ≤ 0, or a
-            // resistance off the ends of the curve).
-            None => {
-                return Err(if r.raw <= 0.0 {
-                    Fault::ShortCircuit
-                } else {
-                    match self.kind.resistive() {
-                        Resistive::NegativeCoefficient => Fault::ShortCircuit,
-                        _ => Fault::OpenCircuit,
-                    }
-                })
-            }
+        let v = if r.raw.to_bits() == self.cached_raw_bits {
+            self.cached_value
+        } else {
+            let v = self.convert_valid(r.raw)?;
+            self.cached_raw_bits = r.raw.to_bits();
+            self.cached_value = v;
+            v
         };
-        if v < self.valid_min || v > self.valid_max {
-            let high = v > self.valid_max;
-            return Err(match (self.kind.resistive(), high) {
-                (Resistive::PositiveCoefficient, true)
-                | (Resistive::NegativeCoefficient, false) => Fault::OpenCircuit,
-                (Resistive::PositiveCoefficient, false)
-                | (Resistive::NegativeCoefficient, true) => Fault::ShortCircuit,
-                (Resistive::No, _) => Fault::OutOfRange,
-            });
-        }
         if (v - self.stuck_ref).abs() > self.stuck_tolerance || self.stuck_ref.is_nan() {
             self.stuck_ref = v;
             self.stuck_since_s = time_s;
@@ -377,6 +398,45 @@ impl ChannelState {
             return Err(Fault::Stuck);
         }
         Ok(v)
+    }
+
+    /// A finite raw value → engineering value inside the validity range, or the fault.
+    #[inline(always)]
+    fn convert_valid(&self, raw: f64) -> std::result::Result<f64, Fault> {
+        let v = self.conversion.convert_finite(raw);
+        if v >= self.valid_min && v <= self.valid_max {
+            Ok(v)
+        } else {
+            Err(self.conversion_fault(raw, self.conversion.convert(raw)))
+        }
+    }
+
+    /// Why a finite raw value gave no valid value (`v`: the conversion's result).
+    #[cold]
+    #[inline(never)]
+    fn conversion_fault(&self, raw: f64, v: Option<f64>) -> Fault {
+        let Some(v) = v else {
+            // Only resistive sensors can fail to convert a finite raw value (R ≤ 0, or a
+            // resistance off the ends of the curve).
+            return if raw <= 0.0 {
+                Fault::ShortCircuit
+            } else {
+                match self.resistive {
+                    Resistive::NegativeCoefficient => Fault::ShortCircuit,
+                    _ => Fault::OpenCircuit,
+                }
+            };
+        };
+        let high = v > self.valid_max;
+        match (self.resistive, high) {
+            (Resistive::PositiveCoefficient, true) | (Resistive::NegativeCoefficient, false) => {
+                Fault::OpenCircuit
+            }
+            (Resistive::PositiveCoefficient, false) | (Resistive::NegativeCoefficient, true) => {
+                Fault::ShortCircuit
+            }
+            (Resistive::No, _) => Fault::OutOfRange,
+        }
     }
 }
 
@@ -429,13 +489,12 @@ impl LinearEval {
     }
 
     /// Runs the transforms of the regressors whose channel has a new averaged value.
-    fn update(&mut self, t_s: f64, channels: &[ChannelState]) {
+    fn update(&mut self, t_s: f64, channels: &[ChannelState], fresh: u64) {
         for r in &mut self.regressors {
-            let ch = &channels[r.channel];
-            if !ch.fresh {
+            if fresh & (1u64 << r.channel) == 0 {
                 continue;
             }
-            let u = ch.value;
+            let u = channels[r.channel].value;
             r.x = match &mut r.transform {
                 TransformState::Value => u,
                 TransformState::Lag(l) => l.update(t_s, u),
@@ -709,6 +768,8 @@ struct AxisState {
     needs_position: bool,
     /// The law depends on time or position, so it changes without a new average.
     always_evaluate: bool,
+    /// A model term has transforms to run at its channels' averaging instants.
+    has_model: bool,
     out: AxisOutput,
     carry_pulses: f64,
 }
@@ -886,22 +947,23 @@ fn build_channel(c: &ChannelConfig, i: usize, cfg: &EngineConfig) -> Result<Chan
         }
     };
     Ok(ChannelState {
-        kind: c.sensor,
+        last_stamp_s: f64::NEG_INFINITY,
+        stale_timeout_s: c.stale_timeout_s,
+        cached_raw_bits: f64::NAN.to_bits(),
+        cached_value: f64::NAN,
         conversion: Conversion::new(&c.sensor),
         valid_min: c.valid_min,
         valid_max: c.valid_max,
-        limit_min,
-        limit_max,
-        stale_timeout_s: c.stale_timeout_s,
-        stuck_timeout_s: c.stuck_timeout_s.unwrap_or(f64::INFINITY),
-        stuck_tolerance: c.stuck_tolerance,
-        block: BlockAverage::new(cfg.sampling.samples_per_average),
-        filter,
-        last_stamp_s: f64::NEG_INFINITY,
         stuck_ref: f64::NAN,
         stuck_since_s: 0.0,
+        stuck_tolerance: c.stuck_tolerance,
+        stuck_timeout_s: c.stuck_timeout_s.unwrap_or(f64::INFINITY),
+        block: BlockAverage::new(cfg.sampling.samples_per_average),
+        filter,
         value: f64::NAN,
-        fresh: false,
+        limit_min,
+        limit_max,
+        resistive: c.sensor.resistive(),
         fault: None,
     })
 }
@@ -1135,8 +1197,10 @@ fn build_axis(a: &AxisConfig, i: usize, names: &[String], cfg: &EngineConfig) ->
             Term::Position { .. } | Term::TimeLinear { .. } | Term::TimeSqrt { .. }
         )
     });
+    let has_model = terms.iter().any(|t| matches!(t.term, Term::Model(_)));
     Ok(AxisState {
         always_evaluate,
+        has_model,
         pulse_um,
         dead_band_um: a.dead_band_um,
         max_offset_um: a.max_offset_um,
@@ -1262,44 +1326,50 @@ impl Engine {
         self.stop = None;
     }
 
+    /// Runs one cycle and returns its result. Allocation-free; never panics on any input
+    /// values. A thin wrapper of [`Engine::step_into`], which saves the copy of the
+    /// fixed-size [`Output`] where the caller keeps one.
     #[inline]
-    fn output(&self, time_s: f64) -> Output {
-        let mut out = Output {
-            time_s,
-            status: EngineStatus::Running,
-            alarm: None,
-            alarm_count: 0,
-            stop: self.stop,
-            averaged: false,
-            axes: [AxisOutput::ZERO; MAX_AXES],
-            n_axes: self.axes.len() as u8,
-        };
-        for (o, a) in out.axes.iter_mut().zip(&self.axes) {
-            *o = a.out;
-            o.pulses = 0;
-        }
+    pub fn step(&mut self, inputs: &Inputs) -> Output {
+        let mut out = Output::EMPTY;
+        out.n_axes = self.axes.len() as u8;
+        self.step_into(inputs, &mut out);
         out
     }
 
-    /// Runs one cycle. Allocation-free; never panics on any input values.
-    pub fn step(&mut self, inputs: &Inputs) -> Output {
+    /// Runs one cycle, writing its result into `out` (any previous content is replaced;
+    /// the result is the one [`Engine::step`] returns). Allocation-free; never panics on
+    /// any input values.
+    pub fn step_into(&mut self, inputs: &Inputs, out: &mut Output) {
         let time_s = inputs.time_s;
-        let mut out = self.output(time_s);
+        let n_axes = self.axes.len() as u8;
+        if out.n_axes != n_axes {
+            // Axes past the engine's own keep their neutral value, so `==` on two outputs
+            // of the same engine compares only what the cycle wrote.
+            *out = Output::EMPTY;
+            out.n_axes = n_axes;
+        }
+        out.time_s = time_s;
+        out.status = EngineStatus::Running;
+        out.alarm = None;
+        out.alarm_count = 0;
+        out.stop = self.stop;
+        out.averaged = false;
         if inputs.readings.len() != self.channels.len() {
             out.raise(Alarm::InputCount {
                 got: inputs.readings.len().min(u16::MAX as usize) as u16,
                 expected: self.channels.len() as u16,
             });
-            self.freeze_all(&mut out);
-            return out;
+            self.freeze_all(out);
+            return;
         }
         if !(time_s.is_finite() && time_s > self.last_time_s) {
             out.raise(Alarm::TimeOutOfOrder {
                 time_s,
                 previous_s: self.last_time_s,
             });
-            self.freeze_all(&mut out);
-            return out;
+            self.freeze_all(out);
+            return;
         }
         self.last_time_s = time_s;
         if self.start_s.is_nan() {
@@ -1325,19 +1395,18 @@ impl Engine {
             }
         };
 
+        // The loop only sets bits; alarms and the stop reason are resolved afterwards in
+        // channel order (lowest channel first, as the outputs document).
         let mut faulted: u64 = 0;
         let mut fresh: u64 = 0;
+        let mut over_limit: u64 = 0;
         for (i, (ch, r)) in self.channels.iter_mut().zip(inputs.readings).enumerate() {
-            ch.fresh = false;
+            let bit = 1u64 << i;
             match ch.check(*r, time_s) {
                 Err(f) => {
                     ch.fault = Some(f);
                     ch.block.reset();
-                    faulted |= 1u64 << i;
-                    out.raise(Alarm::Channel {
-                        channel: i as u16,
-                        fault: f,
-                    });
+                    faulted |= bit;
                 }
                 Ok(v) => {
                     ch.fault = None;
@@ -1345,41 +1414,52 @@ impl Engine {
                         continue;
                     }
                     if let Some(avg) = ch.block.push(v) {
-                        ch.value = match &mut ch.filter {
+                        let value = match &mut ch.filter {
                             TimeFilter::None => avg,
                             TimeFilter::Lag(l) => l.update(time_s, avg),
                             TimeFilter::Window(w) => w.push(avg),
                         };
-                        ch.fresh = true;
-                        fresh |= 1u64 << i;
-                        self.has_value_mask |= 1u64 << i;
-                        out.averaged = true;
+                        ch.value = value;
+                        fresh |= bit;
                         // Seed 000 claims: an averaged value outside its limits stops the
-                        // machine; the first violation is kept until acknowledged.
-                        if (ch.value < ch.limit_min || ch.value > ch.limit_max)
-                            && self.stop.is_none()
-                        {
-                            self.stop = Some(StopReason {
-                                channel: i as u16,
-                                value: ch.value,
-                                limit_min: ch.limit_min,
-                                limit_max: ch.limit_max,
-                            });
+                        // machine.
+                        if value < ch.limit_min || value > ch.limit_max {
+                            over_limit |= bit;
                         }
                     }
                 }
             }
+        }
+        if faulted != 0 {
+            self.raise_channel_alarms(faulted, out);
+        }
+        if fresh != 0 {
+            self.has_value_mask |= fresh;
+            out.averaged = true;
+        }
+        if over_limit != 0 && self.stop.is_none() {
+            // The first violation (lowest channel) is kept until acknowledged.
+            let i = over_limit.trailing_zeros() as usize;
+            let ch = &self.channels[i];
+            self.stop = Some(StopReason {
+                channel: i as u16,
+                value: ch.value,
+                limit_min: ch.limit_min,
+                limit_max: ch.limit_max,
+            });
         }
         out.stop = self.stop;
 
         let t_since_start_s = time_s - self.start_s;
         let channels = &self.channels;
         for (ai, (ax, o)) in self.axes.iter_mut().zip(out.axes.iter_mut()).enumerate() {
-            for t in ax.terms.iter_mut().filter(|_| fresh & ax.mask != 0) {
-                if let Term::Model(m) = &mut t.term {
-                    m.machine.update(time_s, channels);
-                    if let Some(w) = &mut m.workpiece {
-                        w.temperature.update(time_s, channels);
+            if ax.has_model && fresh & ax.mask != 0 {
+                for t in &mut ax.terms {
+                    if let Term::Model(m) = &mut t.term {
+                        m.machine.update(time_s, channels, fresh);
+                        if let Some(w) = &mut m.workpiece {
+                            w.temperature.update(time_s, channels, fresh);
+                        }
                     }
                 }
             }
@@ -1472,7 +1552,23 @@ impl Engine {
         } else {
             EngineStatus::Running
         };
-        out
+    }
+
+    /// Raises one channel alarm per set bit of `faulted`, lowest channel first.
+    #[cold]
+    #[inline(never)]
+    fn raise_channel_alarms(&self, faulted: u64, out: &mut Output) {
+        let mut bits = faulted;
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if let Some(fault) = self.channels[i].fault {
+                out.raise(Alarm::Channel {
+                    channel: i as u16,
+                    fault,
+                });
+            }
+        }
     }
 
     fn freeze_all(&mut self, out: &mut Output) {

@@ -5,6 +5,8 @@
 #[derive(Debug, Clone)]
 pub struct BlockAverage {
     n: usize,
+    // N as f64, converted once: the per-sample division is by the same value.
+    n_f64: f64,
     count: usize,
     sum: f64,
 }
@@ -12,8 +14,10 @@ pub struct BlockAverage {
 impl BlockAverage {
     /// A block of `n ≥ 1` samples (validated by the caller).
     pub fn new(n: usize) -> Self {
+        let n = n.max(1);
         Self {
-            n: n.max(1),
+            n,
+            n_f64: n as f64,
             count: 0,
             sum: 0.0,
         }
@@ -25,11 +29,12 @@ impl BlockAverage {
     /// P̄ = (1/N)·Σ P_i
     /// # Source
     /// seed 000, Fig. 4 blocks 104–110 and Fig. 6 block 300 [SEED]
+    #[inline]
     pub fn push(&mut self, v: f64) -> Option<f64> {
         self.sum += v;
         self.count += 1;
         if self.count >= self.n {
-            let mean = self.sum / self.n as f64;
+            let mean = self.sum / self.n_f64;
             self.count = 0;
             self.sum = 0.0;
             Some(mean)
@@ -79,6 +84,7 @@ impl FirstOrderLag {
     /// # Source
     /// exact zero-order-hold discretisation of τ·ẏ + y = u [DERIVED]; the same semantics
     /// as `gearcomp_core::model::Transform::FirstOrderLag`
+    #[inline]
     pub fn update(&mut self, t_s: f64, u: f64) -> f64 {
         if !self.started {
             self.started = true;

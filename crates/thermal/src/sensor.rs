@@ -149,10 +149,24 @@ pub fn rtd_temperature_c(r_ohm: f64, r0_ohm: f64) -> Option<f64> {
     if !(r_ohm.is_finite() && r_ohm > 0.0 && r0_ohm > 0.0) {
         return None;
     }
+    let t = rtd_temperature_positive_c(r_ohm, r0_ohm);
+    t.is_finite().then_some(t)
+}
+
+/// [`rtd_temperature_c`] for an R the caller has checked finite and > 0 and R0 > 0 (the
+/// engine checks R per sample and R0 at build time); NaN where the quadratic has no real
+/// root. The same operations as [`rtd_temperature_c`], which calls it.
+///
+/// # Formula
+/// T = (−A + √(A² − 4B·(1 − R/R0))) / (2B), Newton on the full curve below 0 °C
+/// # Source
+/// IEC 60751:2008, 5.1.2 [STANDARD]; inversion [DERIVED]
+#[inline]
+pub(crate) fn rtd_temperature_positive_c(r_ohm: f64, r0_ohm: f64) -> f64 {
     let ratio = r_ohm / r0_ohm;
     let disc = CVD_A * CVD_A - 4.0 * CVD_B * (1.0 - ratio);
     if disc < 0.0 {
-        return None;
+        return f64::NAN;
     }
     let mut t = (-CVD_A + disc.sqrt()) / (2.0 * CVD_B);
     if ratio < 1.0 {
@@ -162,7 +176,7 @@ pub fn rtd_temperature_c(r_ohm: f64, r0_ohm: f64) -> Option<f64> {
             t -= f / df;
         }
     }
-    t.is_finite().then_some(t)
+    t
 }
 
 /// NTC thermistor temperature, β model.
