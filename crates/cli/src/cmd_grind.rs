@@ -6,26 +6,38 @@
 //! simulation. Both print a table (or `--json`) and can write an HTML report with the (w, z)
 //! deviation map and the ISO 1328-1 evaluation.
 //!
+//! `simulate --dress CONFIG.toml` closes the loop with the dressing module: the worm of the
+//! config is dressed (given ΔK, or the 3-point solve of `gearcomp dress`), its profile is
+//! tabulated and used as the grinding worm, and the ground gear is evaluated against ISO 1328.
+//!
 //! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
-//! lengths. They are converted in [`deg_to_rad`] / [`um_to_mm`] only.
+//! lengths. They are converted in [`deg_to_rad`] / [`um_to_mm`] only. Exception kept for
+//! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
+use gearcomp_dressing::dresser::{Dresser, DresserSpec};
+use gearcomp_dressing::envelope::DressingSetup;
+use gearcomp_dressing::kinematics::AxisCorrection;
+use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
+use gearcomp_dressing::solve::{solve_three_point, NewtonOptions, ThreePoint};
+use gearcomp_dressing::worm::{Flank as DressFlank, Worm as DressWorm};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
     diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad,
     worm_modification_for_gear, LineMap,
 };
+use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
 use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, Grinder, GroundFlank};
 use gearcomp_report::{Chart, HtmlReport, Series};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Options of `gearcomp grind`.
 #[derive(Debug, clap::Args)]
@@ -137,6 +149,11 @@ struct SimulateArgs {
     /// Worm F_Q(X) coefficients (per mm² of (w − w_P1)²): µm/mm², µm/mm³, …
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     worm_q: Vec<f64>,
+    /// Grind with a worm dressed by the dressing module: a `gearcomp dress` TOML ([worm],
+    /// [dresser]) with an optional [dressing] table (ΔK or 3-point crowning). The worm geometry
+    /// then comes from the file (--worm-starts/--worm-radius-mm are not used).
+    #[arg(long, value_name = "CONFIG.toml", conflicts_with_all = ["worm_c", "worm_l", "worm_q"])]
+    dress: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -195,7 +212,7 @@ struct Setup {
     grid: FlankGrid,
 }
 
-fn setup(a: &SetupArgs) -> Result<Setup> {
+fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
     let alpha_r = deg_to_rad(a.pressure_angle_deg);
     let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
     let gear = InvoluteGear::asymmetric(
@@ -211,15 +228,21 @@ fn setup(a: &SetupArgs) -> Result<Setup> {
         HandArg::Right => Hand::Right,
         HandArg::Left => Hand::Left,
     };
-    let w = InvoluteGear::worm(a.worm_starts, a.module_mm, alpha_r, a.worm_radius_mm, hand)
-        .context("worm")?;
-    let worm = InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
-        .context("worm")?;
     let flank = match a.flank {
         FlankArg::Right => Flank::Right,
         FlankArg::Left => Flank::Left,
     };
-    let pair = WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?;
+    let pair = match dressed {
+        None => {
+            let w = InvoluteGear::worm(a.worm_starts, a.module_mm, alpha_r, a.worm_radius_mm, hand)
+                .context("worm")?;
+            let worm =
+                InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
+                    .context("worm")?;
+            WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?
+        }
+        Some(dw) => dressed_pair(a, dw, &gear, flank, hand)?,
+    };
     let f2 = gear.flank(flank);
     let r_tip = gear.reference_radius_mm() + a.module_mm;
     let w_tip = (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt();
@@ -239,6 +262,55 @@ fn setup(a: &SetupArgs) -> Result<Setup> {
     let grid = FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
         .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")?;
     Ok(Setup { pair, gear, grid })
+}
+
+/// The worm of a dress config as a grinding worm, and its set-up with the gear.
+///
+/// The helicoid (r_b, β_b) is that of the design diameter d_S0 (the dressing module keeps it
+/// over the worm's life). A new worm runs at the reference setting d = d_S0/2 + r2,
+/// γ = −(β1 + β2) (R3); a redressed worm (d_S < d_S0) at d = d_S/2 + r2 with the helix angle of
+/// the same helicoid at d_S/2, tan β1(r) = tan β1(r0)·r/r0.
+fn dressed_pair(
+    a: &SetupArgs,
+    dw: &DressWorm,
+    gear: &InvoluteGear,
+    flank: Flank,
+    hand: Hand,
+) -> Result<WormGearPair> {
+    if hand != Hand::Right {
+        anyhow::bail!(
+            "--worm-hand left with --dress: the dressing module models right-hand worms only"
+        );
+    }
+    let alpha = rad_to_deg(dw.alpha_n_rad);
+    if (dw.m_n_mm - a.module_mm).abs() > 1e-9 * a.module_mm {
+        anyhow::bail!(
+            "[worm] normal_module_mm = {} does not mesh with --module-mm {}: expected equal",
+            dw.m_n_mm,
+            a.module_mm
+        );
+    }
+    let left = a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg);
+    if (alpha - a.pressure_angle_deg).abs() > 1e-9 || (alpha - left).abs() > 1e-9 {
+        anyhow::bail!(
+            "[worm] profile_angle_deg = {alpha} does not mesh with --pressure-angle-deg {} \
+             (left {left}): expected equal on both flanks (the dressed worm is symmetric)",
+            a.pressure_angle_deg
+        );
+    }
+    let r0 = 0.5 * dw.d_s0_mm;
+    let worm = InvoluteGear::worm(dw.z_s, dw.m_n_mm, dw.alpha_n_rad, r0, Hand::Right)
+        .context("[worm] as grinding worm")?;
+    let r = 0.5 * dw.d_s_mm;
+    let beta1 = (worm.beta_rad.tan() * r / r0).atan();
+    WormGearPair::new(
+        &worm,
+        gear,
+        flank,
+        r + gear.reference_radius_mm(),
+        -(beta1 + gear.beta_rad),
+    )
+    .context("dressed worm/gear mesh")
 }
 
 fn poly_um(coeffs: &[f64]) -> Poly {
@@ -301,7 +373,10 @@ struct Output {
     diagonal_ratio: f64,
     shift_offset_mm: f64,
     line_map: Option<LineMap>,
-    worm_modification: LineModOut,
+    /// The worm modification given on the command line (None with --dress).
+    worm_modification: Option<LineModOut>,
+    /// The dressed worm (with --dress).
+    dressed_worm: Option<DressedOut>,
     wanted_gear_modification: Option<LineModOut>,
     max_abs_ground_um: f64,
     max_abs_ground_minus_analytic_um: f64,
@@ -326,6 +401,12 @@ fn path_out(p: &WormGearPair) -> PathOut {
     }
 }
 
+/// The worm that grinds: a line modification from the command line, or a dressed worm.
+enum WormUsed<'a> {
+    Line(&'a LineModification),
+    Dressed(&'a DressedWorm, Box<DressedOut>),
+}
+
 /// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank).
 #[allow(clippy::too_many_arguments)]
 fn grind_and_report(
@@ -334,9 +415,13 @@ fn grind_and_report(
     a: &SetupArgs,
     k: f64,
     lm: Option<LineMap>,
-    worm_mod: &LineModification,
+    worm: WormUsed<'_>,
     wanted: Option<&LineModification>,
 ) -> Result<Output> {
+    let (worm_mod, worm_out, dressed_out): (&dyn FlankModification, _, _) = match worm {
+        WormUsed::Line(m) => (m, Some(LineModOut::from(m)), None),
+        WormUsed::Dressed(d, o) => (d, None, Some(*o)),
+    };
     let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
     let grinder = Grinder::new(&s.pair, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
     let mut ground = GroundFlank::new(s.grid);
@@ -388,7 +473,8 @@ fn grind_and_report(
         diagonal_ratio: k,
         shift_offset_mm: a.shift_offset_mm,
         line_map: lm,
-        worm_modification: LineModOut::from(worm_mod),
+        worm_modification: worm_out,
+        dressed_worm: dressed_out,
         wanted_gear_modification: wanted.map(LineModOut::from),
         max_abs_ground_um: mm_to_um(max_g),
         max_abs_ground_minus_analytic_um: mm_to_um(max_ga),
@@ -404,7 +490,10 @@ fn grind_and_report(
 }
 
 fn simulate(a: SimulateArgs) -> Result<()> {
-    let s = setup(&a.setup)?;
+    if let Some(path) = &a.dress {
+        return simulate_dressed(&a, path);
+    }
+    let s = setup(&a.setup, None)?;
     let rho1 = a
         .worm_rho_deg
         .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
@@ -416,7 +505,22 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         poly_um(&a.worm_q),
     )
     .context("worm modification")?;
-    let (k, lm) = match (a.diagonal_ratio, a.gear_rho_deg) {
+    let (k, lm) = diagonal_choice(&a, &s, rho1)?;
+    let out = grind_and_report(
+        "simulate",
+        &s,
+        &a.setup,
+        k,
+        lm,
+        WormUsed::Line(&worm_mod),
+        None,
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// K_ZV1 from --diagonal-ratio, or from --gear-rho-deg and the worm line direction ρ_F1.
+fn diagonal_choice(a: &SimulateArgs, s: &Setup, rho1: f64) -> Result<(f64, Option<LineMap>)> {
+    Ok(match (a.diagonal_ratio, a.gear_rho_deg) {
         (Some(k), _) => (k, None),
         (None, Some(r2)) => {
             let lm = line_map(&s.pair, rho1, deg_to_rad(r2), a.setup.shift_offset_mm)
@@ -424,13 +528,286 @@ fn simulate(a: SimulateArgs) -> Result<()> {
             (lm.k_zv1, Some(lm))
         }
         (None, None) => (0.0, None),
+    })
+}
+
+/// A `gearcomp dress` config, read by `grind simulate --dress`; [solve]/[plan] may be present
+/// (they belong to `gearcomp dress`) and are ignored here.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DressConfig {
+    worm: DressWormCfg,
+    dresser: DressDresserCfg,
+    #[serde(default)]
+    dressing: DressingCfg,
+    #[allow(dead_code)]
+    solve: Option<toml::Value>,
+    #[allow(dead_code)]
+    plan: Option<toml::Value>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DressWormCfg {
+    starts: u32,
+    diameter_mm: f64,
+    normal_module_mm: f64,
+    profile_angle_deg: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DressDresserCfg {
+    diameter_mm: f64,
+    jacket_width_mm: f64,
+    #[serde(default)]
+    clearance_mm: f64,
+}
+
+/// How the worm is dressed before grinding: given ΔK (default: uncorrected), or the 3-point
+/// solve (`crowning_um` or `points`).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DressingCfg {
+    /// Current worm diameter d_S in mm (default: the new worm, d_S0).
+    diameter_mm: Option<f64>,
+    /// 3-point crowning c in µm: targets (0, −c, 0) at 5/50/95 % of the active profile.
+    crowning_um: Option<f64>,
+    /// Explicit 3-point targets [fraction of the active profile, f in µm].
+    points: Option<Vec<[f64; 2]>>,
+    /// Δφ_S in rad (as `gearcomp dress solve` prints it).
+    dphi_s_rad: Option<f64>,
+    /// Δγ in degrees.
+    dgamma_deg: Option<f64>,
+    /// Δd in mm.
+    dd_mm: Option<f64>,
+    /// Δν_yA in mm.
+    dnu_ya_mm: Option<f64>,
+    /// Number of table points over the dressed profile (default 41).
+    table_points: Option<usize>,
+}
+
+#[derive(Debug, Serialize)]
+struct DressedOut {
+    config: String,
+    correction: &'static str,
+    worm_starts: u32,
+    worm_design_diameter_mm: f64,
+    worm_diameter_mm: f64,
+    dresser_diameter_mm: f64,
+    dphi_s_rad: f64,
+    dgamma_deg: f64,
+    dd_mm: f64,
+    dnu_ya_mm: f64,
+    newton_iterations: Option<usize>,
+    rho_f1_deg: f64,
+    rho_f1_axial_section_estimate_deg: f64,
+    dressed_roll_range_mm: (f64, f64),
+    dressed_radius_range_mm: (f64, f64),
+    used_roll_range_mm: (f64, f64),
+    /// (w mm, f_nFS µm) of the dressed worm profile.
+    profile_um: Vec<(f64, f64)>,
+}
+
+/// The worm of `cfg` dressed as configured, tabulated for the grinding crate.
+///
+/// Glue between the crates (docs/grinding.md "Dressed worm"): dressing `Flank::Right` (normal
+/// towards +z) = grinding `Flank::Right` (s = +1) for the right-hand worm; (w, b) = (w1, z1);
+/// f_nFS (mm, normal) is tabulated as is and turned into f_Ft1 = f_n/cos β_b1 by
+/// [`DressedWorm`]. The dressed range is [w_Nf(ΔK), w_Na]: w_Na on the tip circle, w_Nf(ΔK)
+/// the roll distance the dresser's fillet/flank tangent point dresses under ΔK.
+fn dress_worm(
+    path: &std::path::Path,
+    flank: Flank,
+) -> Result<(DressWorm, DressedProfile, DressedOut)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let cfg: DressConfig =
+        toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
+    let wc = &cfg.worm;
+    let design = DressWorm::design(
+        wc.starts,
+        wc.diameter_mm,
+        wc.normal_module_mm,
+        deg_to_rad(wc.profile_angle_deg),
+    )
+    .context("[worm]")?;
+    let dresser = Dresser::design(
+        &design,
+        DresserSpec {
+            d_a_mm: cfg.dresser.diameter_mm,
+            jacket_width_mm: cfg.dresser.jacket_width_mm,
+            clearance_mm: cfg.dresser.clearance_mm,
+        },
+    )
+    .context("[dresser]")?;
+    let dc = &cfg.dressing;
+    let worm = match dc.diameter_mm {
+        Some(d) => design.worn(d).context("[dressing] diameter_mm")?,
+        None => design,
     };
-    let out = grind_and_report("simulate", &s, &a.setup, k, lm, &worm_mod, None)?;
+    let setup = DressingSetup::new(worm, dresser);
+    let fl = match flank {
+        Flank::Right => DressFlank::Right,
+        Flank::Left => DressFlank::Left,
+    };
+    let (w_nf, w_na) = setup
+        .active_profile(fl)
+        .context("active profile of the worm")?;
+    let at = |q: f64| w_nf + q * (w_na - w_nf);
+    let explicit = dc.dphi_s_rad.is_some()
+        || dc.dgamma_deg.is_some()
+        || dc.dd_mm.is_some()
+        || dc.dnu_ya_mm.is_some();
+    let targets: Option<Vec<[f64; 2]>> = match (&dc.points, dc.crowning_um) {
+        (Some(_), Some(_)) => {
+            anyhow::bail!("[dressing]: give either `points` or `crowning_um`, not both")
+        }
+        (Some(p), None) => Some(p.clone()),
+        (None, Some(c)) => Some(vec![[0.05, 0.0], [0.5, -c], [0.95, 0.0]]),
+        (None, None) => None,
+    };
+    let k0 = AxisCorrection::default();
+    let (dk, iterations, correction) = match targets {
+        Some(_) if explicit => anyhow::bail!(
+            "[dressing]: give either axis corrections (dphi_s_rad, dgamma_deg, dd_mm, \
+             dnu_ya_mm) or 3-point targets (crowning_um / points), not both"
+        ),
+        Some(p) => {
+            if p.len() != 3 {
+                anyhow::bail!("[dressing] points: got {}, expected 3", p.len());
+            }
+            for q in &p {
+                if !(0.0..=1.0).contains(&q[0]) || !q[1].is_finite() || q[1].abs() > 1000.0 {
+                    anyhow::bail!(
+                        "[dressing] point {q:?}: fraction must be in 0..=1 and f within \
+                         ±1000 µm"
+                    );
+                }
+            }
+            // As `gearcomp dress solve`: the dresser radius that dresses the new worm's tip
+            // circle keeps dressing the tip circle.
+            let new = DressingSetup::new(design, setup.dresser.clone());
+            let r_tip = new.association(fl, new.active_profile(fl)?.1, &k0)?;
+            let problem = ThreePoint {
+                flank: fl,
+                w_mm: [at(p[0][0]), at(p[1][0]), at(p[2][0])],
+                f_mm: [um_to_mm(p[0][1]), um_to_mm(p[1][1]), um_to_mm(p[2][1])],
+                w_assoc_mm: w_na,
+                r_a_mm: r_tip,
+            };
+            let sol = solve_three_point(&setup, &problem, k0, &NewtonOptions::default())
+                .context("3-point dressing solve")?;
+            (sol.dk, Some(sol.iterations), "three-point")
+        }
+        None => {
+            let dk = AxisCorrection {
+                dphi_s_rad: dc.dphi_s_rad.unwrap_or(0.0),
+                dgamma_rad: deg_to_rad(dc.dgamma_deg.unwrap_or(0.0)),
+                dd_mm: dc.dd_mm.unwrap_or(0.0),
+                dnu_ya_mm: dc.dnu_ya_mm.unwrap_or(0.0),
+            };
+            for (field, v, lim) in [
+                ("[dressing] dphi_s_rad", dk.dphi_s_rad, 2.0),
+                ("[dressing] dgamma_deg", rad_to_deg(dk.dgamma_rad), 12.0),
+                ("[dressing] dd_mm", dk.dd_mm, 3.0),
+                ("[dressing] dnu_ya_mm", dk.dnu_ya_mm, 30.0),
+            ] {
+                if !(v.is_finite() && v.abs() <= lim) {
+                    anyhow::bail!("{field} = {v} is out of range: expected |value| ≤ {lim}");
+                }
+            }
+            (dk, None, if explicit { "given" } else { "none" })
+        }
+    };
+    // Where the dresser dressed under ΔK: from its fillet/flank tangent point to the tip.
+    let side = setup.dresser.side(fl);
+    let r_t = setup.dresser.profile(side.u_tangent_mm * side.z_sign).0;
+    let w_nf_dk = setup
+        .roll_dressed_by(fl, r_t, &dk, w_nf)
+        .context("dressed range under ΔK")?;
+    if w_nf_dk.is_nan() || w_nf_dk >= w_na {
+        anyhow::bail!(
+            "the dresser does not reach the worm flank under ΔK: w_Nf = {w_nf_dk} mm ≥ w_Na = \
+             {w_na} mm"
+        );
+    }
+    let n = dc.table_points.unwrap_or(41);
+    if !(5..=2001).contains(&n) {
+        anyhow::bail!("[dressing] table_points = {n} is out of range: expected 5 ..= 2001");
+    }
+    let ws: Vec<f64> = (0..n)
+        .map(|i| w_nf_dk + (w_na - w_nf_dk) * i as f64 / (n - 1) as f64)
+        .collect();
+    let f = setup.profile(fl, &ws, &dk).context("dressed profile")?;
+    let (rho, _, _) = fit_contact_line(&contact_line(&setup, fl, &ws, &dk)?);
+    let profile = DressedProfile::new(
+        flank,
+        worm.r_b_mm,
+        worm.beta_b_rad,
+        ws.clone(),
+        f.clone(),
+        (w_nf_dk, w_na),
+        rho,
+    )
+    .context("dressed profile table")?;
+    let step = (n - 1).div_ceil(20).max(1);
+    let out = DressedOut {
+        config: path.display().to_string(),
+        correction,
+        worm_starts: worm.z_s,
+        worm_design_diameter_mm: worm.d_s0_mm,
+        worm_diameter_mm: worm.d_s_mm,
+        dresser_diameter_mm: cfg.dresser.diameter_mm,
+        dphi_s_rad: dk.dphi_s_rad,
+        dgamma_deg: rad_to_deg(dk.dgamma_rad),
+        dd_mm: dk.dd_mm,
+        dnu_ya_mm: dk.dnu_ya_mm,
+        newton_iterations: iterations,
+        rho_f1_deg: rad_to_deg(rho),
+        rho_f1_axial_section_estimate_deg: 0.0,
+        dressed_roll_range_mm: (w_nf_dk, w_na),
+        dressed_radius_range_mm: profile.dressed_radius_range_mm(),
+        used_roll_range_mm: (0.0, 0.0),
+        profile_um: ws
+            .iter()
+            .zip(&f)
+            .enumerate()
+            .filter(|(i, _)| i % step == 0 || *i == n - 1)
+            .map(|(_, (w, v))| (*w, mm_to_um(*v)))
+            .collect(),
+    };
+    Ok((worm, profile, out))
+}
+
+fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
+    let flank = match a.setup.flank {
+        FlankArg::Right => Flank::Right,
+        FlankArg::Left => Flank::Left,
+    };
+    let (dworm, profile, mut dout) = dress_worm(path, flank)?;
+    let s = setup(&a.setup, Some(&dworm))?;
+    let worm = DressedWorm::new(profile, &s.pair.worm).context("dressed worm")?;
+    worm.check_covers(&s.pair, s.grid.w_range_mm)
+        .context("gear roll range (--roll-start-mm/--roll-end-mm) on the dressed worm")?;
+    dout.used_roll_range_mm = DressedWorm::used_roll_range_mm(&s.pair, s.grid.w_range_mm);
+    dout.rho_f1_axial_section_estimate_deg = rad_to_deg(rho1_estimate_rad(&s.pair));
+    let rho1 = a.worm_rho_deg.map_or_else(|| worm.rho_f1_rad(), deg_to_rad);
+    let (k, lm) = diagonal_choice(a, &s, rho1)?;
+    let out = grind_and_report(
+        "simulate",
+        &s,
+        &a.setup,
+        k,
+        lm,
+        WormUsed::Dressed(&worm, Box::new(dout)),
+        None,
+    )?;
     emit(&out, &a.setup)
 }
 
 fn solve(a: SolveArgs) -> Result<()> {
-    let s = setup(&a.setup)?;
+    let s = setup(&a.setup, None)?;
     let rho1 = a
         .worm_rho_deg
         .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
@@ -447,7 +824,15 @@ fn solve(a: SolveArgs) -> Result<()> {
             .context("worm modification for the wanted gear modification")?;
     // the same K from the closed form, as a cross-check of the line map
     let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
-    let out = grind_and_report("solve", &s, &a.setup, k, Some(lm), &worm_mod, Some(&wanted))?;
+    let out = grind_and_report(
+        "solve",
+        &s,
+        &a.setup,
+        k,
+        Some(lm),
+        WormUsed::Line(&worm_mod),
+        Some(&wanted),
+    )?;
     emit(&out, &a.setup)
 }
 
@@ -496,16 +881,20 @@ fn table(out: &Output) -> String {
             rad_to_deg(lm.rho2_rad)
         );
     }
-    let wm = &out.worm_modification;
-    let _ = writeln!(
-        t,
-        "  worm modification (ρ_F1 {:.4}°, w0 {:.4} mm): F_C [{}] F_L [{}] F_Q [{}] (µm·mm⁻ᵏ)",
-        wm.rho_deg,
-        wm.w0_mm,
-        fmt_poly(&wm.c_um),
-        fmt_poly(&wm.l_um),
-        fmt_poly(&wm.q_um)
-    );
+    if let Some(wm) = &out.worm_modification {
+        let _ = writeln!(
+            t,
+            "  worm modification (ρ_F1 {:.4}°, w0 {:.4} mm): F_C [{}] F_L [{}] F_Q [{}] (µm·mm⁻ᵏ)",
+            wm.rho_deg,
+            wm.w0_mm,
+            fmt_poly(&wm.c_um),
+            fmt_poly(&wm.l_um),
+            fmt_poly(&wm.q_um)
+        );
+    }
+    if let Some(d) = &out.dressed_worm {
+        dressed_table(&mut t, d);
+    }
     if let Some(g) = &out.wanted_gear_modification {
         let _ = writeln!(
             t,
@@ -560,6 +949,44 @@ fn table(out: &Output) -> String {
         }
     );
     t
+}
+
+fn dressed_table(t: &mut String, d: &DressedOut) {
+    let _ = writeln!(
+        t,
+        "  dressed worm ({}): {} start(s), d_S0 {:.3} mm, d_S {:.3} mm, dresser d_A {:.3} mm, \
+         correction: {}{}",
+        d.config,
+        d.worm_starts,
+        d.worm_design_diameter_mm,
+        d.worm_diameter_mm,
+        d.dresser_diameter_mm,
+        d.correction,
+        d.newton_iterations
+            .map_or(String::new(), |n| format!(" ({n} Newton iterations)"))
+    );
+    let _ = writeln!(
+        t,
+        "    ΔK: Δφ_S {:.6e} rad, Δγ {:.6}°, Δd {:.6} mm, Δν_yA {:.6} mm",
+        d.dphi_s_rad, d.dgamma_deg, d.dd_mm, d.dnu_ya_mm
+    );
+    let _ = writeln!(
+        t,
+        "    dressed w {:.4}…{:.4} mm (r {:.4}…{:.4} mm); used by the gear w {:.4}…{:.4} mm; \
+         ρ_F1 (37) {:.4}° (axial-section estimate {:.4}°)",
+        d.dressed_roll_range_mm.0,
+        d.dressed_roll_range_mm.1,
+        d.dressed_radius_range_mm.0,
+        d.dressed_radius_range_mm.1,
+        d.used_roll_range_mm.0,
+        d.used_roll_range_mm.1,
+        d.rho_f1_deg,
+        d.rho_f1_axial_section_estimate_deg
+    );
+    let _ = writeln!(t, "    {:>10} {:>12}", "w1 mm", "f_nFS µm");
+    for (w, f) in &d.profile_um {
+        let _ = writeln!(t, "    {w:>10.4} {f:>12.5}");
+    }
 }
 
 fn iso_rows(e: &FlankEvaluation) -> Vec<(&'static str, f64, f64, bool)> {

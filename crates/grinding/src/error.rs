@@ -78,6 +78,25 @@ pub enum GrindError {
         /// What is needed.
         expected: &'static str,
     },
+    /// A 1-D root search found no sign change of its function in the allowed range.
+    #[error(
+        "{what}: no solution for {field} in [{min}, {max}] (function {at_min} at the minimum, \
+         {at_max} at the maximum); widen the range or change the wanted directions"
+    )]
+    NoRoot {
+        /// The search.
+        what: &'static str,
+        /// The searched field.
+        field: &'static str,
+        /// Lower end of the allowed range.
+        min: f64,
+        /// Upper end of the allowed range.
+        max: f64,
+        /// Function value at the lower end (NaN if undefined there).
+        at_min: f64,
+        /// Function value at the upper end (NaN if undefined there).
+        at_max: f64,
+    },
 }
 
 /// Checks that `value` is finite and inside `[min, max]`.

@@ -8,10 +8,18 @@
 //!   roll-distance relation (R7) and the generating coupling (R4).
 //! - [`diagonal`]: the diagonal ratio K_ZV1, the line-to-line map, worm → gear modification
 //!   transfer and its inverse, the variable diagonal ratio.
-//! - [`decompose`]: weighted least-squares decomposition of a wanted modification (102).
+//! - [`decompose`]: weighted least-squares decomposition of a wanted modification (102), and
+//!   the general form (100) with the dresser-profile part f_PFt (97).
+//! - [`dressed`]: a worm dressed by the dressing module (tabulated f_nFS(w)) as a grinding worm.
+//! - [`machine`]: machine chain (35) and its inverse.
 //! - [`simulate`]: brute-force envelope grinding simulation over rotation and feed, storing the
 //!   worm point that ground each gear point, and the contact path fitted from it.
 //! - [`iso1328`]: ISO 1328-1:2013 profile and helix evaluation and tolerances.
+//! - [`conical`]: conical (beveloid) worm and/or workpiece: beveloid flanks, chains (29)–(31),
+//!   the contact path (50)–(86) with its feed terms, generating coupling and diagonal ratio.
+//! - [`conical_sim`]: the envelope simulation for any chain, and the conical contact path
+//!   fitted from two simulated feed couplings.
+//! - [`conical_equalise`]: the worm cone angle that equalises K_ZV1 on both flanks (A6, T14).
 //!
 //! Conventions are collected in `docs/grinding.md`; every formula cites its source.
 //!
@@ -25,13 +33,18 @@
 //! # Ok::<(), gearcomp_grinding::GrindError>(())
 //! ```
 
+pub mod conical;
+pub mod conical_equalise;
+pub mod conical_sim;
 pub mod contact;
 pub mod decompose;
 pub mod diagonal;
+pub mod dressed;
 mod error;
 pub mod flank;
 pub mod iso1328;
 pub mod kinematics;
+pub mod machine;
 pub mod modification;
 pub mod simulate;
 
