@@ -4,9 +4,11 @@
 //!   the compensation engine (`gearcomp-thermal`) loads and runs it. It is the one
 //!   contract between identification and the runtime; change it only additively.
 //! * [`fsio`]: writing output files atomically, so a crash never leaves a half-written file.
+//! * [`textline`]: source line numbers of CSV records (right for CRLF files too).
 
 pub mod error;
 pub mod fsio;
 pub mod model;
+pub mod textline;
 
 pub use error::{CoreError, Result};

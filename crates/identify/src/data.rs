@@ -190,19 +190,25 @@ pub fn read_csv(text: &str, name: &str, sel: &Selection, opts: ReadOptions) -> R
     };
     let mut bad: Vec<(u64, String)> = Vec::new();
     let mut rec = csv::StringRecord::new();
+    // csv's own line count is one short on CRLF files (FL_THERMAL is one).
+    let mut lines = gearcomp_core::textline::LineCounter::new(text);
     let mut last_line = 1u64;
     loop {
         match rdr.read_record(&mut rec) {
             Ok(false) => break,
             Ok(true) => {}
             Err(e) => {
-                let line = e.position().map_or(last_line + 1, |p| p.line());
+                let line = e
+                    .position()
+                    .map_or(last_line + 1, |p| lines.line_at(p.byte()));
                 bad.push((line, format!("unreadable CSV record ({e})")));
                 last_line = line;
                 continue;
             }
         }
-        let line = rec.position().map_or(last_line + 1, |p| p.line());
+        let line = rec
+            .position()
+            .map_or(last_line + 1, |p| lines.line_at(p.byte()));
         last_line = line;
         if rec.iter().all(str::is_empty) {
             continue;
@@ -341,6 +347,23 @@ mod tests {
         assert_eq!(t.input_names, vec!["rpm", "a_c"]);
         let e = read_csv(GOOD, "g", &sel(&["x*"], &[]), ReadOptions::default()).unwrap_err();
         assert!(e.to_string().contains("\"x*\" not found"), "{e}");
+    }
+
+    /// CRLF line ends (the FL_THERMAL log has them) give the same line numbers as LF.
+    #[test]
+    fn bad_row_lines_are_the_same_for_crlf_files() {
+        let lf = "time_s,a_c,d_um\n0,1,5\n15,oops,6\n30,2,7\n";
+        for text in [lf.to_string(), lf.replace('\n', "\r\n")] {
+            let e = read_csv(
+                &text,
+                "log.csv",
+                &sel(&["a_c"], &["d_um"]),
+                ReadOptions::default(),
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("1 bad row(s) at line(s) 3"), "{e}");
+        }
     }
 
     #[test]

@@ -129,13 +129,15 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
         };
         names.len()
     ];
+    // csv's own line count is one short on CRLF files (FL_THERMAL is one).
+    let mut lines = gearcomp_core::textline::LineCounter::new(text);
     let mut record = csv::StringRecord::new();
     loop {
         match rdr.read_record(&mut record) {
             Ok(false) => break,
             Ok(true) => {}
             Err(e) => {
-                let line = e.position().map_or(0, |p| p.line());
+                let line = e.position().map_or(0, |p| lines.line_at(p.byte()));
                 out.bad_rows.push(BadRow {
                     line,
                     message: format!("unreadable row: {e}"),
@@ -143,7 +145,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
                 continue;
             }
         }
-        let line = record.position().map_or(0, |p| p.line());
+        let line = record.position().map_or(0, |p| lines.line_at(p.byte()));
         if record.len() != headers.len() {
             out.bad_rows.push(BadRow {
                 line,
@@ -265,5 +267,48 @@ impl Replay {
             .into_inner()
             .map_err(|e| invalid("output", e, "writable CSV"))?;
         String::from_utf8(bytes).map_err(|e| invalid("output", e, "UTF-8 text"))
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use crate::EngineConfig;
+
+    const CONFIG: &str = r#"
+[[channels]]
+name = "A"
+sensor = { kind = "celsius" }
+valid_min = -10.0
+valid_max = 80.0
+stale_timeout_s = 5.0
+
+[[axes]]
+name = "Z"
+apply = { kind = "measuring_system" }
+max_offset_um = 100.0
+
+[[axes.terms]]
+kind = "linear"
+channel = "A"
+kd_um_per_c = 2.0
+alpha_um = 0.0
+"#;
+
+    /// The bad cell is on line 4 of the file (header = line 1) whatever the line ends.
+    #[test]
+    fn bad_row_lines_are_file_lines_for_lf_and_crlf() {
+        let lf = "time_s,A\n0,20\n1,21\n2,hot\n3,22\n";
+        let crlf = lf.replace('\n', "\r\n");
+        for text in [lf.to_string(), crlf] {
+            let cfg = EngineConfig::from_toml_str(CONFIG).unwrap();
+            let mut engine = Engine::new(&cfg).unwrap();
+            let r = replay_csv(&mut engine, &text).unwrap();
+            assert_eq!(r.bad_rows.len(), 1, "{:?}", r.bad_rows);
+            assert_eq!(r.bad_rows[0].line, 4, "{:?}", r.bad_rows);
+            let lines: Vec<u64> = r.rows.iter().map(|row| row.line).collect();
+            assert_eq!(lines, vec![2, 3, 4, 5]);
+        }
     }
 }
