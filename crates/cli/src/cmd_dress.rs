@@ -16,6 +16,10 @@ use gearcomp_dressing::solve::{
     axial_position_for_contact_point, solve_four_point, solve_three_point, FourPoint,
     NewtonOptions, ThreePoint,
 };
+use gearcomp_dressing::topology::{
+    solve_topological_four_point, solve_topological_three_point, topological_program,
+    CorrectionSchedule, TopoFourPoint, TopoThreePoint, WidthPoly, WormTopology,
+};
 use gearcomp_dressing::worm::{Flank, Worm};
 use gearcomp_report::{Chart, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
@@ -105,7 +109,26 @@ struct SolveCfg {
     points: Option<Vec<[f64; 2]>>,
     /// Worm point the contact line must pass through: ν_zS as fifth unknown (eq. (14)/(19)).
     contact_point: Option<ContactPointCfg>,
+    /// Topological program over the worm width ([solve.topological], §4.A.5/§4.A.7).
+    topological: Option<TopoCfg>,
 }
+
+/// `[solve.topological]`: the solve repeated at contact-line positions over the worm width.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TopoCfg {
+    /// Number of contact-line positions (≥ 2).
+    positions: usize,
+    /// Width range [b_start, b_end] (mm) swept by the reference point (mid profile).
+    b_range_mm: [f64; 2],
+    /// 3-point: crowning slope over b (µm/mm); c(b) = crowning_um + slope·b.
+    crowning_slope_um_per_mm: Option<f64>,
+    /// 3-point: crowning as a table [[b mm, c µm], …], linear between, held beyond the ends.
+    crowning_table: Option<Vec<[f64; 2]>>,
+}
+
+/// Most positions a program may have (each is a Newton solve).
+const TOPO_MAX_POSITIONS: usize = 200;
 
 /// Worm point (w, b) of the contact line: w as a fraction of the active profile, b in mm.
 #[derive(Debug, Deserialize)]
@@ -349,6 +372,9 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
         None => worm,
     };
     let setup = DressingSetup::new(worm_now, dresser);
+    if let Some(tc) = &sc.topological {
+        return run_solve_topological(c, &sc, tc, &worm, &setup);
+    }
     let fl = sc.flank;
     let (w_nf, w_na) = setup.active_profile(fl)?;
     let at = |q: f64| w_nf + q * (w_na - w_nf);
@@ -635,6 +661,354 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
             ));
         }
         r.chart(&prof)?;
+        r.write(path)?;
+    }
+    Ok(())
+}
+
+/// Crowning c(b) of a topological 3-point program (µm): constant, linear or a table.
+enum CrowningOverWidth {
+    Linear { c0_um: f64, slope_um_per_mm: f64 },
+    Table(Vec<[f64; 2]>),
+}
+
+impl CrowningOverWidth {
+    /// c(b) and dc/db at b (µm, µm/mm); the table is linear per segment, held beyond its ends.
+    fn at(&self, b_mm: f64) -> (f64, f64) {
+        match self {
+            Self::Linear {
+                c0_um,
+                slope_um_per_mm,
+            } => (c0_um + slope_um_per_mm * b_mm, *slope_um_per_mm),
+            Self::Table(t) => {
+                let n = t.len();
+                if b_mm <= t[0][0] {
+                    return (t[0][1], 0.0);
+                }
+                if b_mm >= t[n - 1][0] {
+                    return (t[n - 1][1], 0.0);
+                }
+                let i = t.partition_point(|r| r[0] <= b_mm).clamp(1, n - 1) - 1;
+                let slope = (t[i + 1][1] - t[i][1]) / (t[i + 1][0] - t[i][0]);
+                (t[i][1] + slope * (b_mm - t[i][0]), slope)
+            }
+        }
+    }
+    /// The crowning near b as a polynomial in b (mm): the tangent line there.
+    fn local_poly_mm(&self, b_mm: f64) -> WidthPoly {
+        let (c, s) = self.at(b_mm);
+        WidthPoly::linear(1e-3 * (c - s * b_mm), 1e-3 * s)
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct TopoPositionOut {
+    /// Width position of the contact line's reference point (mid profile), mm.
+    b0_mm: f64,
+    /// Uncorrected worm axial position at which the contact line passes it.
+    nu_zs_mm: f64,
+    /// Crowning wanted there (3-point), µm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    crowning_um: Option<f64>,
+    dphi_s_rad: f64,
+    dgamma_deg: f64,
+    dd_mm: f64,
+    dnu_ya_mm: f64,
+    /// Machine (5) at this axial position.
+    axes_bsp2: AxesOut,
+    iterations: usize,
+    /// Largest of the 9 residuals (µm).
+    max_residual_um: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct TopoOut {
+    method: String,
+    flank: Flank,
+    worm_diameter_mm: f64,
+    /// Roll distances of the target curves (mm), constant over the width.
+    target_w_mm: Vec<f64>,
+    positions: Vec<TopoPositionOut>,
+    /// Quasi-static worm topology: roll distances (rows), width positions (columns), f (µm).
+    map_w_mm: Vec<f64>,
+    map_b_mm: Vec<f64>,
+    /// f_nFS(w, b) (µm), row-major [i_w][i_b].
+    map_f_um: Vec<Vec<f64>>,
+}
+
+fn topo_crowning(sc: &SolveCfg, tc: &TopoCfg) -> anyhow::Result<CrowningOverWidth> {
+    match (&tc.crowning_table, tc.crowning_slope_um_per_mm) {
+        (Some(_), Some(_)) => bail!(
+            "[solve.topological] give either crowning_table or crowning_slope_um_per_mm, not both"
+        ),
+        (Some(t), None) => {
+            if t.len() < 2 {
+                bail!(
+                    "[solve.topological] crowning_table has {} rows, allowed range 2 ..= 1000",
+                    t.len()
+                );
+            }
+            for (i, r) in t.iter().enumerate() {
+                if !r[0].is_finite() || r[0].abs() > 1e4 || !r[1].is_finite() || r[1].abs() > 50.0 {
+                    bail!("[solve.topological] crowning_table row {i} = {r:?}: b must be within ±10000 mm and c within ±50 µm");
+                }
+                if i > 0 && r[0] <= t[i - 1][0] {
+                    bail!("[solve.topological] crowning_table row {i}: b = {} mm must exceed the previous row's {} mm", r[0], t[i - 1][0]);
+                }
+            }
+            Ok(CrowningOverWidth::Table(t.clone()))
+        }
+        (None, slope) => {
+            let c0 = sc.crowning_um.unwrap_or(0.0);
+            let s = slope.unwrap_or(0.0);
+            if !s.is_finite() || s.abs() > 10.0 {
+                bail!("[solve.topological] crowning_slope_um_per_mm = {s} is outside the allowed range -10 ..= 10");
+            }
+            Ok(CrowningOverWidth::Linear {
+                c0_um: c0,
+                slope_um_per_mm: s,
+            })
+        }
+    }
+}
+
+/// `dress solve` with `[solve.topological]`: the topological 3- or 4-point program over the
+/// worm width (digest §4.A.5, §4.A.7), its machine axes per position and the dressed worm.
+fn run_solve_topological(
+    c: &Common,
+    sc: &SolveCfg,
+    tc: &TopoCfg,
+    design: &Worm,
+    setup: &DressingSetup,
+) -> anyhow::Result<()> {
+    if !(2..=TOPO_MAX_POSITIONS).contains(&tc.positions) {
+        bail!(
+            "[solve.topological] positions = {} is outside the allowed range 2 ..= {TOPO_MAX_POSITIONS}",
+            tc.positions
+        );
+    }
+    let [b_lo, b_hi] = tc.b_range_mm;
+    if !b_lo.is_finite()
+        || !b_hi.is_finite()
+        || b_lo.abs() > 1e4
+        || b_hi.abs() > 1e4
+        || b_hi <= b_lo
+    {
+        bail!(
+            "[solve.topological] b_range_mm = [{b_lo}, {b_hi}]: need -10000 <= start < end <= 10000 (mm)"
+        );
+    }
+    if sc.contact_point.is_some() {
+        bail!("[solve] contact_point and [solve.topological] exclude each other: the program sets the contact line positions");
+    }
+    let fl = sc.flank;
+    let (w_nf, w_na) = setup.active_profile(fl)?;
+    let at = |q: f64| w_nf + q * (w_na - w_nf);
+    let w0 = at(0.5);
+    let n = tc.positions;
+    let b0s: Vec<f64> = (0..n)
+        .map(|i| b_lo + (b_hi - b_lo) * i as f64 / (n - 1) as f64)
+        .collect();
+    let k0 = AxisCorrection::default();
+    let opts = NewtonOptions::default();
+    let (program, target_w, crowning) = match sc.method {
+        Method::ThreePoint => {
+            if sc.points.is_some() {
+                bail!("[solve.topological] three-point takes its targets from crowning_um / crowning_slope_um_per_mm / crowning_table, not from points");
+            }
+            let cw = topo_crowning(sc, tc)?;
+            for &b in &b0s {
+                let cb = cw.at(b).0;
+                if cb.abs() > 50.0 {
+                    bail!("[solve.topological] crowning at b = {b} mm is {cb} um, outside the allowed range -50 ..= 50");
+                }
+            }
+            // The dresser radius that dresses the tip circle of the new worm keeps doing so.
+            let new = DressingSetup::new(*design, setup.dresser.clone());
+            let r_tip = new.association(fl, new.active_profile(fl)?.1, &k0)?;
+            let ws = [at(0.05), at(0.5), at(0.95)];
+            let prog = topological_program(&b0s, k0, |b0, start| {
+                let cb = cw.local_poly_mm(b0);
+                let neg: Vec<f64> = cb.coeffs.iter().map(|v| -v).collect();
+                let p = TopoThreePoint {
+                    flank: fl,
+                    w_mm: [
+                        WidthPoly::constant(ws[0]),
+                        WidthPoly::constant(ws[1]),
+                        WidthPoly::constant(ws[2]),
+                    ],
+                    f_mm: [
+                        WidthPoly::constant(0.0),
+                        WidthPoly { coeffs: neg },
+                        WidthPoly::constant(0.0),
+                    ],
+                    w_assoc_mm: WidthPoly::constant(w_na),
+                    r_a_mm: WidthPoly::constant(r_tip),
+                    w0_mm: w0,
+                };
+                solve_topological_three_point(setup, &p, b0, start, &opts)
+            })?;
+            (prog, ws.to_vec(), Some(cw))
+        }
+        Method::FourPoint => {
+            if tc.crowning_table.is_some() || tc.crowning_slope_um_per_mm.is_some() {
+                bail!("[solve.topological] four-point takes constant targets from [solve] points; crowning_table / crowning_slope_um_per_mm are for three-point");
+            }
+            let Some(points) = &sc.points else {
+                bail!("[solve] four-point needs `points` (4 of them)");
+            };
+            if points.len() != 4 {
+                bail!("[solve] four-point needs 4 points, got {}", points.len());
+            }
+            for p in points {
+                if !(0.0..=1.0).contains(&p[0]) || !p[1].is_finite() || p[1].abs() > 1000.0 {
+                    bail!(
+                        "[solve] point {:?}: fraction must be in 0..=1 and f within ±1000 µm",
+                        p
+                    );
+                }
+            }
+            let ws: Vec<f64> = points.iter().map(|p| at(p[0])).collect();
+            let prog = topological_program(&b0s, k0, |b0, start| {
+                let p = TopoFourPoint {
+                    flank: fl,
+                    w_mm: [0, 1, 2, 3].map(|i| WidthPoly::constant(ws[i])),
+                    f_mm: [0, 1, 2, 3].map(|i| WidthPoly::constant(points[i][1] * 1e-3)),
+                    w0_mm: w0,
+                };
+                solve_topological_four_point(setup, &p, b0, start, &opts)
+            })?;
+            (prog, ws, None)
+        }
+    };
+    let mut positions = Vec::with_capacity(n);
+    for s in &program.solutions {
+        positions.push(TopoPositionOut {
+            b0_mm: s.b0_mm,
+            nu_zs_mm: s.nu_zs_mm,
+            crowning_um: crowning.as_ref().map(|cw| cw.at(s.b0_mm).0),
+            dphi_s_rad: s.dk.dphi_s_rad,
+            dgamma_deg: deg(s.dk.dgamma_rad),
+            dd_mm: s.dk.dd_mm,
+            dnu_ya_mm: s.dk.dnu_ya_mm,
+            axes_bsp2: axes_at(setup, &s.dk, s.nu_zs_mm)?,
+            iterations: s.iterations,
+            max_residual_um: 1e3 * s.residual_mm.iter().fold(0.0f64, |m, r| m.max(r.abs())),
+        });
+    }
+    // The dressed worm by the quasi-static model over the swept width.
+    let map_w: Vec<f64> = (0..=10).map(|i| at(f64::from(i) / 10.0)).collect();
+    let nb = (2 * n - 1).clamp(3, 41);
+    let map_b: Vec<f64> = (0..nb)
+        .map(|j| b_lo + (b_hi - b_lo) * j as f64 / (nb - 1) as f64)
+        .collect();
+    let topo =
+        WormTopology::quasi_static(setup, fl, map_w.clone(), map_b.clone(), &program.schedule)?;
+    let map_f_um: Vec<Vec<f64>> = topo
+        .f_mm
+        .chunks(nb)
+        .map(|row| row.iter().map(|f| 1e3 * f).collect())
+        .collect();
+    let out = TopoOut {
+        method: format!("topological {:?}", sc.method),
+        flank: fl,
+        worm_diameter_mm: setup.worm.d_s_mm,
+        target_w_mm: target_w,
+        positions,
+        map_w_mm: map_w,
+        map_b_mm: map_b,
+        map_f_um,
+    };
+    if c.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{} on the {:?} flank, worm d_S = {} mm, {} positions",
+            out.method, fl, out.worm_diameter_mm, n
+        );
+        println!(
+            "{:>9} {:>10} {:>8} {:>12} {:>10} {:>10} {:>10} {:>11} {:>10} {:>10} {:>10} {:>4} {:>9}",
+            "b0 mm", "nu_zS mm", "c um", "dphi rad", "dgam deg", "dd mm", "dnu mm",
+            "B1 deg", "V1 mm", "A1 deg", "X1 mm", "it", "res um"
+        );
+        for p in &out.positions {
+            println!(
+                "{:>9.3} {:>10.4} {:>8.4} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>11.5} {:>10.4} {:>10.5} {:>10.5} {:>4} {:>9.2e}",
+                p.b0_mm, p.nu_zs_mm, p.crowning_um.unwrap_or(f64::NAN), p.dphi_s_rad, p.dgamma_deg,
+                p.dd_mm, p.dnu_ya_mm, p.axes_bsp2.b1_deg, p.axes_bsp2.v1_mm, p.axes_bsp2.a1_deg,
+                p.axes_bsp2.x1_mm, p.iterations, p.max_residual_um
+            );
+        }
+    }
+    if let Some(path) = &c.report {
+        let mut r = HtmlReport::new("gearcomp dress solve (topological)");
+        r.paragraph(&format!(
+            "{} positions over b = {b_lo} .. {b_hi} mm; dK(nu_zS) is the natural cubic spline through them, held beyond the ends.",
+            n
+        ));
+        let nus: Vec<f64> = out.positions.iter().map(|p| p.nu_zs_mm).collect();
+        let (nu_lo, nu_hi) = nus
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let curve = |f: &dyn Fn(&AxisCorrection) -> f64| -> Vec<(f64, f64)> {
+            (0..=100)
+                .map(|i| {
+                    let nu = nu_lo + (nu_hi - nu_lo) * f64::from(i) / 100.0;
+                    (nu, f(&program.schedule.at(nu)))
+                })
+                .collect()
+        };
+        r.chart(
+            &Chart::new("Dressing program dK(nu_zS)", "nu_zS [mm]", "dK")
+                .with(Series::line(
+                    "dphi_S [mrad]",
+                    curve(&|k| 1e3 * k.dphi_s_rad),
+                ))
+                .with(Series::line("dgamma [deg]", curve(&|k| deg(k.dgamma_rad))))
+                .with(Series::line("dd [10 um]", curve(&|k| 100.0 * k.dd_mm)))
+                .with(Series::line("dnu_yA [mm]", curve(&|k| k.dnu_ya_mm)))
+                .with(Series::points(
+                    "solved dgamma [deg]",
+                    out.positions
+                        .iter()
+                        .map(|p| (p.nu_zs_mm, p.dgamma_deg))
+                        .collect(),
+                )),
+        )?;
+        let mut map = Chart::new(
+            "Dressed worm f_nFS(w, b) (quasi-static), one line per b",
+            "w [mm]",
+            "f [um]",
+        );
+        for (j, b) in out.map_b_mm.iter().enumerate() {
+            map = map.with(Series::line(
+                format!("b {b:.2} mm"),
+                out.map_w_mm
+                    .iter()
+                    .zip(out.map_f_um.iter())
+                    .map(|(w, row)| (*w, row[j]))
+                    .collect(),
+            ));
+        }
+        r.chart(&map)?;
+        let mut across = Chart::new(
+            "f_nFS along the width at the target roll distances",
+            "b [mm]",
+            "f [um]",
+        );
+        for (i, w) in out.map_w_mm.iter().enumerate().step_by(5) {
+            across = across.with(Series::line(
+                format!("w {w:.3} mm"),
+                out.map_b_mm
+                    .iter()
+                    .zip(out.map_f_um[i].iter())
+                    .map(|(b, f)| (*b, *f))
+                    .collect(),
+            ));
+        }
+        r.chart(&across)?;
         r.write(path)?;
     }
     Ok(())

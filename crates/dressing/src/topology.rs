@@ -75,23 +75,44 @@ pub struct TabulatedSchedule {
 }
 
 impl TabulatedSchedule {
-    /// Schedule through (ν_k, ΔK_k); at least 3 nodes with distinct ν (any order).
+    /// Schedule through (ν_k, ΔK_k); at least 2 nodes with distinct ν (any order); two nodes
+    /// give the straight line through them.
     pub fn new(nodes: &[(f64, AxisCorrection)]) -> Result<Self> {
-        if nodes.len() < 3 {
+        if nodes.len() < 2 {
             return Err(DressError::OutOfRange {
                 field: "schedule nodes (count)",
                 value: nodes.len() as f64,
-                min: 3.0,
+                min: 2.0,
                 max: f64::INFINITY,
             });
         }
         let mut sorted = nodes.to_vec();
         sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // A natural spline through three collinear knots is that line: two nodes get their
+        // midpoint added (for the splines only; `nodes()` returns what was given).
+        let mut knots = sorted.clone();
+        if knots.len() == 2 {
+            let (a, b) = (knots[0], knots[1]);
+            let mid: Vec<f64> =
+                a.1.to_array()
+                    .iter()
+                    .zip(b.1.to_array().iter())
+                    .map(|(x, y)| 0.5 * (x + y))
+                    .collect();
+            knots.insert(
+                1,
+                (
+                    0.5 * (a.0 + b.0),
+                    AxisCorrection::from_array([mid[0], mid[1], mid[2], mid[3]]),
+                ),
+            );
+        }
         let nu: Vec<f64> = sorted.iter().map(|n| n.0).collect();
+        let knot_nu: Vec<f64> = knots.iter().map(|n| n.0).collect();
         let comp = |j: usize| -> Result<Spline> {
             Spline::new(
-                nu.clone(),
-                sorted.iter().map(|n| n.1.to_array()[j]).collect(),
+                knot_nu.clone(),
+                knots.iter().map(|n| n.1.to_array()[j]).collect(),
             )
             .map_err(|_| {
                 DressError::Geometry(

@@ -271,3 +271,25 @@ fn worm_topology_grid_interpolates() {
     assert!(e.contains("b_mm") && e.contains("20"), "{e}");
     assert!(WormTopology::new(FL, vec![1.0, 0.5], vec![0.0, 1.0], vec![0.0; 4]).is_err());
 }
+
+/// Two nodes (the fewest `dress solve` accepts) give the straight line through them, held
+/// constant beyond the ends; `nodes()` returns exactly what was given.
+#[test]
+fn two_node_program_is_linear_and_held() {
+    use gearcomp_dressing::topology::TabulatedSchedule;
+    let a = AxisCorrection::from_array([1e-3, 0.01, -0.02, 0.5]);
+    let b = AxisCorrection::from_array([3e-3, -0.01, 0.04, -1.5]);
+    let s = TabulatedSchedule::new(&[(12.0, b), (-8.0, a)]).unwrap();
+    assert_eq!(s.nodes(), vec![(-8.0, a), (12.0, b)]);
+    for nu in [-8.0, -3.1, 0.0, 4.7, 12.0] {
+        let q = (nu + 8.0) / 20.0;
+        let (x, y) = (s.at(nu).to_array(), (a.to_array(), b.to_array()));
+        for j in 0..4 {
+            let want = y.0[j] + q * (y.1[j] - y.0[j]);
+            assert!((x[j] - want).abs() < 1e-15, "nu {nu} comp {j}");
+        }
+    }
+    assert_eq!(s.at(-20.0), a);
+    assert_eq!(s.at(30.0), b);
+    assert!(TabulatedSchedule::new(&[(0.0, a)]).is_err());
+}
