@@ -284,9 +284,9 @@ fn two_node_program_is_linear_and_held() {
     for nu in [-8.0, -3.1, 0.0, 4.7, 12.0] {
         let q = (nu + 8.0) / 20.0;
         let (x, y) = (s.at(nu).to_array(), (a.to_array(), b.to_array()));
-        for j in 0..4 {
+        for (j, xj) in x.iter().enumerate() {
             let want = y.0[j] + q * (y.1[j] - y.0[j]);
-            assert!((x[j] - want).abs() < 1e-15, "nu {nu} comp {j}");
+            assert!((xj - want).abs() < 1e-15, "nu {nu} comp {j}");
         }
     }
     assert_eq!(s.at(-20.0), a);
