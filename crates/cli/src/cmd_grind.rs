@@ -10,6 +10,9 @@
 //! config is dressed (given ΔK, or the 3-point solve of `gearcomp dress`), its profile is
 //! tabulated and used as the grinding worm, and the ground gear is evaluated against ISO 1328.
 //!
+//! `equalise CONFIG.toml` reads gear and worm (with their cone angles) and finds the worm cone
+//! angle ϑ1 that gives both flanks the same diagonal ratio (A6/T14).
+//!
 //! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
 //! lengths. They are converted in [`deg_to_rad`] / [`um_to_mm`] only. Exception kept for
 //! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
@@ -25,6 +28,10 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
 use gearcomp_dressing::solve::{solve_three_point, NewtonOptions, ThreePoint};
 use gearcomp_dressing::worm::{Flank as DressFlank, Worm as DressWorm};
+use gearcomp_grinding::conical::BeveloidGear;
+use gearcomp_grinding::conical_equalise::{
+    equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
+};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
     diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad,
@@ -36,6 +43,7 @@ use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
 use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, Grinder, GroundFlank};
+use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
 
@@ -53,6 +61,9 @@ enum GrindCommand {
     /// Find the diagonal ratio and worm modification for a wanted gear modification, and
     /// verify them by simulation.
     Solve(SolveArgs),
+    /// Find the worm cone angle ϑ1 that gives both flanks the same diagonal ratio (two-flank
+    /// diagonal grinding with a conical worm, A6/T14).
+    Equalise(EqualiseArgs),
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -178,6 +189,16 @@ struct SolveArgs {
     worm_rho_deg: Option<f64>,
 }
 
+#[derive(Debug, clap::Args)]
+struct EqualiseArgs {
+    /// Grind config: [gear], [worm] (with `cone_angle_deg` for each body) and [equalise].
+    #[arg(value_name = "CONFIG.toml")]
+    config: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
 /// Degrees (interface) to radians (internal): the one conversion point.
 fn deg_to_rad(deg: f64) -> f64 {
     deg.to_radians()
@@ -203,6 +224,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.command {
         GrindCommand::Simulate(a) => simulate(a),
         GrindCommand::Solve(a) => solve(a),
+        GrindCommand::Equalise(a) => equalise(a),
     }
 }
 
@@ -1240,4 +1262,244 @@ fn nearest(v: &[f64], x: f64) -> usize {
             }
         })
         .0
+}
+
+/// A `gearcomp grind` config (`grind equalise`): gear and worm bodies, cone angles included.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GrindConfig {
+    gear: GearCfg,
+    worm: WormCfg,
+    equalise: EqualiseCfg,
+}
+
+/// [gear] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GearCfg {
+    teeth: u32,
+    module_mm: f64,
+    /// Right flank (both flanks if `pressure_angle_left_deg` is absent).
+    pressure_angle_deg: f64,
+    pressure_angle_left_deg: Option<f64>,
+    helix_angle_deg: f64,
+    /// Workpiece cone angle ϑ2 (0 = cylindrical gear, chain (28)/(29)).
+    #[serde(default)]
+    cone_angle_deg: f64,
+}
+
+/// [worm] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WormCfg {
+    starts: u32,
+    radius_mm: f64,
+    #[serde(default = "default_hand")]
+    hand: String,
+    /// The worm's present cone angle ϑ1; `equalise` reports both flanks' K at it, next to the
+    /// equalising ϑ1 it searches (0 = cylindrical worm).
+    #[serde(default)]
+    cone_angle_deg: f64,
+}
+
+fn default_hand() -> String {
+    "right".to_owned()
+}
+
+/// [equalise] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EqualiseCfg {
+    /// Wanted modification direction ρ_r2 on the gear's right flank.
+    gear_rho_right_deg: f64,
+    /// ρ_l2 (raw flank convention: a mirror-symmetric modification has ρ_l2 = −ρ_r2).
+    gear_rho_left_deg: f64,
+    /// Worm line directions ρ_r1/ρ_l1 (dresser contact lines, eq. (37)); both or neither
+    /// (neither = the axial-section estimate of each conical worm flank).
+    worm_rho_right_deg: Option<f64>,
+    worm_rho_left_deg: Option<f64>,
+    #[serde(default = "default_cone_min")]
+    cone_min_deg: f64,
+    #[serde(default = "default_cone_max")]
+    cone_max_deg: f64,
+}
+
+fn default_cone_min() -> f64 {
+    -15.0
+}
+
+fn default_cone_max() -> f64 {
+    15.0
+}
+
+#[derive(Debug, Serialize)]
+struct FlankKOut {
+    cone1_deg: f64,
+    k_left: f64,
+    k_right: f64,
+    rho1_left_deg: f64,
+    rho1_right_deg: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct EqualiseOut {
+    mode: &'static str,
+    gear_cone_deg: f64,
+    gear_rho_left_deg: f64,
+    gear_rho_right_deg: f64,
+    worm_lines: &'static str,
+    cone_range_deg: (f64, f64),
+    /// The equalising worm cone angle ϑ1.
+    cone1_deg: f64,
+    /// The common diagonal ratio (mean of the two flanks' values at ϑ1).
+    k_zv1: f64,
+    /// Both flanks at ϑ1.
+    equalised: FlankKOut,
+    /// Both flanks at the worm's present cone angle ([worm] cone_angle_deg).
+    at_given_cone: FlankKOut,
+}
+
+fn flank_k_out(cone1_rad: f64, r: (f64, f64, f64, f64)) -> FlankKOut {
+    FlankKOut {
+        cone1_deg: rad_to_deg(cone1_rad),
+        k_left: r.0,
+        k_right: r.1,
+        rho1_left_deg: rad_to_deg(r.2),
+        rho1_right_deg: rad_to_deg(r.3),
+    }
+}
+
+/// The T14 search input from a grind config.
+fn equalise_spec(c: &GrindConfig) -> Result<EqualiseSpec> {
+    let g = &c.gear;
+    let alpha_r = deg_to_rad(g.pressure_angle_deg);
+    let alpha_l = deg_to_rad(g.pressure_angle_left_deg.unwrap_or(g.pressure_angle_deg));
+    let gear = InvoluteGear::asymmetric(
+        g.teeth,
+        g.module_mm,
+        alpha_r,
+        alpha_l,
+        deg_to_rad(g.helix_angle_deg),
+        0.0,
+    )
+    .context("[gear]")?;
+    let gear =
+        BeveloidGear::new(gear, deg_to_rad(g.cone_angle_deg)).context("[gear] cone_angle_deg")?;
+    let hand = match c.worm.hand.as_str() {
+        "right" => Hand::Right,
+        "left" => Hand::Left,
+        other => {
+            anyhow::bail!("[worm] hand = {other:?} is not allowed: expected \"right\" or \"left\"")
+        }
+    };
+    let w = InvoluteGear::worm(c.worm.starts, g.module_mm, alpha_r, c.worm.radius_mm, hand)
+        .context("[worm]")?;
+    // (93): equal normal base pitch per flank with equal m_n fixes the worm rack's α_nF.
+    let worm = InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
+        .context("[worm]")?;
+    let e = &c.equalise;
+    let worm_lines = match (e.worm_rho_left_deg, e.worm_rho_right_deg) {
+        (Some(l), Some(r)) => WormLines::Given {
+            left_rad: deg_to_rad(l),
+            right_rad: deg_to_rad(r),
+        },
+        (None, None) => WormLines::AxialSection,
+        _ => anyhow::bail!(
+            "[equalise] worm_rho_left_deg / worm_rho_right_deg: give both (dresser contact \
+             lines) or neither (axial-section estimate)"
+        ),
+    };
+    Ok(EqualiseSpec {
+        worm,
+        gear,
+        rho2_left_rad: deg_to_rad(e.gear_rho_left_deg),
+        rho2_right_rad: deg_to_rad(e.gear_rho_right_deg),
+        worm_lines,
+        cone_range_rad: (deg_to_rad(e.cone_min_deg), deg_to_rad(e.cone_max_deg)),
+    })
+}
+
+/// `grind equalise`: T14 on a config, ϑ1 and both flanks' K.
+fn equalise(a: EqualiseArgs) -> Result<()> {
+    let text = std::fs::read_to_string(&a.config)
+        .with_context(|| format!("reading {}", a.config.display()))?;
+    let cfg: GrindConfig =
+        toml::from_str(&text).with_context(|| format!("parsing {}", a.config.display()))?;
+    let spec = equalise_spec(&cfg)?;
+    let given = deg_to_rad(cfg.worm.cone_angle_deg);
+    let at_given = flank_ratios(&spec, given).context("[worm] cone_angle_deg")?;
+    let e: Equalised = match equalise_worm_cone_angle(&spec) {
+        Ok(e) => e,
+        Err(GrindError::NoRoot { at_min, at_max, .. }) => anyhow::bail!(
+            "no worm cone angle in [{}°, {}°] ([equalise] cone_min_deg/cone_max_deg) gives both \
+             flanks the same diagonal ratio: K_l − K_r = {at_min:.6} at {}° and {at_max:.6} at \
+             {}° (no sign change); widen the range, or change the worm lines or the wanted \
+             directions",
+            cfg.equalise.cone_min_deg,
+            cfg.equalise.cone_max_deg,
+            cfg.equalise.cone_min_deg,
+            cfg.equalise.cone_max_deg
+        ),
+        Err(other) => return Err(other).context("[equalise]"),
+    };
+    let out = EqualiseOut {
+        mode: "equalise",
+        gear_cone_deg: cfg.gear.cone_angle_deg,
+        gear_rho_left_deg: cfg.equalise.gear_rho_left_deg,
+        gear_rho_right_deg: cfg.equalise.gear_rho_right_deg,
+        worm_lines: match spec.worm_lines {
+            WormLines::Given { .. } => "given",
+            WormLines::AxialSection => "axial-section estimate",
+        },
+        cone_range_deg: (cfg.equalise.cone_min_deg, cfg.equalise.cone_max_deg),
+        cone1_deg: rad_to_deg(e.cone1_rad),
+        k_zv1: e.k_zv1,
+        equalised: flank_k_out(
+            e.cone1_rad,
+            (e.k_left, e.k_right, e.rho1_left_rad, e.rho1_right_rad),
+        ),
+        at_given_cone: flank_k_out(given, at_given),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        print!("{}", equalise_table(&out));
+    }
+    Ok(())
+}
+
+fn equalise_table(o: &EqualiseOut) -> String {
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "gearcomp grind equalise: worm cone angle for two-flank diagonal grinding (A6/T14)"
+    );
+    let _ = writeln!(
+        t,
+        "  gear cone ϑ2 = {:.6}°, wanted ρ_l2 = {:.6}°, ρ_r2 = {:.6}°, worm lines: {}",
+        o.gear_cone_deg, o.gear_rho_left_deg, o.gear_rho_right_deg, o.worm_lines
+    );
+    let _ = writeln!(
+        t,
+        "  searched ϑ1 in [{}°, {}°]",
+        o.cone_range_deg.0, o.cone_range_deg.1
+    );
+    let _ = writeln!(t, "  worm cone ϑ1 = {:.6}°", o.cone1_deg);
+    let _ = writeln!(t, "  common K_ZV1 = {:.6}", o.k_zv1);
+    let _ = writeln!(
+        t,
+        "  {:<22} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "", "ϑ1 [°]", "K_l", "K_r", "ρ_l1 [°]", "ρ_r1 [°]"
+    );
+    for (name, f) in [
+        ("equalised", &o.equalised),
+        ("given [worm] cone", &o.at_given_cone),
+    ] {
+        let _ = writeln!(
+            t,
+            "  {:<22} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>12.6}",
+            name, f.cone1_deg, f.k_left, f.k_right, f.rho1_left_deg, f.rho1_right_deg
+        );
+    }
+    t
 }

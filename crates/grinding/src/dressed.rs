@@ -194,6 +194,39 @@ impl Spline {
     }
 }
 
+/// Refuses a dressed table whose helicoid is not the grinding worm's: the flank must be the
+/// same and r_b, β_b must agree to 1e-9 relative (a table dressed on another worm would be
+/// mapped onto the wrong flank geometry). `fields` names flank, r_b and β_b in the error.
+pub(crate) fn check_same_helicoid(
+    fields: [&'static str; 3],
+    (flank, r_b_mm, beta_b_rad): (Flank, f64, f64),
+    worm: &InvoluteFlank,
+) -> Result<()> {
+    if flank != worm.flank {
+        return Err(GrindError::OutOfRange {
+            field: fields[0],
+            value: flank.sign(),
+            expected: "the flank being ground (+1 right, −1 left)",
+        });
+    }
+    let rel = |a: f64, b: f64| ((a - b) / b).abs();
+    if rel(r_b_mm, worm.r_b_mm) > 1e-9 {
+        return Err(GrindError::OutOfRange {
+            field: fields[1],
+            value: r_b_mm,
+            expected: "the grinding worm's base radius (same helicoid, 1e-9 relative)",
+        });
+    }
+    if rel(beta_b_rad, worm.beta_b_rad) > 1e-9 {
+        return Err(GrindError::OutOfRange {
+            field: fields[2],
+            value: beta_b_rad,
+            expected: "the grinding worm's base helix angle (same helicoid, 1e-9 relative)",
+        });
+    }
+    Ok(())
+}
+
 /// A dressed worm flank used as a grinding worm: f_Ft1(w1, z1) = f_nFS(w1)/cos β_b1, the same
 /// on every thread and at every width position (constant ΔK).
 #[derive(Debug, Clone, PartialEq)]
@@ -209,28 +242,15 @@ impl DressedWorm {
     /// The table must have been dressed on the same helicoid: r_b and β_b must agree to
     /// 1e-9 relative, and the flank must be the same.
     pub fn new(profile: DressedProfile, worm: &InvoluteFlank) -> Result<Self> {
-        if profile.flank != worm.flank {
-            return Err(GrindError::OutOfRange {
-                field: "dressed profile flank",
-                value: profile.flank.sign(),
-                expected: "the flank being ground (+1 right, −1 left)",
-            });
-        }
-        let rel = |a: f64, b: f64| ((a - b) / b).abs();
-        if rel(profile.r_b_mm, worm.r_b_mm) > 1e-9 {
-            return Err(GrindError::OutOfRange {
-                field: "dressed r_b_mm",
-                value: profile.r_b_mm,
-                expected: "the grinding worm's base radius (same helicoid, 1e-9 relative)",
-            });
-        }
-        if rel(profile.beta_b_rad, worm.beta_b_rad) > 1e-9 {
-            return Err(GrindError::OutOfRange {
-                field: "dressed beta_b_rad",
-                value: profile.beta_b_rad,
-                expected: "the grinding worm's base helix angle (same helicoid, 1e-9 relative)",
-            });
-        }
+        check_same_helicoid(
+            [
+                "dressed profile flank",
+                "dressed r_b_mm",
+                "dressed beta_b_rad",
+            ],
+            (profile.flank, profile.r_b_mm, profile.beta_b_rad),
+            worm,
+        )?;
         let spline = Spline::natural(&profile.w_mm, &profile.f_n_mm);
         Ok(Self {
             inv_cos_beta_b: 1.0 / worm.beta_b_rad.cos(),

@@ -11,6 +11,8 @@
 //! - [`decompose`]: weighted least-squares decomposition of a wanted modification (102), and
 //!   the general form (100) with the dresser-profile part f_PFt (97).
 //! - [`dressed`]: a worm dressed by the dressing module (tabulated f_nFS(w)) as a grinding worm.
+//! - [`dressed_topology`]: a topologically dressed worm (grid f_nFS(w, b)) as a grinding worm
+//!   for diagonal generating grinding.
 //! - [`machine`]: machine chain (35) and its inverse.
 //! - [`simulate`]: brute-force envelope grinding simulation over rotation and feed, storing the
 //!   worm point that ground each gear point, and the contact path fitted from it.
@@ -40,6 +42,7 @@ pub mod contact;
 pub mod decompose;
 pub mod diagonal;
 pub mod dressed;
+pub mod dressed_topology;
 mod error;
 pub mod flank;
 pub mod iso1328;
