@@ -25,7 +25,8 @@ pub struct Args {
     /// HTTP port (overrides http.port; 0 picks a free port, printed on stdout).
     #[arg(long)]
     pub port: Option<u16>,
-    /// Simulated seconds per wall-clock second (simulator input only).
+    /// Service-clock seconds per wall-clock second, 0.001…1e6: the simulator's speed, or the
+    /// CSV replay's (log seconds per second); ignored by live inputs (real time).
     #[arg(long)]
     pub speedup: Option<f64>,
     /// Stop cleanly after this many wall-clock seconds.
@@ -49,6 +50,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => ServiceConfig::load(p)?,
         None => ServiceConfig::default(),
     };
+    if let (Some(out), None, gearcomp_service::config::StorageBackend::Postgres) =
+        (&args.export_csv, &args.db, cfg.storage.backend)
+    {
+        // The record is this machine's rows in the PostgreSQL database of the config.
+        let store = gearcomp_service::storage::open_store(&cfg)?;
+        let rows = gearcomp_service::storage::export_csv_from(&*store, out)
+            .with_context(|| format!("export {} to {}", store.describe(), out.display()))?;
+        println!("wrote {} ({rows} rows)", out.display());
+        return Ok(());
+    }
     if let Some(out) = &args.export_csv {
         let db = args.db.clone().unwrap_or_else(|| cfg.storage.path.clone());
         if !db.exists() {

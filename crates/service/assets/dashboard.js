@@ -43,7 +43,8 @@ async function refresh() {
     text("committed", st.committed_samples); text("input", st.input);
     document.getElementById("status").className = st.status === "running" ? "ok" : "alarm";
     document.querySelector("#channels tbody").innerHTML = chans.map(c =>
-      "<tr><td>" + c.name + '</td><td class="num">' + fmt(c.raw, 3) + '</td><td class="num">' + fmt(c.value, 3) +
+      "<tr><td>" + c.name + '</td><td class="num" data-channel-raw="' + c.name + '">' + fmt(c.raw, 3) +
+      '</td><td class="num" data-channel-value="' + c.name + '">' + fmt(c.value, 3) +
       '</td><td class="' + (c.fault ? "alarm" : "ok") + '">' + (c.fault || "ok") + "</td></tr>").join("");
     document.querySelector("#axes tbody").innerHTML = st.axes.map(a =>
       "<tr><td>" + a.name + '</td><td class="num" data-axis-offset="' + a.name + '">' + fmt(a.offset_um, 3) +

@@ -18,6 +18,10 @@ use gearcomp_thermal::{Engine, EngineConfig};
 
 const BATCH: u64 = 20_000;
 
+#[cfg(feature = "postgres")]
+#[path = "../tests/postgres_common/mod.rs"]
+mod postgres_common;
+
 struct Pipeline {
     tx: SyncSender<InputMsg>,
     stats: Arc<StoreStats>,
@@ -127,6 +131,58 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+
+    // PostgreSQL: the same samples through the PostgreSQL writer (binary COPY, batched
+    // commits) into a server this benchmark starts, as a ratio to the SQLite store above.
+    #[cfg(feature = "postgres")]
+    let _server = match postgres_common::PgServer::try_start() {
+        Err(why) => {
+            println!("ingest/postgres_store skipped: no PostgreSQL server ({why})");
+            None
+        }
+        Ok(server) => {
+            let mut cfg = gearcomp_service::ServiceConfig::default();
+            cfg.machine.name = "bench".into();
+            cfg.storage.backend = gearcomp_service::config::StorageBackend::Postgres;
+            cfg.storage.url = Some(server.url());
+            let store = storage::open_store(&cfg).unwrap();
+            store
+                .register_names(&["a".into(), "b".into(), "c".into(), "d".into()], &[], &[])
+                .unwrap();
+            let stats = Arc::new(StoreStats::default());
+            let (tx, rx) = sync_channel::<Record>(1 << 16);
+            let _writer = store
+                .spawn_writer(
+                    rx,
+                    storage::WriterParams {
+                        commit_interval: Duration::from_millis(50),
+                        clock: Clock::new(0.0, 1.0),
+                    },
+                    stats.clone(),
+                )
+                .unwrap();
+            let mut sent = 0u64;
+            g.bench_function("postgres_store", |b| {
+                b.iter_custom(|iters| {
+                    let t0 = Instant::now();
+                    for _ in 0..iters {
+                        for i in 0..BATCH {
+                            tx.send(Record::Sample {
+                                time_s: (sent + i) as f64 * 1e-3,
+                                channel: (i % 4) as u16,
+                                raw: 108.0,
+                            })
+                            .unwrap();
+                        }
+                        sent += BATCH;
+                        wait_committed(&stats, sent);
+                    }
+                    t0.elapsed()
+                })
+            });
+            Some((server, tx))
+        }
+    };
 
     // Service pipeline: samples → cycle thread (grinder engine steps on every complete
     // scan of its 4 Pt100/°C channels, averages and offsets recorded) → store.

@@ -2,12 +2,10 @@
 //! stored hashed). Tokens are 256-bit random strings, so a plain SHA-256 is a sufficient
 //! verifier (no password stretching is needed for full-entropy secrets).
 
-use rusqlite::{params, Connection};
 use sha2::{Digest, Sha256};
 
 use crate::config::{Role, TokenEntry};
 use crate::error::{invalid, Result};
-use crate::storage::unix_now_s;
 
 /// A known token: its hash and role.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,29 +57,23 @@ pub fn generate_token(role: Role) -> Result<String> {
 }
 
 impl Tokens {
-    /// Loads the tokens stored in the database and the configured ones; when there are
-    /// none at all, generates an operator and a read-only token, stores their hashes and
-    /// returns them so they can be printed once.
-    pub fn load_or_generate(
-        conn: &Connection,
+    /// Loads the tokens kept in the record (SQLite or PostgreSQL) and the configured ones;
+    /// when there are none at all, generates an operator and a read-only token, stores their
+    /// hashes and returns them so they can be printed once.
+    pub fn load_or_generate_in(
+        store: &dyn crate::storage::Store,
         configured: &[TokenEntry],
     ) -> Result<(Self, Option<Generated>)> {
-        let mut known = Vec::new();
-        for t in configured {
-            known.push(KnownToken {
+        let mut known: Vec<KnownToken> = configured
+            .iter()
+            .map(|t| KnownToken {
                 sha256: t.sha256.clone(),
                 role: t.role,
-            });
-        }
-        {
-            let mut st = conn.prepare("SELECT sha256, role FROM tokens")?;
-            let rows =
-                st.query_map([], |r| Ok((r.get::<_, String>(0)?, r.get::<_, String>(1)?)))?;
-            for row in rows {
-                let (sha256, role) = row?;
-                if let Some(role) = Role::from_name(&role) {
-                    known.push(KnownToken { sha256, role });
-                }
+            })
+            .collect();
+        for (sha256, role) in store.token_hashes()? {
+            if let Some(role) = Role::from_name(&role) {
+                known.push(KnownToken { sha256, role });
             }
         }
         let mut generated = None;
@@ -95,10 +87,7 @@ impl Tokens {
                 (&g.read_only, Role::ReadOnly),
             ] {
                 let sha256 = hash_token(tok);
-                conn.execute(
-                    "INSERT INTO tokens (role, sha256, created_unix_s) VALUES (?1, ?2, ?3)",
-                    params![role.name(), sha256, unix_now_s()],
-                )?;
+                store.add_token(role.name(), &sha256)?;
                 known.push(KnownToken { sha256, role });
             }
             generated = Some(g);
@@ -151,12 +140,16 @@ mod tests {
 
     #[test]
     fn generated_tokens_are_stored_hashed_and_verified() {
-        let conn = crate::storage::open(std::path::Path::new(":memory:")).unwrap();
-        let (tokens, generated) = Tokens::load_or_generate(&conn, &[]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("record.sqlite");
+        drop(crate::storage::open(&path).unwrap());
+        let store = crate::storage::SqliteStore::new(&path);
+        let (tokens, generated) = Tokens::load_or_generate_in(&store, &[]).unwrap();
         let g = generated.unwrap();
         assert_eq!(tokens.role_of(&g.operator), Some(Role::Operator));
         assert_eq!(tokens.role_of(&g.read_only), Some(Role::ReadOnly));
         assert_eq!(tokens.role_of("gco_nothing"), None);
+        let conn = crate::storage::open_read(&path).unwrap();
         let stored: Vec<String> = conn
             .prepare("SELECT sha256 FROM tokens")
             .unwrap()
@@ -164,9 +157,11 @@ mod tests {
             .unwrap()
             .map(|r| r.unwrap())
             .collect();
+        assert_eq!(stored.len(), 2);
         assert!(!stored.iter().any(|s| s == &g.operator || s == &g.read_only));
+        assert!(stored.contains(&hash_token(&g.operator)));
         // Second start: nothing generated, the same tokens still work.
-        let (again, none) = Tokens::load_or_generate(&conn, &[]).unwrap();
+        let (again, none) = Tokens::load_or_generate_in(&store, &[]).unwrap();
         assert!(none.is_none());
         assert_eq!(again.role_of(&g.operator), Some(Role::Operator));
     }

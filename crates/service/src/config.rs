@@ -107,6 +107,39 @@ pub struct StorageSection {
     /// 0.01…1 s.
     #[serde(default = "default_commit_interval_s")]
     pub commit_interval_s: f64,
+    /// Which database keeps the record: `sqlite` (the file `path`, default) or `postgres`
+    /// (a plant database shared by several machines, keyed by `machine.name`).
+    #[serde(default)]
+    pub backend: StorageBackend,
+    /// PostgreSQL connection, as a URL (`postgresql://user@host:5432/plant`) or key-value
+    /// string (`host=… user=… dbname=…`); postgres only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub url: Option<String>,
+    /// Environment variable holding the PostgreSQL password, so it stays out of the file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password_env: Option<String>,
+    /// Records held in memory while PostgreSQL is unreachable, 1000…100 000 000 (about
+    /// 64 bytes each); beyond it raw samples are dropped with an alarm (docs/service.md).
+    #[serde(default = "default_buffer_records")]
+    pub buffer_records: u64,
+    /// Reconnect back-off to PostgreSQL.
+    #[serde(default)]
+    pub reconnect: Backoff,
+}
+
+/// The database behind the record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StorageBackend {
+    /// Embedded SQLite file (WAL).
+    #[default]
+    Sqlite,
+    /// A PostgreSQL server (feature `postgres`).
+    Postgres,
+}
+
+fn default_buffer_records() -> u64 {
+    1_000_000
 }
 
 fn default_db() -> PathBuf {
@@ -121,6 +154,11 @@ impl Default for StorageSection {
         Self {
             path: default_db(),
             commit_interval_s: default_commit_interval_s(),
+            backend: StorageBackend::default(),
+            url: None,
+            password_env: None,
+            buffer_records: default_buffer_records(),
+            reconnect: Backoff::default(),
         }
     }
 }
@@ -225,6 +263,13 @@ pub enum InputSection {
     /// Modbus TCP temperature modules; optionally the offset written to a register.
     #[cfg(feature = "modbus")]
     Modbus(ModbusInput),
+    /// OPC UA: monitored items of the CNC (temperatures, trigger, program state) in;
+    /// optionally the offset written to a node.
+    #[cfg(feature = "opcua")]
+    #[serde(rename = "opcua")]
+    OpcUa(Box<OpcUaInput>),
+    /// A CSV log replayed live, paced by its time column (sped up, optionally looping).
+    Replay(ReplayInput),
 }
 
 fn one() -> f64 {
@@ -281,8 +326,11 @@ impl Backoff {
         (self.min_s * 2f64.powi(exp)).min(self.max_s)
     }
 
-    #[cfg_attr(not(any(feature = "mqtt", feature = "modbus")), allow(dead_code))]
-    fn validate(&self, field: &str) -> Result<()> {
+    #[cfg_attr(
+        not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
+        allow(dead_code)
+    )]
+    pub(crate) fn validate(&self, field: &str) -> Result<()> {
         check_range(
             &format!("{field}.min_s"),
             self.min_s,
@@ -465,6 +513,13 @@ fn tenth() -> f64 {
     0.1
 }
 
+pub use crate::sources::replay::ReplayInput;
+
+#[cfg(feature = "opcua")]
+pub use crate::sources::opcua_config::{
+    OpcUaChannel, OpcUaInput, OpcUaOffsetOutput, OpcUaProgramState, OpcUaTrigger,
+};
+
 impl ServiceConfig {
     /// Parses a configuration text; `path` only names the file in messages.
     pub fn from_toml_str(text: &str, path: &str) -> Result<Self> {
@@ -492,6 +547,17 @@ impl ServiceConfig {
         if let Some(f) = &cfg.engine.file {
             if f.is_relative() {
                 cfg.engine.file = Some(dir.join(f));
+            }
+        }
+        if let InputSection::Replay(r) = &mut cfg.input {
+            if r.path.is_relative() {
+                r.path = dir.join(&r.path);
+            }
+        }
+        #[cfg(feature = "opcua")]
+        if let InputSection::OpcUa(o) = &mut cfg.input {
+            if o.pki_dir.is_relative() {
+                o.pki_dir = dir.join(&o.pki_dir);
             }
         }
         Ok(cfg)
@@ -543,6 +609,7 @@ impl ServiceConfig {
             1.0,
             "0.01…1 s (a crash loses at most this)",
         )?;
+        self.validate_postgres()?;
         for (i, t) in self.auth.tokens.iter().enumerate() {
             if t.sha256.len() != 64
                 || !t
@@ -642,6 +709,42 @@ impl ServiceConfig {
                         "0.001…1000 µm",
                     )?;
                 }
+            }
+            #[cfg(feature = "opcua")]
+            InputSection::OpcUa(o) => o.validate()?,
+            InputSection::Replay(r) => r.validate()?,
+        }
+        Ok(())
+    }
+}
+
+impl ServiceConfig {
+    /// The PostgreSQL keys of `[storage]`: a URL when the backend is postgres, a build with
+    /// the `postgres` feature, a buffer bound and back-off in range.
+    fn validate_postgres(&self) -> Result<()> {
+        let s = &self.storage;
+        check_range(
+            "storage.buffer_records",
+            s.buffer_records as f64,
+            1000.0,
+            1e8,
+            "1000…100000000 records",
+        )?;
+        s.reconnect.validate("storage.reconnect")?;
+        if s.backend == StorageBackend::Postgres {
+            if !cfg!(feature = "postgres") {
+                return Err(invalid(
+                    "storage.backend",
+                    "\"postgres\"",
+                    "\"sqlite\" (this build has no `postgres` feature)",
+                ));
+            }
+            if s.url.as_deref().is_none_or(|u| u.trim().is_empty()) {
+                return Err(invalid(
+                    "storage.url",
+                    "(missing)",
+                    "a PostgreSQL URL, e.g. postgresql://gearcomp@db-host:5432/plant",
+                ));
             }
         }
         Ok(())

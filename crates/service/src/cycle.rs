@@ -9,8 +9,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use gearcomp_thermal::{
-    Alarm, AxisStatus, Engine, EngineConfig, EngineStatus, Fault, Inputs, Reading, StopReason,
-    MAX_AXES,
+    Alarm, AxisStatus, Engine, EngineConfig, EngineStatus, Fault, Inputs, Output, Reading,
+    StopReason, MAX_AXES,
 };
 use serde::Serialize;
 
@@ -73,6 +73,16 @@ pub enum InputMsg {
         /// Acquisition time, s (service clock).
         stamp_s: f64,
     },
+    /// An axis's actual position, for the engine's position-dependent terms
+    /// (offset(T) + slope(T)·(P − P0)); held until the next one. NaN marks a position
+    /// known to be unknown (node of the wrong type, connection lost): the axes whose law
+    /// needs it freeze.
+    Position {
+        /// Axis index (engine order).
+        axis: u8,
+        /// Position, mm.
+        position_mm: f64,
+    },
     /// The machine state that comes with the next readings.
     MachineState {
         /// Between cuts (simulator: load/unload), where an offset change cannot mark a
@@ -82,6 +92,13 @@ pub enum InputMsg {
     /// The source finished a scan of its channels: step now if anything is new (a scan of
     /// every channel steps without it).
     ScanEnd,
+    /// The time of the next step, from a source that carries its own time (CSV replay):
+    /// the step of the scan that follows runs at this time instead of the clock's, so a
+    /// replayed log steps the engine at the log's times.
+    ScanTime {
+        /// Time, s (service clock scale).
+        time_s: f64,
+    },
     /// A reference value to keep with the record (simulator: probe drift).
     Target {
         /// Target index.
@@ -166,6 +183,8 @@ pub struct LiveAxis {
     pub target_um: f64,
     /// Law value, µm.
     pub law_um: Option<f64>,
+    /// The last position received for the axis, mm.
+    pub position_mm: Option<f64>,
     /// Status.
     pub status: &'static str,
 }
@@ -215,6 +234,7 @@ impl Live {
                     engine_offset_um: 0.0,
                     target_um: 0.0,
                     law_um: None,
+                    position_mm: None,
                     status: "starting",
                 })
                 .collect(),
@@ -341,6 +361,12 @@ pub struct Cycle {
     live: Arc<Mutex<Live>>,
     offsets: tokio::sync::watch::Sender<OffsetOut>,
     readings: Vec<Reading>,
+    /// Held axis positions, mm, NaN until received; the engine reads the first
+    /// `n_axes` (fixed size: nothing to allocate per cycle).
+    positions_mm: [f64; MAX_AXES],
+    n_axes: usize,
+    /// The engine's result, filled in place by `Engine::step_into` every cycle.
+    out: Output,
     fresh: Vec<bool>,
     n_fresh: usize,
     safe_point: bool,
@@ -355,6 +381,7 @@ pub struct Cycle {
     cycles: u64,
     samples: u64,
     scan_at: Option<Instant>,
+    scan_time_s: Option<f64>,
     last_step: Instant,
     shutdown: Arc<AtomicBool>,
 }
@@ -385,6 +412,7 @@ impl Cycle {
     /// Builds the cycle with all its buffers.
     pub fn new(p: CycleParts) -> Self {
         let n = p.engine.channel_names().len();
+        let n_axes = p.engine.axis_names().len().min(MAX_AXES);
         let clock = p.clock;
         Self {
             period: clock.wall(p.period_s),
@@ -396,6 +424,9 @@ impl Cycle {
                 };
                 n
             ],
+            positions_mm: [f64::NAN; MAX_AXES],
+            n_axes,
+            out: Output::EMPTY,
             fresh: vec![false; n],
             n_fresh: 0,
             safe_point: true,
@@ -410,6 +441,7 @@ impl Cycle {
             cycles: 0,
             samples: 0,
             scan_at: None,
+            scan_time_s: None,
             last_step: Instant::now(),
             engine: p.engine,
             config: p.config,
@@ -461,7 +493,13 @@ impl Cycle {
                     }
                 }
             }
+            InputMsg::Position { axis, position_mm } => {
+                if let Some(p) = self.positions_mm[..self.n_axes].get_mut(axis as usize) {
+                    *p = position_mm;
+                }
+            }
             InputMsg::MachineState { safe_point } => self.safe_point = safe_point,
+            InputMsg::ScanTime { time_s } => self.scan_time_s = Some(time_s),
             InputMsg::ScanEnd => {
                 if self.n_fresh > 0 {
                     self.scan_at = Some(Instant::now());
@@ -509,7 +547,10 @@ impl Cycle {
 
     /// Runs one engine step with the latest readings.
     pub fn step(&mut self) {
-        let mut t = self.clock.now_s();
+        let mut t = match self.scan_time_s.take() {
+            Some(t) => t,
+            None => self.clock.now_s(),
+        };
         if t <= self.last_time_s {
             // Two steps inside the clock's resolution: keep time strictly increasing.
             t = self.last_time_s + 1e-6;
@@ -521,13 +562,17 @@ impl Cycle {
         }
         self.n_fresh = 0;
         self.last_step = Instant::now();
-        let out = self.engine.step(&Inputs {
-            time_s: t,
-            readings: &self.readings,
-            trigger,
-            safe_point: self.safe_point,
-            positions_mm: &[],
-        });
+        self.engine.step_into(
+            &Inputs {
+                time_s: t,
+                readings: &self.readings,
+                trigger,
+                safe_point: self.safe_point,
+                positions_mm: &self.positions_mm[..self.n_axes],
+            },
+            &mut self.out,
+        );
+        let out = &self.out;
         self.cycles += 1;
 
         // Alarms on their edges only: a fault lasting an hour is one alarm.
@@ -655,6 +700,8 @@ impl Cycle {
                 l.engine_offset_um = a.offset_um;
                 l.target_um = a.target_um;
                 l.law_um = a.law_um.is_finite().then_some(a.law_um);
+                let p = self.positions_mm[i];
+                l.position_mm = p.is_finite().then_some(p);
                 l.status = status_name(a.status);
             }
             if stop != live.stop.is_some() {
@@ -730,6 +777,85 @@ mod tests {
         for y in [0.0, 1.5, -3.0] {
             assert_eq!(b.apply(0, y, true), y);
         }
+    }
+
+    /// Channel A (°C) and axis Z with the SINUMERIK/TwinCAT position law
+    /// K0(T) + tanβ(T)·(P − P0): K0 = 2 + 0.5·(T − 20) µm, tanβ = 0.25 + 0.0625·(T − 20)
+    /// µm/mm, P0 = 100 mm.
+    const POSITION_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+        valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+        [[axes]]\nname = \"Z\"\napply = { kind = \"measuring_system\" }\nmax_offset_um = 100.0\n\
+        [[axes.terms]]\nkind = \"position\"\nchannel = \"A\"\nt_ref_c = 20.0\noffset_um = 2.0\n\
+        offset_um_per_c = 0.5\nslope_um_per_mm = 0.25\nslope_um_per_mm_per_c = 0.0625\np0_mm = 100.0\n";
+
+    #[test]
+    fn positions_reach_the_position_law() {
+        let cfg = EngineConfig::from_toml_str(POSITION_ENGINE).unwrap();
+        let engine = Engine::new(&cfg).unwrap();
+        let (rec_tx, rec_rx) = std::sync::mpsc::sync_channel(1024);
+        let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
+        let live = Arc::new(Mutex::new(Live::new(
+            engine.channel_names(),
+            engine.axis_names(),
+        )));
+        let clock = Clock::new(0.0, 1.0);
+        let mut cycle = Cycle::new(CycleParts {
+            engine,
+            config: cfg,
+            clock,
+            period_s: 1.0,
+            bumpless_step_um: 0.5,
+            records: rec_tx,
+            live: live.clone(),
+            offsets: off_tx,
+            shutdown: Arc::new(AtomicBool::new(false)),
+        });
+        let sample = |c: &mut Cycle, temp_c: f64| {
+            assert!(c.handle(InputMsg::Sample {
+                channel: 0,
+                raw: temp_c,
+                stamp_s: clock.now_s(),
+            }));
+        };
+        // No position yet: the axis freezes at 0 and the engine says why.
+        sample(&mut cycle, 24.0);
+        assert_eq!(off_rx.borrow().offsets_um[0], 0.0);
+        assert_eq!(live.lock().unwrap().axes[0].status, "frozen");
+        let raised: Vec<String> = rec_rx
+            .try_iter()
+            .filter_map(|r| match r {
+                Record::AlarmRaised { key, .. } => Some(key),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(raised, vec!["engine.position_missing".to_string()]);
+
+        // By hand at T = 24 °C: K0 = 2 + 0.5·4 = 4 µm, tanβ = 0.25 + 0.0625·4 = 0.5 µm/mm.
+        // P = 140 mm: 4 + 0.5·(140 − 100) = 24 µm; P = 60 mm: 4 + 0.5·(60 − 100) = −16 µm.
+        for (p_mm, want_um) in [(140.0, 24.0), (60.0, -16.0)] {
+            assert!(cycle.handle(InputMsg::Position {
+                axis: 0,
+                position_mm: p_mm,
+            }));
+            sample(&mut cycle, 24.0);
+            assert_eq!(off_rx.borrow().offsets_um[0], want_um, "P = {p_mm} mm");
+            let l = live.lock().unwrap();
+            assert_eq!(l.axes[0].position_mm, Some(p_mm));
+            assert_eq!(l.axes[0].law_um, Some(want_um));
+        }
+        // An axis index past the engine's axes is ignored, not a panic.
+        assert!(cycle.handle(InputMsg::Position {
+            axis: 200,
+            position_mm: 1.0,
+        }));
+        // A position known to be unknown freezes the axis at its last value.
+        assert!(cycle.handle(InputMsg::Position {
+            axis: 0,
+            position_mm: f64::NAN,
+        }));
+        sample(&mut cycle, 24.0);
+        assert_eq!(off_rx.borrow().offsets_um[0], -16.0);
+        assert_eq!(live.lock().unwrap().axes[0].status, "frozen");
     }
 
     #[test]

@@ -48,6 +48,34 @@ pub enum ServiceError {
     /// The CSV export failed.
     #[error("csv export: {0}")]
     Csv(#[from] csv::Error),
+    /// A row of a CSV replay log is malformed (checked before the replay starts).
+    #[error("replay {path}: line {line}, column {column}: {value:?}; expected {expected}")]
+    Replay {
+        /// The log file.
+        path: String,
+        /// 1-based line (the header is line 1).
+        line: u64,
+        /// The column name (or `(row)` for the row as a whole).
+        column: String,
+        /// The offending text.
+        value: String,
+        /// What the cell must hold.
+        expected: String,
+    },
+    /// Records could not be written before the service stopped (store unreachable).
+    #[error("{records} records could not be written to {store} before stopping: {cause}")]
+    Unflushed {
+        /// Records left in memory.
+        records: u64,
+        /// The store (no password).
+        store: String,
+        /// The last error.
+        cause: String,
+    },
+    /// The PostgreSQL store failed (the server, the connection or a statement).
+    #[cfg(feature = "postgres")]
+    #[error("postgresql: {0}")]
+    Postgres(#[from] postgres::Error),
 }
 
 /// Builds [`ServiceError::Invalid`].

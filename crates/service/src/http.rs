@@ -56,6 +56,8 @@ pub struct AppState {
     pub cycle: SyncSender<InputMsg>,
     /// To the store (operator actions); the store thread is the only writer.
     pub records: SyncSender<storage::Record>,
+    /// The record (SQLite or PostgreSQL); every history, alarm and audit query goes here.
+    pub store: Arc<dyn storage::Store>,
     /// The model in use.
     pub model: Mutex<ModelInfo>,
     /// Store counters.
@@ -145,7 +147,7 @@ async fn page(
         Ok(_) => Html(DASHBOARD_HTML).into_response(),
         Err(_) => (
             StatusCode::UNAUTHORIZED,
-            Html("<!doctype html><title>gearcomp</title><p>401: open this page with ?token=&lt;token&gt; (printed at first start).</p>"),
+            Html("<!doctype html><title>gearcomp</title><p id=\"refused\">401: open this page with ?token=&lt;token&gt; (printed at first start).</p>"),
         )
             .into_response(),
     }
@@ -161,16 +163,14 @@ async fn script() -> Response {
 
 async fn db<T: Send + 'static>(
     st: &AppState,
-    f: impl FnOnce(&rusqlite::Connection) -> crate::error::Result<T> + Send + 'static,
+    f: impl FnOnce(&dyn storage::Store) -> crate::error::Result<T> + Send + 'static,
 ) -> Result<T, Response> {
-    let path = st.db.clone();
-    tokio::task::spawn_blocking(move || {
-        let conn = storage::open_read(&path)?;
-        f(&conn)
-    })
-    .await
-    .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
-    .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
+    // Store queries block (SQLite file, or a PostgreSQL client with its own runtime).
+    let store = st.store.clone();
+    tokio::task::spawn_blocking(move || f(&*store))
+        .await
+        .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
+        .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
 }
 
 fn live(st: &AppState) -> Live {
@@ -205,6 +205,13 @@ async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
         "committed_samples": st.stats.committed_samples.load(Ordering::Acquire),
         "last_sample_id": st.stats.last_sample_id.load(Ordering::Acquire),
         "commits": st.stats.commits.load(Ordering::Relaxed),
+        "storage": {
+            "backend": st.store.backend(),
+            "record": st.store.describe(),
+            "reachable": !st.stats.unreachable.load(Ordering::Acquire),
+            "buffered_records": st.stats.buffered_records.load(Ordering::Acquire),
+            "dropped_records": st.stats.dropped_records.load(Ordering::Acquire),
+        },
         "stop": l.stop,
         "axes": l.axes,
     }))
@@ -258,7 +265,7 @@ async fn offsets(
         Ok(r) => r,
         Err(e) => return e,
     };
-    match db(&st, move |c| storage::offset_history(c, r)).await {
+    match db(&st, move |c| c.offset_history(r)).await {
         Ok(rows) => Json(json!({ "current": live(&st).axes, "history": rows })).into_response(),
         Err(e) => e,
     }
@@ -302,11 +309,7 @@ async fn history(
             ),
         );
     };
-    match db(&st, move |c| {
-        storage::channel_history(c, idx as u16, kind, r)
-    })
-    .await
-    {
+    match db(&st, move |c| c.channel_history(idx as u16, kind, r)).await {
         Ok(points) => Json(json!({ "channel": name, "points": points })).into_response(),
         Err(e) => e,
     }
@@ -322,7 +325,7 @@ async fn alarms(
     }
     let active = q.active.unwrap_or(false);
     let limit = q.limit.unwrap_or(200).min(10_000);
-    match db(&st, move |c| storage::alarms(c, active, limit)).await {
+    match db(&st, move |c| c.alarms(active, limit)).await {
         Ok(rows) => Json(rows).into_response(),
         Err(e) => e,
     }
@@ -360,13 +363,7 @@ async fn ack_alarm(
         Ok(w) => w,
         Err(r) => return r,
     };
-    let exists = db(&st, move |c| {
-        let n: i64 = c.query_row("SELECT COUNT(*) FROM alarms WHERE id = ?1", [id], |r| {
-            r.get(0)
-        })?;
-        Ok(n > 0)
-    })
-    .await;
+    let exists = db(&st, move |c| c.alarm_exists(id)).await;
     match exists {
         Ok(true) => {}
         Ok(false) => return err(StatusCode::NOT_FOUND, format!("no alarm with id = {id}")),
@@ -505,22 +502,7 @@ async fn audit_log(State(st): State<Shared>, headers: HeaderMap) -> Response {
     if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
         return r;
     }
-    let res = db(&st, |c| {
-        let mut s = c.prepare(
-            "SELECT unix_s, token_id, role, action, detail FROM audit ORDER BY id DESC LIMIT 500",
-        )?;
-        let rows = s.query_map([], |r| {
-            Ok(json!({
-                "unix_s": r.get::<_, f64>(0)?,
-                "token_id": r.get::<_, String>(1)?,
-                "role": r.get::<_, String>(2)?,
-                "action": r.get::<_, String>(3)?,
-                "detail": r.get::<_, String>(4)?,
-            }))
-        })?;
-        Ok(rows.collect::<std::result::Result<Vec<_>, _>>()?)
-    })
-    .await;
+    let res = db(&st, |c| c.audit_log(500)).await;
     match res {
         Ok(rows) => Json(rows).into_response(),
         Err(e) => e,

@@ -69,6 +69,9 @@ fn input_name(cfg: &ServiceConfig) -> String {
         InputSection::Mqtt(m) => format!("mqtt {}:{}", m.host, m.port),
         #[cfg(feature = "modbus")]
         InputSection::Modbus(m) => format!("modbus ({} module(s))", m.modules.len()),
+        #[cfg(feature = "opcua")]
+        InputSection::OpcUa(o) => format!("opcua {}", o.endpoint),
+        InputSection::Replay(r) => format!("replay {}", r.path.display()),
     }
 }
 
@@ -83,6 +86,9 @@ pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
     }
     if let (Some(s), InputSection::Simulator { speedup, .. }) = (ov.speedup, &mut cfg.input) {
         *speedup = s;
+    }
+    if let (Some(s), InputSection::Replay(r)) = (ov.speedup, &mut cfg.input) {
+        r.speedup = s;
     }
     cfg.validate()?;
     if let Some(d) = ov.duration_s {
@@ -99,7 +105,7 @@ pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
         })?;
     rt.block_on(async {
         let running = start(cfg).await?;
-        let db = running.db.clone();
+        let record = running.store.describe();
         {
             let mut out = std::io::stdout().lock();
             if let Some(g) = &running.generated {
@@ -111,17 +117,14 @@ pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
                 "gearcomp serve: machine {} ({}), record {}, listening on http://{}",
                 running.machine,
                 running.model_source,
-                storage::describe(&running.db).display(),
+                running.store.describe(),
                 running.addr
             );
             let _ = out.flush();
         }
         wait_for_stop(ov.duration_s).await;
         let n = running.stop().await?;
-        println!(
-            "gearcomp serve: stopped; {n} samples committed in {}",
-            storage::describe(&db).display()
-        );
+        println!("gearcomp serve: stopped; {n} samples committed in {record}");
         Ok(())
     })
 }
@@ -168,6 +171,8 @@ pub struct Running {
     pub model_source: String,
     /// Store counters.
     pub stats: Arc<StoreStats>,
+    /// The record (SQLite or PostgreSQL).
+    pub store: Arc<dyn storage::Store>,
     shutdown: Arc<AtomicBool>,
     tasks: Vec<tokio::task::JoinHandle<()>>,
     sim_thread: Option<std::thread::JoinHandle<()>>,
@@ -187,6 +192,10 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     let axes: Vec<String> = engine.axis_names().to_vec();
 
     // Inputs that need the engine's channels are checked before anything starts.
+    let replay_plan = match &cfg.input {
+        InputSection::Replay(r) => Some(crate::sources::replay::ReplayPlan::open(r, &channels)?),
+        _ => None,
+    };
     let (speedup, sim, period_s) = match &cfg.input {
         InputSection::Simulator {
             seed, speedup: s, ..
@@ -206,37 +215,55 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             crate::sources::modbus::resolve(m, &channels, &axes)?;
             (1.0, None, cfg.cycle.period_s)
         }
+        #[cfg(feature = "opcua")]
+        InputSection::OpcUa(o) => {
+            crate::sources::opcua::resolve(o, &channels, &axes)?;
+            (1.0, None, cfg.cycle.period_s)
+        }
+        // The log's rows time every step: a clock tick between two rows would add a step
+        // an offline replay of the same log does not have.
+        InputSection::Replay(r) => (r.speedup, None, f64::INFINITY),
     };
     let targets: Vec<String> = if sim.is_some() {
         vec!["measured_drift_um".into()]
     } else {
         vec![]
     };
+    let targets = match &replay_plan {
+        Some(p) => p.target_names(),
+        None => targets,
+    };
 
     let db_path = cfg.storage.path.clone();
-    let conn = storage::open(&db_path)?;
-    storage::register_names(&conn, &channels, &axes, &targets)?;
-    let last = storage::last_time_s(&conn)?;
-    // Resume the clock one second after the record ends so time stays increasing.
-    let origin_s = if last.is_finite() {
-        last.ceil() + 1.0
-    } else {
-        0.0
-    };
-    storage::close_stale_alarms(&conn, origin_s)?;
-    let (tokens, generated) = Tokens::load_or_generate(&conn, &cfg.auth.tokens)?;
-    conn.execute(
-        "INSERT INTO models (unix_s, source, config_toml) VALUES (?1, ?2, ?3)",
-        rusqlite::params![
-            storage::unix_now_s(),
-            model_source,
-            engine_cfg.to_toml_string().unwrap_or_default()
-        ],
-    )?;
+    // Opening the store blocks (a PostgreSQL client runs its own small runtime), so it
+    // happens off the async workers; the backend is chosen by `[storage] backend`.
+    let store_cfg = cfg.clone();
+    let (ch, ax, tg) = (channels.clone(), axes.clone(), targets.clone());
+    let model_toml = engine_cfg.to_toml_string().unwrap_or_default();
+    let model_src = model_source.clone();
+    let (store, origin_s, tokens, generated, totals) =
+        tokio::task::spawn_blocking(move || -> Result<_> {
+            let store = storage::open_store(&store_cfg)?;
+            store.register_names(&ch, &ax, &tg)?;
+            let last = store.last_time_s()?;
+            // Resume the clock one second after the record ends so time stays increasing.
+            let origin_s = if last.is_finite() {
+                last.ceil() + 1.0
+            } else {
+                0.0
+            };
+            store.close_stale_alarms(origin_s)?;
+            let (tokens, generated) = Tokens::load_or_generate_in(&*store, &store_cfg.auth.tokens)?;
+            store.add_model(&model_src, &model_toml)?;
+            let totals = store.sample_totals()?;
+            Ok((store, origin_s, tokens, generated, totals))
+        })
+        .await
+        .map_err(|_| ServiceError::Stopped("opening the store"))??;
     let model_source_shown = model_source.clone();
     let stats = Arc::new(StoreStats::default());
-    let existing = storage::count(&conn, "samples")?;
-    stats.committed_samples.store(existing, Ordering::Release);
+    stats.committed_samples.store(totals.0, Ordering::Release);
+    stats.last_sample_id.store(totals.1, Ordering::Release);
 
     let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
         .await
@@ -259,14 +286,16 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
 
     let commit = Duration::from_secs_f64(cfg.storage.commit_interval_s);
     let stats_w = stats.clone();
-    let writer = std::thread::Builder::new()
-        .name("gearcomp-store".into())
-        .spawn(move || storage::writer_loop(conn, rec_rx, commit, stats_w))
-        .map_err(|source| ServiceError::Io {
-            action: "start",
-            path: "the store thread".into(),
-            source,
-        })?;
+    let writer = {
+        let store = store.clone();
+        let params = storage::WriterParams {
+            commit_interval: commit,
+            clock,
+        };
+        tokio::task::spawn_blocking(move || store.spawn_writer(rec_rx, params, stats_w))
+            .await
+            .map_err(|_| ServiceError::Stopped("the store thread"))??
+    };
     let cycle = Cycle::new(CycleParts {
         engine,
         config: engine_cfg.clone(),
@@ -288,7 +317,10 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         })?;
 
     let mut sim_thread = None;
-    #[cfg_attr(not(any(feature = "mqtt", feature = "modbus")), allow(unused_mut))]
+    #[cfg_attr(
+        not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
+        allow(unused_mut)
+    )]
     let mut tasks: Vec<tokio::task::JoinHandle<()>> = Vec::new();
     if let Some((simulator, map)) = sim {
         let tx = in_tx.clone();
@@ -304,8 +336,28 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 })?,
         );
     }
+    if let Some(plan) = replay_plan {
+        let parts = crate::sources::replay::ReplayParts {
+            plan,
+            looping: matches!(&cfg.input, InputSection::Replay(r) if r.looping),
+            clock,
+            tx: in_tx.clone(),
+            shutdown: shutdown.clone(),
+        };
+        // Joined like the simulator's thread when the service stops.
+        sim_thread = Some(
+            std::thread::Builder::new()
+                .name("gearcomp-replay".into())
+                .spawn(move || crate::sources::replay::run(parts))
+                .map_err(|source| ServiceError::Io {
+                    action: "start",
+                    path: "the replay thread".into(),
+                    source,
+                })?,
+        );
+    }
     match &cfg.input {
-        InputSection::Simulator { .. } => {}
+        InputSection::Simulator { .. } | InputSection::Replay(_) => {}
         #[cfg(feature = "mqtt")]
         InputSection::Mqtt(m) => {
             tasks.push(tokio::spawn(crate::sources::mqtt::run(
@@ -334,6 +386,19 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 let _ = crate::sources::modbus::run(parts).await;
             }));
         }
+        #[cfg(feature = "opcua")]
+        InputSection::OpcUa(o) => {
+            // Prepared here so a bad client setup or a missing password fails the start.
+            let adapter = crate::sources::opcua::prepare(crate::sources::opcua::OpcUaParts {
+                cfg: (**o).clone(),
+                channels: channels.clone(),
+                axes: axes.clone(),
+                clock,
+                tx: in_tx.clone(),
+                offsets: off_rx.clone(),
+            })?;
+            tasks.push(tokio::spawn(adapter.run()));
+        }
     }
     drop(off_rx);
 
@@ -345,6 +410,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         tokens,
         cycle: in_tx.clone(),
         records: rec_tx.clone(),
+        store: store.clone(),
         model: Mutex::new(ModelInfo {
             source: model_source.clone(),
             config: engine_cfg,
@@ -369,6 +435,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         machine: cfg.machine.name.clone(),
         model_source: model_source_shown,
         stats,
+        store,
         shutdown,
         tasks,
         sim_thread,

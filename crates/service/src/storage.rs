@@ -10,15 +10,21 @@
 //! sample is *acknowledged* once it is counted there.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 use serde::Serialize;
 
+use crate::config::{ServiceConfig, StorageBackend};
+use crate::cycle::Clock;
 use crate::error::{Result, ServiceError};
+
+#[cfg(feature = "postgres")]
+pub mod postgres;
 
 /// One thing to keep; every variant except the alarms is `Copy` and allocation-free.
 #[derive(Debug, Clone, PartialEq)]
@@ -117,6 +123,13 @@ pub struct StoreStats {
     pub last_sample_id: AtomicU64,
     /// Transactions committed since start.
     pub commits: AtomicU64,
+    /// True while the store cannot be written (PostgreSQL unreachable); records wait in
+    /// memory meanwhile.
+    pub unreachable: AtomicBool,
+    /// Records waiting in memory for the store (PostgreSQL backend).
+    pub buffered_records: AtomicU64,
+    /// Records dropped because the memory buffer was full (raw samples first; alarmed).
+    pub dropped_records: AtomicU64,
 }
 
 const SCHEMA: &str = "
@@ -558,16 +571,45 @@ pub fn audit(
     Ok(())
 }
 
-/// Exports the record as a CSV that `gearcomp fit` reads: `time_s`, one column per
-/// channel (averaged value, °C or µm), one per target (e.g. `measured_drift_um`), one per
-/// axis (`<axis>_offset_um`). One row per time at which the engine formed averages;
-/// targets and offsets take their latest value at or before that time. Returns the rows
-/// written.
+/// Exports the SQLite record at `db` as a CSV that `gearcomp fit` reads (see
+/// [`write_export`]). Returns the rows written.
 pub fn export_csv(db: &Path, out: &Path) -> Result<usize> {
-    let conn = open_read(db)?;
-    let channels = names(&conn, "channels")?;
-    let targets = names(&conn, "targets")?;
-    let axes = names(&conn, "axes")?;
+    write_export(&SqliteStore::new(db).export_data()?, out)
+}
+
+/// Exports whichever record `store` is as a CSV that `gearcomp fit` reads.
+pub fn export_csv_from(store: &dyn Store, out: &Path) -> Result<usize> {
+    write_export(&store.export_data()?, out)
+}
+
+/// One indexed value of a time series: (time s, channel/target/axis index, value).
+pub type IndexedRow = (f64, i64, Option<f64>);
+
+/// What the CSV export needs, read from either backend (each series in time order, ties
+/// in insertion order).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ExportData {
+    /// Channel names, index order.
+    pub channels: Vec<String>,
+    /// Target names, index order.
+    pub targets: Vec<String>,
+    /// Axis names, index order.
+    pub axes: Vec<String>,
+    /// Averaged values.
+    pub averages: Vec<IndexedRow>,
+    /// Target values.
+    pub target_values: Vec<IndexedRow>,
+    /// Applied offsets, µm.
+    pub offsets: Vec<IndexedRow>,
+}
+
+/// Writes the CSV that `gearcomp fit` reads: `time_s`, one column per channel (averaged
+/// value, °C or µm), one per target (e.g. `measured_drift_um`), one per axis
+/// (`<axis>_offset_um`). One row per time at which the engine formed averages; targets
+/// and offsets take their latest value at or before that time; rows with an empty column
+/// are left out. Returns the rows written.
+pub fn write_export(d: &ExportData, out: &Path) -> Result<usize> {
+    let (channels, targets, axes) = (&d.channels, &d.targets, &d.axes);
     let file = std::fs::File::create(out).map_err(|source| ServiceError::Io {
         action: "create",
         path: out.display().to_string(),
@@ -581,24 +623,7 @@ pub fn export_csv(db: &Path, out: &Path) -> Result<usize> {
     w.write_record(&header)?;
 
     // Merge the three time-ordered streams in one pass.
-    let mut st_avg =
-        conn.prepare("SELECT time_s, channel, value FROM averages ORDER BY time_s, id")?;
-    let mut st_tgt =
-        conn.prepare("SELECT time_s, target, value FROM target_values ORDER BY time_s, id")?;
-    let mut st_off =
-        conn.prepare("SELECT time_s, axis, offset_um FROM offsets ORDER BY time_s, id")?;
-    type Row = (f64, i64, Option<f64>);
-    let map =
-        |r: &rusqlite::Row<'_>| -> rusqlite::Result<Row> { Ok((r.get(0)?, r.get(1)?, r.get(2)?)) };
-    let avg: Vec<Row> = st_avg
-        .query_map([], map)?
-        .collect::<std::result::Result<_, _>>()?;
-    let tgt: Vec<Row> = st_tgt
-        .query_map([], map)?
-        .collect::<std::result::Result<_, _>>()?;
-    let off: Vec<Row> = st_off
-        .query_map([], map)?
-        .collect::<std::result::Result<_, _>>()?;
+    let (avg, tgt, off) = (&d.averages, &d.target_values, &d.offsets);
     let nc = channels.len();
     let mut row_vals = vec![f64::NAN; nc + targets.len() + axes.len()];
     let (mut it, mut io) = (0usize, 0usize);
@@ -650,4 +675,252 @@ pub fn export_csv(db: &Path, out: &Path) -> Result<usize> {
 /// The database path a configuration points at, for messages.
 pub fn describe(path: &Path) -> PathBuf {
     path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// One operator action of the audit log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AuditRow {
+    /// When, s since the Unix epoch.
+    pub unix_s: f64,
+    /// Token id (first 8 hex digits of its hash).
+    pub token_id: String,
+    /// Role of the token.
+    pub role: String,
+    /// What was done.
+    pub action: String,
+    /// Details.
+    pub detail: String,
+}
+
+/// What the writer thread needs besides the records.
+#[derive(Debug, Clone, Copy)]
+pub struct WriterParams {
+    /// Longest time between two commits (what a crash can lose).
+    pub commit_interval: Duration,
+    /// The service clock, to stamp the store's own alarms.
+    pub clock: Clock,
+}
+
+/// The record, whichever database keeps it: the service, the HTTP API and the CSV export
+/// go through this and do not know the backend. Reads are safe from any thread; writes of
+/// the live record go through the one writer thread that [`Store::spawn_writer`] starts,
+/// which commits in batches at the latest every `commit_interval`.
+pub trait Store: Send + Sync {
+    /// `sqlite` or `postgres`.
+    fn backend(&self) -> &'static str;
+    /// Where the record is, for messages (never a password).
+    fn describe(&self) -> String;
+    /// Writes the names of channels, axes and targets; an existing record must use the
+    /// same order (it would be misread otherwise).
+    fn register_names(
+        &self,
+        channels: &[String],
+        axes: &[String],
+        targets: &[String],
+    ) -> Result<()>;
+    /// The latest time in the record, s (−∞ when empty); the service clock resumes after it.
+    fn last_time_s(&self) -> Result<f64>;
+    /// Closes the alarms a previous run left open, at `time_s`.
+    fn close_stale_alarms(&self, time_s: f64) -> Result<()>;
+    /// Stored token hashes with their role names.
+    fn token_hashes(&self) -> Result<Vec<(String, String)>>;
+    /// Stores a token hash.
+    fn add_token(&self, role: &str, sha256: &str) -> Result<()>;
+    /// Records a model put in use.
+    fn add_model(&self, source: &str, config_toml: &str) -> Result<()>;
+    /// Committed samples: (count, highest sample id).
+    fn sample_totals(&self) -> Result<(u64, u64)>;
+    /// A channel's history in a time range (newest `limit` rows, returned oldest first).
+    fn channel_history(&self, channel: u16, kind: SeriesKind, range: Range) -> Result<Vec<Point>>;
+    /// Offsets of all axes in a time range (newest `limit` rows, oldest first).
+    fn offset_history(&self, range: Range) -> Result<Vec<OffsetRow>>;
+    /// Alarms, newest first; only active or unacknowledged ones when asked.
+    fn alarms(&self, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>>;
+    /// Whether an alarm with this id exists (in this machine's record).
+    fn alarm_exists(&self, id: i64) -> Result<bool>;
+    /// Operator actions, newest first.
+    fn audit_log(&self, limit: u32) -> Result<Vec<AuditRow>>;
+    /// Everything the CSV export needs.
+    fn export_data(&self) -> Result<ExportData>;
+    /// Starts the one writer thread: it commits what arrives on `rx` in batches until
+    /// every sender is dropped, and publishes what is committed in `stats`.
+    fn spawn_writer(
+        &self,
+        rx: Receiver<Record>,
+        params: WriterParams,
+        stats: Arc<StoreStats>,
+    ) -> Result<JoinHandle<Result<()>>>;
+}
+
+/// Opens the store a configuration names (creating the schema if needed).
+pub fn open_store(cfg: &ServiceConfig) -> Result<Arc<dyn Store>> {
+    match cfg.storage.backend {
+        StorageBackend::Sqlite => {
+            // Creates the file and schema now so read connections find them.
+            open(&cfg.storage.path)?;
+            Ok(Arc::new(SqliteStore::new(&cfg.storage.path)))
+        }
+        #[cfg(feature = "postgres")]
+        StorageBackend::Postgres => Ok(Arc::new(postgres::PgStore::open(cfg)?)),
+        #[cfg(not(feature = "postgres"))]
+        StorageBackend::Postgres => Err(crate::error::invalid(
+            "storage.backend",
+            "\"postgres\"",
+            "\"sqlite\" (this build has no `postgres` feature)",
+        )),
+    }
+}
+
+/// The embedded SQLite record: a file, one writer connection in the writer thread and a
+/// short-lived read-only connection per query.
+#[derive(Debug, Clone)]
+pub struct SqliteStore {
+    path: PathBuf,
+}
+
+impl SqliteStore {
+    /// The record in the SQLite file `path` (created by [`open`] or the first write).
+    pub fn new(path: &Path) -> Self {
+        Self {
+            path: path.to_path_buf(),
+        }
+    }
+
+    /// The database file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Store for SqliteStore {
+    fn backend(&self) -> &'static str {
+        "sqlite"
+    }
+
+    fn describe(&self) -> String {
+        describe(&self.path).display().to_string()
+    }
+
+    fn register_names(
+        &self,
+        channels: &[String],
+        axes: &[String],
+        targets: &[String],
+    ) -> Result<()> {
+        register_names(&open(&self.path)?, channels, axes, targets)
+    }
+
+    fn last_time_s(&self) -> Result<f64> {
+        last_time_s(&open_read(&self.path)?)
+    }
+
+    fn close_stale_alarms(&self, time_s: f64) -> Result<()> {
+        close_stale_alarms(&open(&self.path)?, time_s)
+    }
+
+    fn token_hashes(&self) -> Result<Vec<(String, String)>> {
+        let conn = open_read(&self.path)?;
+        let mut st = conn.prepare("SELECT sha256, role FROM tokens ORDER BY id")?;
+        let rows = st.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?;
+        Ok(rows.collect::<std::result::Result<_, _>>()?)
+    }
+
+    fn add_token(&self, role: &str, sha256: &str) -> Result<()> {
+        open(&self.path)?.execute(
+            "INSERT INTO tokens (role, sha256, created_unix_s) VALUES (?1, ?2, ?3)",
+            params![role, sha256, unix_now_s()],
+        )?;
+        Ok(())
+    }
+
+    fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
+        open(&self.path)?.execute(
+            "INSERT INTO models (unix_s, source, config_toml) VALUES (?1, ?2, ?3)",
+            params![unix_now_s(), source, config_toml],
+        )?;
+        Ok(())
+    }
+
+    fn sample_totals(&self) -> Result<(u64, u64)> {
+        let conn = open_read(&self.path)?;
+        let (n, max): (i64, Option<i64>) =
+            conn.query_row("SELECT COUNT(*), MAX(id) FROM samples", [], |r| {
+                Ok((r.get(0)?, r.get(1)?))
+            })?;
+        Ok((n.max(0) as u64, max.unwrap_or(0).max(0) as u64))
+    }
+
+    fn channel_history(&self, channel: u16, kind: SeriesKind, range: Range) -> Result<Vec<Point>> {
+        channel_history(&open_read(&self.path)?, channel, kind, range)
+    }
+
+    fn offset_history(&self, range: Range) -> Result<Vec<OffsetRow>> {
+        offset_history(&open_read(&self.path)?, range)
+    }
+
+    fn alarms(&self, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>> {
+        alarms(&open_read(&self.path)?, active_only, limit)
+    }
+
+    fn alarm_exists(&self, id: i64) -> Result<bool> {
+        let n: i64 = open_read(&self.path)?.query_row(
+            "SELECT COUNT(*) FROM alarms WHERE id = ?1",
+            [id],
+            |r| r.get(0),
+        )?;
+        Ok(n > 0)
+    }
+
+    fn audit_log(&self, limit: u32) -> Result<Vec<AuditRow>> {
+        let conn = open_read(&self.path)?;
+        let mut st = conn.prepare(
+            "SELECT unix_s, token_id, role, action, detail FROM audit ORDER BY id DESC LIMIT ?1",
+        )?;
+        let rows = st.query_map([limit], |r| {
+            Ok(AuditRow {
+                unix_s: r.get(0)?,
+                token_id: r.get(1)?,
+                role: r.get(2)?,
+                action: r.get(3)?,
+                detail: r.get(4)?,
+            })
+        })?;
+        Ok(rows.collect::<std::result::Result<_, _>>()?)
+    }
+
+    fn export_data(&self) -> Result<ExportData> {
+        let conn = open_read(&self.path)?;
+        let series = |sql: &str| -> Result<Vec<IndexedRow>> {
+            let mut st = conn.prepare(sql)?;
+            let rows = st.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+            Ok(rows.collect::<std::result::Result<_, _>>()?)
+        };
+        Ok(ExportData {
+            channels: names(&conn, "channels")?,
+            targets: names(&conn, "targets")?,
+            axes: names(&conn, "axes")?,
+            averages: series("SELECT time_s, channel, value FROM averages ORDER BY time_s, id")?,
+            target_values: series(
+                "SELECT time_s, target, value FROM target_values ORDER BY time_s, id",
+            )?,
+            offsets: series("SELECT time_s, axis, offset_um FROM offsets ORDER BY time_s, id")?,
+        })
+    }
+
+    fn spawn_writer(
+        &self,
+        rx: Receiver<Record>,
+        params: WriterParams,
+        stats: Arc<StoreStats>,
+    ) -> Result<JoinHandle<Result<()>>> {
+        let conn = open(&self.path)?;
+        std::thread::Builder::new()
+            .name("gearcomp-store".into())
+            .spawn(move || writer_loop(conn, rx, params.commit_interval, stats))
+            .map_err(|source| ServiceError::Io {
+                action: "start",
+                path: "the store thread".into(),
+                source,
+            })
+    }
 }

@@ -4,4 +4,9 @@
 pub mod modbus;
 #[cfg(feature = "mqtt")]
 pub mod mqtt;
+#[cfg(feature = "opcua")]
+pub mod opcua;
+#[cfg(feature = "opcua")]
+pub mod opcua_config;
+pub mod replay;
 pub mod sim;

@@ -1,0 +1,419 @@
+//! The `[input] kind = "opcua"` configuration: the server, its security, the nodes mapped to
+//! engine channels, the trigger and program-state nodes, and the offset output node.
+//!
+//! Re-exported from [`crate::config`]; checked by [`OpcUaInput::validate`] (called from
+//! `ServiceConfig::validate`), which names the key, the value and the allowed range.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::Backoff;
+use crate::error::{check_range, invalid, Result};
+
+/// OPC UA input (CNC variables, temperatures the CNC exposes) and offset output.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaInput {
+    /// Server endpoint URL, `opc.tcp://host:port/path`.
+    pub endpoint: String,
+    /// Security policy: None, Basic256Sha256, Aes128Sha256RsaOaep, Aes256Sha256RsaPss
+    /// (the deprecated Basic128Rsa15 and Basic256 are accepted for old controls).
+    #[serde(default = "none_name")]
+    pub security_policy: String,
+    /// Message security mode: None, Sign, SignAndEncrypt (None exactly with policy None).
+    #[serde(default = "none_name")]
+    pub security_mode: String,
+    /// User name; anonymous when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user: Option<String>,
+    /// Password of `user`, written in the file (prefer `password_env`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password: Option<String>,
+    /// Environment variable holding the password of `user`, so it stays out of the file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password_env: Option<String>,
+    /// Client certificate store: own certificate (created at first start when a secure
+    /// policy is used), `trusted/` and `rejected/` server certificates.
+    #[serde(default = "default_pki_dir")]
+    pub pki_dir: PathBuf,
+    /// Trust any server certificate without placing it in `pki_dir/trusted` (commissioning
+    /// only; irrelevant with security None).
+    #[serde(default)]
+    pub trust_server_cert: bool,
+    /// Subscription publishing interval and monitored-item sampling interval, s (0.01…60).
+    #[serde(default = "default_publishing_interval_s")]
+    pub publishing_interval_s: f64,
+    /// Period of the scans handed to the cycle while the session lives, s (0.01…3600);
+    /// not used when a `trigger` node sets the scans.
+    #[serde(default = "default_scan_period_s")]
+    pub scan_period_s: f64,
+    /// Session keep-alive interval, s (0.1…3600); two failed keep-alives drop the session.
+    #[serde(default = "default_keep_alive_s")]
+    pub keep_alive_s: f64,
+    /// Reconnect back-off.
+    #[serde(default)]
+    pub reconnect: Backoff,
+    /// Nodes read as engine channels (temperatures, or any numeric CNC variable the engine
+    /// configuration defines a channel for).
+    #[serde(default)]
+    pub channels: Vec<OpcUaChannel>,
+    /// Nodes read as axis positions for the engine's position-dependent terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub positions: Vec<OpcUaPosition>,
+    /// A stroke trigger or cut counter: each event hands one scan to the cycle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trigger: Option<OpcUaTrigger>,
+    /// The program state, telling the engine when the machine is between cuts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program_state: Option<OpcUaProgramState>,
+    /// Where the offset is written, if anywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_output: Option<OpcUaOffsetOutput>,
+}
+
+fn none_name() -> String {
+    "None".into()
+}
+fn default_pki_dir() -> PathBuf {
+    PathBuf::from("pki-opcua")
+}
+fn default_publishing_interval_s() -> f64 {
+    0.1
+}
+fn default_scan_period_s() -> f64 {
+    1.0
+}
+fn default_keep_alive_s() -> f64 {
+    5.0
+}
+fn one() -> f64 {
+    1.0
+}
+
+/// One node read as one engine channel: `value = node·scale + offset`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaChannel {
+    /// Engine channel name.
+    pub channel: String,
+    /// Node id, e.g. `ns=2;s=/Plc/Temp/Bed` or `ns=4;i=1021`.
+    pub node: String,
+    /// Factor to the channel's raw unit (e.g. 0.1 for tenths of °C), finite, ≠ 0.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Added after `scale`.
+    #[serde(default)]
+    pub offset: f64,
+}
+
+/// One node read as an engine axis's actual position: `position_mm = node·scale + offset`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaPosition {
+    /// Engine axis name, e.g. "Z".
+    pub axis: String,
+    /// Node id, e.g. `ns=2;s=/Channel/MachineAxis/actToolBasePos[u1,3]`.
+    pub node: String,
+    /// Factor to mm (1 for mm, 25.4 for inch, 0.001 for µm), finite, ≠ 0.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Added after `scale`, mm.
+    #[serde(default)]
+    pub offset: f64,
+}
+
+/// The stroke trigger or cut counter node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaTrigger {
+    /// Node id: a Boolean (rising edge = event) or an integer counter (a change = event).
+    pub node: String,
+}
+
+/// The program-state node and the values that mean "between cuts".
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaProgramState {
+    /// Node id: an integer state (SINUMERIK `progStatus`) or a Boolean (true = 1).
+    pub node: String,
+    /// State values at which an offset may change (e.g. 2 = stopped, 5 = aborted).
+    pub safe_values: Vec<i64>,
+}
+
+/// The offset written to a node (absolute value, as a Double).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaOffsetOutput {
+    /// Axis name.
+    pub axis: String,
+    /// Node id of a writable Double (a CNC's temperature-compensation value).
+    pub node: String,
+    /// Node units per µm: 1 for µm, 0.001 for mm; negative flips the sign. 1e-6…1e6 in
+    /// magnitude.
+    #[serde(default = "one")]
+    pub scale: f64,
+}
+
+/// The security policies this client accepts, by the names used in the configuration.
+pub const SECURITY_POLICIES: [&str; 6] = [
+    "None",
+    "Basic256Sha256",
+    "Aes128Sha256RsaOaep",
+    "Aes256Sha256RsaPss",
+    "Basic128Rsa15",
+    "Basic256",
+];
+
+/// The message security modes, by name.
+pub const SECURITY_MODES: [&str; 3] = ["None", "Sign", "SignAndEncrypt"];
+
+impl OpcUaInput {
+    /// Checks every key; the error names the key, the value and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let rest = self.endpoint.strip_prefix("opc.tcp://").unwrap_or("");
+        if rest.is_empty() || rest.starts_with('/') || rest.chars().any(char::is_whitespace) {
+            return Err(invalid(
+                "input.endpoint",
+                format!("{:?}", self.endpoint),
+                "opc.tcp://host:port/path",
+            ));
+        }
+        if !SECURITY_POLICIES.contains(&self.security_policy.as_str()) {
+            return Err(invalid(
+                "input.security_policy",
+                &self.security_policy,
+                SECURITY_POLICIES.join(" | "),
+            ));
+        }
+        if !SECURITY_MODES.contains(&self.security_mode.as_str()) {
+            return Err(invalid(
+                "input.security_mode",
+                &self.security_mode,
+                SECURITY_MODES.join(" | "),
+            ));
+        }
+        if (self.security_policy == "None") != (self.security_mode == "None") {
+            return Err(invalid(
+                "input.security_mode",
+                &self.security_mode,
+                "None exactly when security_policy = \"None\" (Sign or SignAndEncrypt otherwise)",
+            ));
+        }
+        match (&self.user, &self.password, &self.password_env) {
+            (None, None, None) => {}
+            (Some(u), p, e) => {
+                if u.is_empty() {
+                    return Err(invalid("input.user", "\"\"", "a user name"));
+                }
+                if p.is_some() == e.is_some() {
+                    return Err(invalid(
+                        "input.password / input.password_env",
+                        if p.is_some() { "both" } else { "neither" },
+                        "exactly one of them with input.user",
+                    ));
+                }
+            }
+            (None, _, _) => {
+                return Err(invalid(
+                    "input.user",
+                    "(missing)",
+                    "a user name when password or password_env is given",
+                ))
+            }
+        }
+        check_range(
+            "input.publishing_interval_s",
+            self.publishing_interval_s,
+            0.01,
+            60.0,
+            "0.01…60 s",
+        )?;
+        check_range(
+            "input.scan_period_s",
+            self.scan_period_s,
+            0.01,
+            3600.0,
+            "0.01…3600 s",
+        )?;
+        check_range(
+            "input.keep_alive_s",
+            self.keep_alive_s,
+            0.1,
+            3600.0,
+            "0.1…3600 s",
+        )?;
+        self.reconnect.validate("input.reconnect")?;
+        if self.channels.is_empty() && self.offset_output.is_none() {
+            return Err(invalid(
+                "input.channels",
+                0,
+                "at least one channel node (or an offset_output)",
+            ));
+        }
+        for (i, c) in self.channels.iter().enumerate() {
+            let f = format!("input.channels[{i}]");
+            crate::sources::opcua::parse_node(&format!("{f}.node"), &c.node)?;
+            check_range(&format!("{f}.scale"), c.scale, -1e6, 1e6, "finite, ≠ 0")?;
+            if c.scale == 0.0 {
+                return Err(invalid(format!("{f}.scale"), 0, "≠ 0"));
+            }
+            check_range(&format!("{f}.offset"), c.offset, -1e9, 1e9, "finite")?;
+        }
+        for (i, p) in self.positions.iter().enumerate() {
+            let f = format!("input.positions[{i}]");
+            crate::sources::opcua::parse_node(&format!("{f}.node"), &p.node)?;
+            check_range(&format!("{f}.scale"), p.scale, -1e6, 1e6, "finite, ≠ 0")?;
+            if p.scale == 0.0 {
+                return Err(invalid(format!("{f}.scale"), 0, "≠ 0"));
+            }
+            check_range(&format!("{f}.offset"), p.offset, -1e9, 1e9, "finite")?;
+            if self.positions[..i].iter().any(|q| q.axis == p.axis) {
+                return Err(invalid(
+                    format!("{f}.axis"),
+                    format!("{:?}", p.axis),
+                    "an axis not already given a position node",
+                ));
+            }
+        }
+        if let Some(t) = &self.trigger {
+            crate::sources::opcua::parse_node("input.trigger.node", &t.node)?;
+        }
+        if let Some(p) = &self.program_state {
+            crate::sources::opcua::parse_node("input.program_state.node", &p.node)?;
+            if p.safe_values.is_empty() {
+                return Err(invalid(
+                    "input.program_state.safe_values",
+                    "[]",
+                    "at least one state value meaning \"between cuts\"",
+                ));
+            }
+        }
+        if let Some(o) = &self.offset_output {
+            crate::sources::opcua::parse_node("input.offset_output.node", &o.node)?;
+            let a = o.scale.abs();
+            if !(o.scale.is_finite() && (1e-6..=1e6).contains(&a)) {
+                return Err(invalid(
+                    "input.offset_output.scale",
+                    o.scale,
+                    "1e-6…1e6 in magnitude (1 = µm, 0.001 = mm), sign free",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The password: from the file or from the environment variable named.
+    pub fn password(&self) -> Result<Option<String>> {
+        if let Some(p) = &self.password {
+            return Ok(Some(p.clone()));
+        }
+        match &self.password_env {
+            Some(v) => std::env::var(v)
+                .map(Some)
+                .map_err(|_| invalid("input.password_env", v, "a set environment variable")),
+            None => Ok(None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use crate::config::{InputSection, ServiceConfig};
+
+    const BASE: &str = "[input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://cnc:4840/\"\n\
+                        channels = [{ channel = \"bed_c\", node = \"ns=2;s=Temp.Bed\" }]\n";
+
+    fn err(extra: &str) -> String {
+        ServiceConfig::from_toml_str(&format!("{BASE}{extra}"), "m.toml")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn defaults_and_round_trip() {
+        let c = ServiceConfig::from_toml_str(BASE, "m.toml").unwrap();
+        let InputSection::OpcUa(o) = &c.input else {
+            panic!("not opcua: {:?}", c.input)
+        };
+        assert_eq!(o.security_policy, "None");
+        assert_eq!(o.security_mode, "None");
+        assert_eq!(o.scan_period_s, 1.0);
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
+        let with_pos = format!(
+            "{BASE}positions = [{{ axis = \"Z\", node = \"ns=2;s=Pos.Z\", scale = 25.4 }}]\n"
+        );
+        let c = ServiceConfig::from_toml_str(&with_pos, "m.toml").unwrap();
+        let InputSection::OpcUa(o) = &c.input else {
+            panic!("not opcua: {:?}", c.input)
+        };
+        assert_eq!(o.positions.len(), 1);
+        assert_eq!((o.positions[0].scale, o.positions[0].offset), (25.4, 0.0));
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
+    }
+
+    #[test]
+    fn errors_name_key_value_and_range() {
+        let e = err("sekurity_mode = \"None\"\n");
+        assert!(e.contains("sekurity_mode"), "{e}");
+        let e = err("security_policy = \"Basic256Sha256\"\n");
+        assert!(
+            e.contains("input.security_mode") && e.contains("Sign"),
+            "{e}"
+        );
+        let e = err("security_policy = \"Rot13\"\nsecurity_mode = \"Sign\"\n");
+        assert!(
+            e.contains("input.security_policy") && e.contains("Aes256Sha256RsaPss"),
+            "{e}"
+        );
+        let e = err("user = \"op\"\n");
+        assert!(e.contains("password_env"), "{e}");
+        let e = err("trigger = { node = \"CutCounter\" }\n");
+        assert!(
+            e.contains("input.trigger.node") && e.contains("ns=2;s="),
+            "{e}"
+        );
+        let e = err("offset_output = { axis = \"Z\", node = \"ns=2;s=C\", scale = 0.0 }\n");
+        assert!(
+            e.contains("input.offset_output.scale") && e.contains("1e-6"),
+            "{e}"
+        );
+        let e = err("positions = [{ axis = \"Z\", node = \"ns=2;s=P\", scale = 0.0 }]\n");
+        assert!(
+            e.contains("input.positions[0].scale") && e.contains("≠ 0"),
+            "{e}"
+        );
+        let e = err("positions = [{ axis = \"Z\", node = \"P\" }]\n");
+        assert!(
+            e.contains("input.positions[0].node") && e.contains("ns=2;s="),
+            "{e}"
+        );
+        let e = err(
+            "positions = [{ axis = \"Z\", node = \"ns=2;s=P\" }, { axis = \"Z\", node = \"ns=2;s=Q\" }]\n",
+        );
+        assert!(
+            e.contains("input.positions[1].axis") && e.contains("\"Z\""),
+            "{e}"
+        );
+        let e = err("positions = [{ position_axis = \"Z\", node = \"ns=2;s=P\" }]\n");
+        assert!(e.contains("position_axis"), "{e}");
+        let e = err("scan_period_s = 0.0\n");
+        assert!(
+            e.contains("input.scan_period_s") && e.contains("0.01…3600"),
+            "{e}"
+        );
+        let e = ServiceConfig::from_toml_str(
+            "[input]\nkind = \"opcua\"\nendpoint = \"http://cnc/\"\nchannels = []\n",
+            "m.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("input.endpoint") && e.contains("opc.tcp://"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,1132 @@
+//! The record in PostgreSQL: one plant database for many machines, each row keyed by the
+//! machine (`machines.id`, from `[machine] name`).
+//!
+//! * **Schema**: created at first start, versioned in `gearcomp_schema`, migrations run
+//!   under a transaction-level advisory lock so machines starting together do not race.
+//! * **Batched commits**: the same rule as SQLite: one transaction at the latest every
+//!   `storage.commit_interval_s`; a sample is acknowledged once committed. Samples,
+//!   averages, offsets and targets go in with binary `COPY`.
+//! * **Exactly once**: every transaction also sets `machines.last_batch`; when a commit's
+//!   outcome is unknown (the connection broke during `COMMIT`), the writer reads it back
+//!   after reconnecting and drops the batch only if it went in. Sample ids are assigned by
+//!   the writer (`1, 2, …` per machine), so a gap would be visible.
+//! * **Connection loss**: records wait in memory, in arrival order, while the writer
+//!   reconnects with the back-off of `storage.reconnect`; the alarm `storage.connection`
+//!   is raised at the first failure and cleared when the buffer is written. The buffer is
+//!   bounded by `storage.buffer_records`: beyond it new *raw samples* are dropped (counted,
+//!   alarm `storage.buffer_full`, and a `storage.records_dropped` alarm naming how many and
+//!   when); averages, offsets, targets and alarms, what the export and the audit need,
+//!   are still kept up to twice the bound, then dropped and counted the same way. The
+//!   compensation itself never waits for the database.
+//! * **One writer per machine**: the writer holds a session advisory lock on its machine
+//!   id, so a second `gearcomp serve` with the same machine name is refused.
+
+use std::collections::VecDeque;
+use std::str::FromStr;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use postgres::binary_copy::BinaryCopyInWriter;
+use postgres::types::{ToSql, Type};
+use postgres::{Client, Config, NoTls};
+
+use super::{
+    unix_now_s, AlarmRow, AuditRow, ExportData, IndexedRow, OffsetRow, Point, Range, Record,
+    SeriesKind, Store, StoreStats, WriterParams,
+};
+use crate::config::{Backoff, ServiceConfig};
+use crate::error::{invalid, Result, ServiceError};
+
+/// Schema version this build writes.
+pub const SCHEMA_VERSION: i32 = 1;
+
+/// Advisory-lock class of gearcomp (first key of the two-key lock functions).
+const LOCK_CLASS: i32 = 0x6763_6f6d; // "gcom"
+
+/// Most records written in one transaction when catching up after an outage.
+const CHUNK_RECORDS: usize = 100_000;
+
+/// How long a stopping service keeps trying to write what is left in memory.
+pub const SHUTDOWN_RETRY: Duration = Duration::from_secs(10);
+
+/// Migrations, index = version − 1. Each runs once, in the transaction that records it.
+const MIGRATIONS: [&str; 1] = ["
+CREATE TABLE machines (id SERIAL PRIMARY KEY, name TEXT NOT NULL UNIQUE,
+    last_batch BIGINT NOT NULL DEFAULT 0, created_unix_s DOUBLE PRECISION NOT NULL);
+CREATE TABLE channels (machine_id INTEGER NOT NULL REFERENCES machines(id),
+    idx INTEGER NOT NULL, name TEXT NOT NULL, PRIMARY KEY (machine_id, idx));
+CREATE TABLE axes (machine_id INTEGER NOT NULL REFERENCES machines(id),
+    idx INTEGER NOT NULL, name TEXT NOT NULL, PRIMARY KEY (machine_id, idx));
+CREATE TABLE targets (machine_id INTEGER NOT NULL REFERENCES machines(id),
+    idx INTEGER NOT NULL, name TEXT NOT NULL, PRIMARY KEY (machine_id, idx));
+CREATE TABLE samples (machine_id INTEGER NOT NULL, id BIGINT NOT NULL,
+    time_s DOUBLE PRECISION NOT NULL, channel INTEGER NOT NULL, raw DOUBLE PRECISION,
+    PRIMARY KEY (machine_id, id));
+CREATE INDEX samples_time ON samples (machine_id, channel, time_s);
+CREATE TABLE averages (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, time_s DOUBLE PRECISION NOT NULL,
+    channel INTEGER NOT NULL, value DOUBLE PRECISION);
+CREATE INDEX averages_time ON averages (machine_id, time_s);
+CREATE TABLE offsets (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, time_s DOUBLE PRECISION NOT NULL, axis INTEGER NOT NULL,
+    offset_um DOUBLE PRECISION, target_um DOUBLE PRECISION, law_um DOUBLE PRECISION,
+    status TEXT NOT NULL);
+CREATE INDEX offsets_time ON offsets (machine_id, time_s);
+CREATE TABLE target_values (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, time_s DOUBLE PRECISION NOT NULL,
+    target INTEGER NOT NULL, value DOUBLE PRECISION);
+CREATE INDEX target_values_time ON target_values (machine_id, time_s);
+CREATE TABLE alarms (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, time_s DOUBLE PRECISION NOT NULL, key TEXT NOT NULL,
+    message TEXT NOT NULL, cleared_s DOUBLE PRECISION, acknowledged_by TEXT,
+    acknowledged_unix_s DOUBLE PRECISION);
+CREATE INDEX alarms_machine ON alarms (machine_id, id);
+CREATE TABLE tokens (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, role TEXT NOT NULL, sha256 TEXT NOT NULL,
+    created_unix_s DOUBLE PRECISION NOT NULL, UNIQUE (machine_id, sha256));
+CREATE TABLE audit (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, unix_s DOUBLE PRECISION NOT NULL, token_id TEXT NOT NULL,
+    role TEXT NOT NULL, action TEXT NOT NULL, detail TEXT NOT NULL);
+CREATE TABLE models (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
+    machine_id INTEGER NOT NULL, unix_s DOUBLE PRECISION NOT NULL, source TEXT NOT NULL,
+    config_toml TEXT NOT NULL);
+"];
+
+/// Connection settings and the machine's key, shared by the readers and the writer.
+#[derive(Clone)]
+struct Target {
+    config: Config,
+    describe: String,
+    machine: String,
+    machine_id: i32,
+}
+
+impl Target {
+    fn connect(&self) -> Result<Client> {
+        Ok(self.config.connect(NoTls)?)
+    }
+}
+
+/// The PostgreSQL record of one machine.
+pub struct PgStore {
+    target: Target,
+    buffer_records: u64,
+    reconnect: Backoff,
+    /// Idle read connections, reused by the API's queries.
+    pool: Mutex<Vec<Client>>,
+}
+
+/// Parses `storage.url` (and the password from `storage.password_env`).
+pub fn connection_config(cfg: &ServiceConfig) -> Result<Config> {
+    let url = cfg.storage.url.as_deref().unwrap_or_default();
+    let mut c = Config::from_str(url).map_err(|e| {
+        invalid(
+            "storage.url",
+            redact(url),
+            format!("a PostgreSQL URL or key=value string ({e})"),
+        )
+    })?;
+    if let Some(var) = &cfg.storage.password_env {
+        let pw = std::env::var(var).map_err(|_| {
+            invalid(
+                "storage.password_env",
+                var,
+                "the name of a set environment variable holding the password",
+            )
+        })?;
+        c.password(pw);
+    }
+    if c.get_connect_timeout().is_none() {
+        c.connect_timeout(Duration::from_secs(5));
+    }
+    // A dead peer must not hold the writer for the kernel's default ~2 h.
+    c.keepalives(true).keepalives_idle(Duration::from_secs(10));
+    c.application_name(&format!("gearcomp-serve {}", cfg.machine.name));
+    Ok(c)
+}
+
+/// `user@host:port/dbname`, for messages.
+fn describe_config(c: &Config) -> String {
+    let host = match c.get_hosts().first() {
+        Some(postgres::config::Host::Tcp(h)) => h.clone(),
+        #[cfg(unix)]
+        Some(postgres::config::Host::Unix(p)) => p.display().to_string(),
+        None => "localhost".into(),
+    };
+    let port = c.get_ports().first().copied().unwrap_or(5432);
+    format!(
+        "postgresql://{}@{host}:{port}/{}",
+        c.get_user().unwrap_or("?"),
+        c.get_dbname().unwrap_or("?")
+    )
+}
+
+/// A URL with any password replaced by `***`.
+fn redact(url: &str) -> String {
+    if let (Some(scheme_end), Some(at)) = (url.find("://"), url.rfind('@')) {
+        let cred = &url[scheme_end + 3..at];
+        if let Some(colon) = cred.find(':') {
+            return format!(
+                "{}{}:***{}",
+                &url[..scheme_end + 3],
+                &cred[..colon],
+                &url[at..]
+            );
+        }
+    }
+    if url.contains("password") {
+        return "(a key=value string with a password)".into();
+    }
+    url.to_string()
+}
+
+/// Creates or upgrades the schema (idempotent; safe when several services start at once).
+pub fn migrate(client: &mut Client) -> Result<()> {
+    let mut tx = client.transaction()?;
+    tx.execute("SELECT pg_advisory_xact_lock($1, 0)", &[&LOCK_CLASS])?;
+    tx.batch_execute(
+        "CREATE TABLE IF NOT EXISTS gearcomp_schema (version INTEGER PRIMARY KEY, \
+         applied_unix_s DOUBLE PRECISION NOT NULL)",
+    )?;
+    let row = tx.query_one("SELECT COALESCE(MAX(version), 0) FROM gearcomp_schema", &[])?;
+    let have: i32 = row.try_get(0)?;
+    if have > SCHEMA_VERSION {
+        return Err(invalid(
+            "gearcomp_schema.version",
+            have,
+            format!("≤ {SCHEMA_VERSION} (the database was written by a newer gearcomp)"),
+        ));
+    }
+    for v in have + 1..=SCHEMA_VERSION {
+        if let Some(sql) = MIGRATIONS.get((v - 1) as usize) {
+            tx.batch_execute(sql)?;
+        }
+        tx.execute(
+            "INSERT INTO gearcomp_schema (version, applied_unix_s) VALUES ($1, $2)",
+            &[&v, &unix_now_s()],
+        )?;
+    }
+    tx.commit()?;
+    Ok(())
+}
+
+impl PgStore {
+    /// Connects, creates the schema if needed and registers the machine.
+    pub fn open(cfg: &ServiceConfig) -> Result<Self> {
+        let config = connection_config(cfg)?;
+        let describe = describe_config(&config);
+        let mut client = config.connect(NoTls)?;
+        migrate(&mut client)?;
+        let name = cfg.machine.name.clone();
+        client.execute(
+            "INSERT INTO machines (name, created_unix_s) VALUES ($1, $2) \
+             ON CONFLICT (name) DO NOTHING",
+            &[&name, &unix_now_s()],
+        )?;
+        let machine_id: i32 = client
+            .query_one("SELECT id FROM machines WHERE name = $1", &[&name])?
+            .try_get(0)?;
+        Ok(Self {
+            target: Target {
+                config,
+                describe: format!("{describe} (machine {name})"),
+                machine: name,
+                machine_id,
+            },
+            buffer_records: cfg.storage.buffer_records,
+            reconnect: cfg.storage.reconnect,
+            pool: Mutex::new(vec![client]),
+        })
+    }
+
+    /// The machine's key in this database.
+    pub fn machine_id(&self) -> i32 {
+        self.target.machine_id
+    }
+
+    /// Runs `f` on a pooled connection (a new one if none is idle); a pooled connection
+    /// that turns out closed (the server restarted) is replaced and `f` run once more.
+    fn with<T>(&self, f: impl Fn(&mut Client, i32) -> Result<T>) -> Result<T> {
+        let idle = self.pool.lock().unwrap_or_else(|p| p.into_inner()).pop();
+        let pooled = idle.is_some();
+        let mut c = match idle {
+            Some(c) if !c.is_closed() => c,
+            _ => self.target.connect()?,
+        };
+        let mut r = f(&mut c, self.target.machine_id);
+        if r.is_err() && pooled && c.is_closed() {
+            c = self.target.connect()?;
+            r = f(&mut c, self.target.machine_id);
+        }
+        if !c.is_closed() {
+            let mut pool = self.pool.lock().unwrap_or_else(|p| p.into_inner());
+            if pool.len() < 4 {
+                pool.push(c);
+            }
+        }
+        r
+    }
+
+    fn names(c: &mut Client, mid: i32, table: &str) -> Result<Vec<String>> {
+        let rows = c.query(
+            &format!("SELECT name FROM {table} WHERE machine_id = $1 ORDER BY idx"),
+            &[&mid],
+        )?;
+        rows.iter()
+            .map(|r| Ok(r.try_get::<_, String>(0)?))
+            .collect()
+    }
+}
+
+impl Drop for PgStore {
+    fn drop(&mut self) {
+        // Closing a synchronous client blocks on its own runtime, which tokio forbids on
+        // an async worker: the idle connections are closed on a plain thread then.
+        let idle = std::mem::take(self.pool.get_mut().unwrap_or_else(|p| p.into_inner()));
+        if !idle.is_empty() && tokio::runtime::Handle::try_current().is_ok() {
+            let _ = std::thread::Builder::new()
+                .name("gearcomp-pg-close".into())
+                .spawn(move || drop(idle));
+        }
+    }
+}
+
+fn lim(limit: u32) -> i64 {
+    i64::from(limit)
+}
+
+impl Store for PgStore {
+    fn backend(&self) -> &'static str {
+        "postgres"
+    }
+
+    fn describe(&self) -> String {
+        self.target.describe.clone()
+    }
+
+    fn register_names(
+        &self,
+        channels: &[String],
+        axes: &[String],
+        targets: &[String],
+    ) -> Result<()> {
+        self.with(|c, mid| {
+            let mut tx = c.transaction()?;
+            for (table, names) in [("channels", channels), ("axes", axes), ("targets", targets)] {
+                for (i, n) in names.iter().enumerate() {
+                    let idx = i as i32;
+                    let existing = tx.query_opt(
+                        &format!("SELECT name FROM {table} WHERE machine_id = $1 AND idx = $2"),
+                        &[&mid, &idx],
+                    )?;
+                    match existing {
+                        Some(row) => {
+                            let e: String = row.try_get(0)?;
+                            if &e != n {
+                                return Err(invalid(
+                                    format!("{table}[{i}]"),
+                                    n,
+                                    format!(
+                                        "{e:?} as recorded for machine {} in this database (use a new machine name for a new channel layout)",
+                                        self.target.machine
+                                    ),
+                                ));
+                            }
+                        }
+                        None => {
+                            tx.execute(
+                                &format!(
+                                    "INSERT INTO {table} (machine_id, idx, name) VALUES ($1, $2, $3)"
+                                ),
+                                &[&mid, &idx, n],
+                            )?;
+                        }
+                    }
+                }
+            }
+            tx.commit()?;
+            Ok(())
+        })
+    }
+
+    fn last_time_s(&self) -> Result<f64> {
+        self.with(|c, mid| {
+            let mut t = f64::NEG_INFINITY;
+            for table in ["samples", "averages", "offsets", "target_values", "alarms"] {
+                let row = c.query_one(
+                    &format!("SELECT MAX(time_s) FROM {table} WHERE machine_id = $1"),
+                    &[&mid],
+                )?;
+                if let Some(v) = row.try_get::<_, Option<f64>>(0)? {
+                    t = t.max(v);
+                }
+            }
+            Ok(t)
+        })
+    }
+
+    fn close_stale_alarms(&self, time_s: f64) -> Result<()> {
+        self.with(|c, mid| {
+            c.execute(
+                "UPDATE alarms SET cleared_s = $1 WHERE machine_id = $2 AND cleared_s IS NULL",
+                &[&time_s, &mid],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn token_hashes(&self) -> Result<Vec<(String, String)>> {
+        self.with(|c, mid| {
+            c.query(
+                "SELECT sha256, role FROM tokens WHERE machine_id = $1 ORDER BY id",
+                &[&mid],
+            )?
+            .iter()
+            .map(|r| Ok((r.try_get(0)?, r.try_get(1)?)))
+            .collect()
+        })
+    }
+
+    fn add_token(&self, role: &str, sha256: &str) -> Result<()> {
+        self.with(|c, mid| {
+            c.execute(
+                "INSERT INTO tokens (machine_id, role, sha256, created_unix_s) \
+                 VALUES ($1, $2, $3, $4)",
+                &[&mid, &role, &sha256, &unix_now_s()],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
+        self.with(|c, mid| {
+            c.execute(
+                "INSERT INTO models (machine_id, unix_s, source, config_toml) \
+                 VALUES ($1, $2, $3, $4)",
+                &[&mid, &unix_now_s(), &source, &config_toml],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn sample_totals(&self) -> Result<(u64, u64)> {
+        self.with(|c, mid| {
+            let r = c.query_one(
+                "SELECT COUNT(*), COALESCE(MAX(id), 0) FROM samples WHERE machine_id = $1",
+                &[&mid],
+            )?;
+            let (n, max): (i64, i64) = (r.try_get(0)?, r.try_get(1)?);
+            Ok((n.max(0) as u64, max.max(0) as u64))
+        })
+    }
+
+    fn channel_history(&self, channel: u16, kind: SeriesKind, range: Range) -> Result<Vec<Point>> {
+        let sql = match kind {
+            SeriesKind::Raw => {
+                "SELECT time_s, raw FROM samples WHERE machine_id = $1 AND channel = $2 \
+                 AND time_s BETWEEN $3 AND $4 ORDER BY time_s DESC, id DESC LIMIT $5"
+            }
+            SeriesKind::Average => {
+                "SELECT time_s, value FROM averages WHERE machine_id = $1 AND channel = $2 \
+                 AND time_s BETWEEN $3 AND $4 ORDER BY time_s DESC, id DESC LIMIT $5"
+            }
+        };
+        self.with(|c, mid| {
+            let ch = i32::from(channel);
+            let rows = c.query(
+                sql,
+                &[&mid, &ch, &range.from_s, &range.to_s, &lim(range.limit)],
+            )?;
+            let mut v = rows
+                .iter()
+                .map(|r| {
+                    Ok(Point {
+                        time_s: r.try_get(0)?,
+                        value: r.try_get(1)?,
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            v.reverse();
+            Ok(v)
+        })
+    }
+
+    fn offset_history(&self, range: Range) -> Result<Vec<OffsetRow>> {
+        self.with(|c, mid| {
+            let axes = Self::names(c, mid, "axes")?;
+            let rows = c.query(
+                "SELECT time_s, axis, offset_um, target_um, law_um, status FROM offsets \
+                 WHERE machine_id = $1 AND time_s BETWEEN $2 AND $3 \
+                 ORDER BY time_s DESC, id DESC LIMIT $4",
+                &[&mid, &range.from_s, &range.to_s, &lim(range.limit)],
+            )?;
+            let mut v = rows
+                .iter()
+                .map(|r| {
+                    let axis: i32 = r.try_get(1)?;
+                    Ok(OffsetRow {
+                        time_s: r.try_get(0)?,
+                        axis: axes
+                            .get(axis.max(0) as usize)
+                            .cloned()
+                            .unwrap_or_else(|| axis.to_string()),
+                        offset_um: r.try_get(2)?,
+                        target_um: r.try_get(3)?,
+                        law_um: r.try_get(4)?,
+                        status: r.try_get(5)?,
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            v.reverse();
+            Ok(v)
+        })
+    }
+
+    fn alarms(&self, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>> {
+        let sql = if active_only {
+            "SELECT id, time_s, key, message, cleared_s, acknowledged_by FROM alarms \
+             WHERE machine_id = $1 AND (cleared_s IS NULL OR acknowledged_by IS NULL) \
+             ORDER BY id DESC LIMIT $2"
+        } else {
+            "SELECT id, time_s, key, message, cleared_s, acknowledged_by FROM alarms \
+             WHERE machine_id = $1 ORDER BY id DESC LIMIT $2"
+        };
+        self.with(|c, mid| {
+            c.query(sql, &[&mid, &lim(limit)])?
+                .iter()
+                .map(|r| {
+                    Ok(AlarmRow {
+                        id: r.try_get(0)?,
+                        time_s: r.try_get(1)?,
+                        key: r.try_get(2)?,
+                        message: r.try_get(3)?,
+                        cleared_s: r.try_get(4)?,
+                        acknowledged_by: r.try_get(5)?,
+                    })
+                })
+                .collect()
+        })
+    }
+
+    fn alarm_exists(&self, id: i64) -> Result<bool> {
+        self.with(|c, mid| {
+            Ok(c.query_opt(
+                "SELECT 1 FROM alarms WHERE id = $1 AND machine_id = $2",
+                &[&id, &mid],
+            )?
+            .is_some())
+        })
+    }
+
+    fn audit_log(&self, limit: u32) -> Result<Vec<AuditRow>> {
+        self.with(|c, mid| {
+            c.query(
+                "SELECT unix_s, token_id, role, action, detail FROM audit \
+                 WHERE machine_id = $1 ORDER BY id DESC LIMIT $2",
+                &[&mid, &lim(limit)],
+            )?
+            .iter()
+            .map(|r| {
+                Ok(AuditRow {
+                    unix_s: r.try_get(0)?,
+                    token_id: r.try_get(1)?,
+                    role: r.try_get(2)?,
+                    action: r.try_get(3)?,
+                    detail: r.try_get(4)?,
+                })
+            })
+            .collect()
+        })
+    }
+
+    fn export_data(&self) -> Result<ExportData> {
+        self.with(|c, mid| {
+            let mut series = |sql: &str| -> Result<Vec<IndexedRow>> {
+                c.query(sql, &[&mid])?
+                    .iter()
+                    .map(|r| {
+                        Ok((
+                            r.try_get(0)?,
+                            i64::from(r.try_get::<_, i32>(1)?),
+                            r.try_get(2)?,
+                        ))
+                    })
+                    .collect()
+            };
+            let averages = series(
+                "SELECT time_s, channel, value FROM averages WHERE machine_id = $1 \
+                 ORDER BY time_s, id",
+            )?;
+            let target_values = series(
+                "SELECT time_s, target, value FROM target_values WHERE machine_id = $1 \
+                 ORDER BY time_s, id",
+            )?;
+            let offsets = series(
+                "SELECT time_s, axis, offset_um FROM offsets WHERE machine_id = $1 \
+                 ORDER BY time_s, id",
+            )?;
+            Ok(ExportData {
+                channels: Self::names(c, mid, "channels")?,
+                targets: Self::names(c, mid, "targets")?,
+                axes: Self::names(c, mid, "axes")?,
+                averages,
+                target_values,
+                offsets,
+            })
+        })
+    }
+
+    fn spawn_writer(
+        &self,
+        rx: Receiver<Record>,
+        params: WriterParams,
+        stats: Arc<StoreStats>,
+    ) -> Result<JoinHandle<Result<()>>> {
+        let (_, last_id) = self.sample_totals()?;
+        let mut w = Writer {
+            target: self.target.clone(),
+            client: None,
+            pending: VecDeque::new(),
+            next_id: last_id + 1,
+            attempted: None,
+            last_batch: 0,
+            bound: self.buffer_records.max(1) as usize,
+            backoff: self.reconnect,
+            failures: 0,
+            retry_at: Instant::now(),
+            last_error: String::new(),
+            down_alarm: false,
+            full_alarm: false,
+            dropped: 0,
+            dropped_from_s: 0.0,
+            params,
+            stats,
+        };
+        // Take the writer's lock now so a second service for this machine fails at start.
+        w.connect_locked(Duration::from_secs(5))?;
+        std::thread::Builder::new()
+            .name("gearcomp-store".into())
+            .spawn(move || w.run(rx))
+            .map_err(|source| ServiceError::Io {
+                action: "start",
+                path: "the store thread".into(),
+                source,
+            })
+    }
+}
+
+/// A chunk whose `COMMIT` was sent but whose outcome is not known yet.
+#[derive(Debug, Clone, Copy)]
+struct Attempt {
+    batch: i64,
+    records: usize,
+    samples: u64,
+}
+
+/// The writer thread's state: the connection (if any), the records waiting, the counters.
+struct Writer {
+    target: Target,
+    client: Option<Client>,
+    pending: VecDeque<Record>,
+    /// Id of the next sample (ids are 1, 2, … per machine).
+    next_id: u64,
+    attempted: Option<Attempt>,
+    /// The last batch number known committed (`machines.last_batch`).
+    last_batch: i64,
+    bound: usize,
+    backoff: Backoff,
+    failures: u32,
+    retry_at: Instant,
+    last_error: String,
+    down_alarm: bool,
+    full_alarm: bool,
+    dropped: u64,
+    dropped_from_s: f64,
+    params: WriterParams,
+    stats: Arc<StoreStats>,
+}
+
+impl Writer {
+    /// Connects and takes the machine's writer lock, retrying for up to `patience` (a
+    /// killed predecessor's session may take a moment to end).
+    fn connect_locked(&mut self, patience: Duration) -> Result<()> {
+        let t0 = Instant::now();
+        loop {
+            let mut c = self.target.connect()?;
+            let got: bool = c
+                .query_one(
+                    "SELECT pg_try_advisory_lock($1, $2)",
+                    &[&LOCK_CLASS, &self.target.machine_id],
+                )?
+                .try_get(0)?;
+            if got {
+                let last: i64 = c
+                    .query_one(
+                        "SELECT last_batch FROM machines WHERE id = $1",
+                        &[&self.target.machine_id],
+                    )?
+                    .try_get(0)?;
+                self.settle(last);
+                self.last_batch = last;
+                self.client = Some(c);
+                return Ok(());
+            }
+            if t0.elapsed() >= patience {
+                return Err(invalid(
+                    "machine.name",
+                    &self.target.machine,
+                    format!(
+                        "a machine no other running gearcomp serve writes to {}",
+                        self.target.describe
+                    ),
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// Resolves a chunk in doubt: the database's `last_batch` tells whether it went in.
+    fn settle(&mut self, last_batch: i64) {
+        if let Some(a) = self.attempted.take() {
+            if last_batch >= a.batch {
+                self.committed(a);
+            }
+        }
+    }
+
+    fn committed(&mut self, a: Attempt) {
+        self.pending.drain(..a.records.min(self.pending.len()));
+        self.next_id += a.samples;
+        self.stats.commits.fetch_add(1, Ordering::Relaxed);
+        if a.samples > 0 {
+            self.stats
+                .last_sample_id
+                .store(self.next_id - 1, Ordering::Release);
+            self.stats
+                .committed_samples
+                .fetch_add(a.samples, Ordering::Release);
+        }
+        self.publish();
+    }
+
+    fn publish(&self) {
+        self.stats
+            .buffered_records
+            .store(self.pending.len() as u64, Ordering::Release);
+    }
+
+    /// Takes one record into the buffer, or drops it (counted, alarmed) when full.
+    fn push(&mut self, r: Record) {
+        let cap = if matches!(r, Record::Sample { .. }) {
+            self.bound
+        } else {
+            self.bound.saturating_mul(2)
+        };
+        if self.pending.len() < cap {
+            self.pending.push_back(r);
+            return;
+        }
+        let now = self.params.clock.now_s();
+        if self.dropped == 0 {
+            self.dropped_from_s = now;
+        }
+        self.dropped += 1;
+        self.stats.dropped_records.fetch_add(1, Ordering::Release);
+        if !self.full_alarm {
+            self.full_alarm = true;
+            let message = format!(
+                "storage.buffer_records = {} reached while {} is unreachable: new raw samples \
+                 are dropped (counted in /api/status dropped_records); averages, offsets and \
+                 alarms are kept up to {} records",
+                self.bound,
+                self.target.describe,
+                self.bound.saturating_mul(2)
+            );
+            eprintln!("gearcomp serve: {message}");
+            self.pending.push_back(Record::AlarmRaised {
+                time_s: now,
+                key: "storage.buffer_full".into(),
+                message,
+            });
+        }
+    }
+
+    /// Clears the buffer-full alarm once the buffer has drained, leaving a record of what
+    /// was lost.
+    fn after_drain(&mut self) {
+        if self.full_alarm && self.pending.len() < self.bound / 2 {
+            self.full_alarm = false;
+            let now = self.params.clock.now_s();
+            let message = format!(
+                "{} records (raw samples first) were dropped between {:.3} s and {:.3} s \
+                 because {} was unreachable and storage.buffer_records = {} was reached",
+                self.dropped, self.dropped_from_s, now, self.target.describe, self.bound
+            );
+            eprintln!("gearcomp serve: {message}");
+            self.dropped = 0;
+            for r in [
+                Record::AlarmCleared {
+                    time_s: now,
+                    key: "storage.buffer_full".into(),
+                },
+                Record::AlarmRaised {
+                    time_s: now,
+                    key: "storage.records_dropped".into(),
+                    message,
+                },
+                Record::AlarmCleared {
+                    time_s: now,
+                    key: "storage.records_dropped".into(),
+                },
+            ] {
+                self.pending.push_back(r);
+            }
+        }
+    }
+
+    fn fail(&mut self, e: &ServiceError) {
+        self.client = None;
+        self.failures += 1;
+        self.last_error = e.to_string();
+        let wait = self.backoff.wait_s(self.failures);
+        self.retry_at = Instant::now() + Duration::from_secs_f64(wait);
+        self.stats.unreachable.store(true, Ordering::Release);
+        if !self.down_alarm {
+            self.down_alarm = true;
+            let message = format!(
+                "{} unreachable ({e}); retrying with back-off {}…{} s, records kept in memory \
+                 (storage.buffer_records = {})",
+                self.target.describe, self.backoff.min_s, self.backoff.max_s, self.bound
+            );
+            eprintln!("gearcomp serve: {message}");
+            self.pending.push_back(Record::AlarmRaised {
+                time_s: self.params.clock.now_s(),
+                key: "storage.connection".into(),
+                message,
+            });
+        }
+        self.publish();
+    }
+
+    /// Writes what is waiting, chunk by chunk; returns false if the store is unreachable
+    /// (the records stay, in order).
+    fn flush(&mut self) -> bool {
+        while !self.write_pending() {
+            // The alarms that closing an outage adds are written in the same flush.
+        }
+        self.publish();
+        self.pending.is_empty()
+    }
+
+    /// Writes every waiting chunk. Returns false when the alarms closing an outage were
+    /// added (call again to write them), true otherwise, also when the store is
+    /// unreachable (the records stay, in order).
+    fn write_pending(&mut self) -> bool {
+        while !self.pending.is_empty() {
+            if self.client.is_none() {
+                if Instant::now() < self.retry_at {
+                    return true;
+                }
+                if let Err(e) = self.connect_locked(Duration::ZERO) {
+                    self.fail(&e);
+                    return true;
+                }
+            }
+            let n = self.pending.len().min(CHUNK_RECORDS);
+            let samples = self
+                .pending
+                .range(..n)
+                .filter(|r| matches!(r, Record::Sample { .. }))
+                .count() as u64;
+            let Some(client) = self.client.as_mut() else {
+                return true;
+            };
+            // The writer lock makes this thread the only one advancing `last_batch`.
+            let batch = self.last_batch + 1;
+            let a = Attempt {
+                batch,
+                records: n,
+                samples,
+            };
+            self.attempted = Some(a);
+            match write_chunk(
+                client,
+                self.target.machine_id,
+                self.pending.range(..n),
+                self.next_id,
+                batch,
+            ) {
+                Ok(()) => {
+                    self.attempted = None;
+                    self.last_batch = batch;
+                    self.committed(a);
+                    self.failures = 0;
+                }
+                Err(e) => {
+                    self.fail(&e);
+                    return true;
+                }
+            }
+        }
+        self.after_drain();
+        if self.down_alarm {
+            self.down_alarm = false;
+            self.stats.unreachable.store(false, Ordering::Release);
+            eprintln!(
+                "gearcomp serve: {} reachable again; buffered records written",
+                self.target.describe
+            );
+            self.pending.push_back(Record::AlarmCleared {
+                time_s: self.params.clock.now_s(),
+                key: "storage.connection".into(),
+            });
+        }
+        self.pending.is_empty()
+    }
+
+    /// The loop: take records as they come, write them at the latest `commit_interval`
+    /// after the oldest unwritten one arrived (or at the next reconnect attempt).
+    fn run(mut self, rx: Receiver<Record>) -> Result<()> {
+        let mut oldest: Option<Instant> = None;
+        loop {
+            let due = match (oldest, self.client.is_some()) {
+                (None, _) => None,
+                (Some(t), true) => Some(t + self.params.commit_interval),
+                (Some(t), false) => Some(self.retry_at.max(t + self.params.commit_interval)),
+            };
+            let got = match due {
+                None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
+                Some(d) => rx.recv_timeout(d.saturating_duration_since(Instant::now())),
+            };
+            match got {
+                Ok(r) => {
+                    self.push(r);
+                    oldest.get_or_insert_with(Instant::now);
+                    if due.is_none_or(|d| Instant::now() < d) {
+                        continue;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            self.flush();
+            if self.pending.is_empty() {
+                oldest = None;
+            } else {
+                // Unwritten records (or the alarms the flush itself added) stay due.
+                oldest.get_or_insert_with(Instant::now);
+            }
+            self.publish();
+        }
+        // Every sender is gone: write what is left, retrying for a bounded time.
+        let until = Instant::now() + SHUTDOWN_RETRY;
+        while !self.flush() && Instant::now() < until {
+            let wait = self
+                .retry_at
+                .min(until)
+                .saturating_duration_since(Instant::now());
+            std::thread::sleep(wait.max(Duration::from_millis(10)));
+        }
+        if self.pending.is_empty() {
+            Ok(())
+        } else {
+            Err(ServiceError::Unflushed {
+                records: self.pending.len() as u64,
+                store: self.target.describe.clone(),
+                cause: self.last_error.clone(),
+            })
+        }
+    }
+}
+
+/// Writes one chunk in one transaction: events (alarms, audit, models) in order, the
+/// series with binary COPY, then `last_batch`.
+fn write_chunk<'a>(
+    client: &mut Client,
+    mid: i32,
+    chunk: impl Iterator<Item = &'a Record> + Clone,
+    first_id: u64,
+    batch: i64,
+) -> Result<()> {
+    let mut tx = client.transaction()?;
+    let (mut n_s, mut n_a, mut n_o, mut n_t) = (0usize, 0usize, 0usize, 0usize);
+    for r in chunk.clone() {
+        match r {
+            Record::Sample { .. } => n_s += 1,
+            Record::Average { .. } => n_a += 1,
+            Record::Offset { .. } => n_o += 1,
+            Record::Target { .. } => n_t += 1,
+            Record::AlarmRaised {
+                time_s,
+                key,
+                message,
+            } => {
+                tx.execute(
+                    "INSERT INTO alarms (machine_id, time_s, key, message) VALUES ($1, $2, $3, $4)",
+                    &[&mid, time_s, key, message],
+                )?;
+            }
+            Record::AlarmCleared { time_s, key } => {
+                tx.execute(
+                    "UPDATE alarms SET cleared_s = $1 \
+                     WHERE machine_id = $2 AND key = $3 AND cleared_s IS NULL",
+                    &[time_s, &mid, key],
+                )?;
+            }
+            Record::AlarmAcknowledged { id, by } => {
+                tx.execute(
+                    "UPDATE alarms SET acknowledged_by = $1, acknowledged_unix_s = $2 \
+                     WHERE id = $3 AND machine_id = $4",
+                    &[by, &unix_now_s(), id, &mid],
+                )?;
+            }
+            Record::Audit {
+                token_id,
+                role,
+                action,
+                detail,
+            } => {
+                tx.execute(
+                    "INSERT INTO audit (machine_id, unix_s, token_id, role, action, detail) \
+                     VALUES ($1, $2, $3, $4, $5, $6)",
+                    &[&mid, &unix_now_s(), token_id, role, action, detail],
+                )?;
+            }
+            Record::Model {
+                source,
+                config_toml,
+            } => {
+                tx.execute(
+                    "INSERT INTO models (machine_id, unix_s, source, config_toml) \
+                     VALUES ($1, $2, $3, $4)",
+                    &[&mid, &unix_now_s(), source, config_toml],
+                )?;
+            }
+        }
+    }
+    const F8: Type = Type::FLOAT8;
+    const I4: Type = Type::INT4;
+    if n_s > 0 {
+        let sink = tx.copy_in(
+            "COPY samples (machine_id, id, time_s, channel, raw) FROM STDIN (FORMAT binary)",
+        )?;
+        let mut w = BinaryCopyInWriter::new(sink, &[I4, Type::INT8, F8, I4, F8]);
+        let mut id = first_id as i64;
+        for r in chunk.clone() {
+            if let Record::Sample {
+                time_s,
+                channel,
+                raw,
+            } = r
+            {
+                let ch = i32::from(*channel);
+                let raw = finite(*raw);
+                w.write(&[&mid, &id, time_s, &ch, &raw])?;
+                id += 1;
+            }
+        }
+        w.finish()?;
+    }
+    if n_a > 0 {
+        let sink = tx.copy_in(
+            "COPY averages (machine_id, time_s, channel, value) FROM STDIN (FORMAT binary)",
+        )?;
+        let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8]);
+        for r in chunk.clone() {
+            if let Record::Average {
+                time_s,
+                channel,
+                value,
+            } = r
+            {
+                let ch = i32::from(*channel);
+                w.write(&[&mid, time_s, &ch, &finite(*value)])?;
+            }
+        }
+        w.finish()?;
+    }
+    if n_o > 0 {
+        let sink = tx.copy_in(
+            "COPY offsets (machine_id, time_s, axis, offset_um, target_um, law_um, status) \
+             FROM STDIN (FORMAT binary)",
+        )?;
+        let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8, F8, F8, Type::TEXT]);
+        for r in chunk.clone() {
+            if let Record::Offset {
+                time_s,
+                axis,
+                offset_um,
+                target_um,
+                law_um,
+                status,
+            } = r
+            {
+                let ax = i32::from(*axis);
+                let vals: [&(dyn ToSql + Sync); 7] = [
+                    &mid,
+                    time_s,
+                    &ax,
+                    &finite(*offset_um),
+                    &finite(*target_um),
+                    &finite(*law_um),
+                    status,
+                ];
+                w.write(&vals)?;
+            }
+        }
+        w.finish()?;
+    }
+    if n_t > 0 {
+        let sink = tx.copy_in(
+            "COPY target_values (machine_id, time_s, target, value) FROM STDIN (FORMAT binary)",
+        )?;
+        let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8]);
+        for r in chunk {
+            if let Record::Target {
+                time_s,
+                target,
+                value,
+            } = r
+            {
+                let t = i32::from(*target);
+                w.write(&[&mid, time_s, &t, &finite(*value)])?;
+            }
+        }
+        w.finish()?;
+    }
+    tx.execute(
+        "UPDATE machines SET last_batch = $1 WHERE id = $2",
+        &[&batch, &mid],
+    )?;
+    tx.commit()?;
+    Ok(())
+}
+
+/// NaN and ±∞ are stored as NULL, as in the SQLite record.
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+
+    #[test]
+    fn passwords_never_appear_in_messages() {
+        assert_eq!(
+            redact("postgresql://gc:s3cret@db:5432/plant"),
+            "postgresql://gc:***@db:5432/plant"
+        );
+        assert_eq!(
+            redact("postgresql://gc@db/plant"),
+            "postgresql://gc@db/plant"
+        );
+        assert!(!redact("host=db password=s3cret").contains("s3cret"));
+        let c = Config::from_str("postgresql://gc:s3cret@db:6543/plant").unwrap();
+        assert_eq!(describe_config(&c), "postgresql://gc@db:6543/plant");
+    }
+}
