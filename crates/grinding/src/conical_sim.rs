@@ -265,6 +265,11 @@ impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
         }
         Ok(())
     }
+
+    /// Feed coupling of this simulation.
+    pub fn coupling(&self) -> &FeedCoupling {
+        self.coupling
+    }
 }
 
 /// Contact-path coefficients of any chain fitted from simulations (A3 step 8).
