@@ -1,8 +1,15 @@
 //! `gearcomp dress` end to end: design, solve (ERRATA §1 G1-Z5 reference), plan, errors.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{gearcomp, write_config};
+
+fn write_config_here(name: &str, text: &str) -> PathBuf {
+    write_config("dress", name, "dress.toml", text)
+}
+
 use std::path::PathBuf;
-use std::process::Command;
 
 const CONFIG: &str = r#"
 [worm]
@@ -25,25 +32,10 @@ diameters_mm = [160.0, 150.0, 140.0]
 budget_mm = 0.1
 "#;
 
-fn write_config(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gearcomp-dress-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("dress.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn gearcomp(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// `dress solve --json` reproduces the ERRATA §1 root and profile for G1-Z5, c = 0.2 µm.
 #[test]
 fn dress_solve_json_matches_errata_s1() {
-    let cfg = write_config("solve", CONFIG);
+    let cfg = write_config_here("solve", CONFIG);
     let report = cfg.with_file_name("solve.html");
     let out = gearcomp(&[
         "dress",
@@ -75,7 +67,7 @@ fn dress_solve_json_matches_errata_s1() {
 /// `dress design` and `dress plan` print their tables; the plan has one row per diameter.
 #[test]
 fn dress_design_and_plan() {
-    let cfg = write_config("plan", CONFIG);
+    let cfg = write_config_here("plan", CONFIG);
     let out = gearcomp(&["dress", "design", cfg.to_str().unwrap()]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
@@ -97,7 +89,7 @@ fn dress_design_and_plan() {
 /// Bad input: the message names the field and its allowed range; no panic.
 #[test]
 fn dress_bad_input_names_the_field() {
-    let cfg = write_config(
+    let cfg = write_config_here(
         "bad",
         &CONFIG.replace("jacket_width_mm = 0.8", "jacket_width_mm = 9.0"),
     );
@@ -108,7 +100,7 @@ fn dress_bad_input_names_the_field() {
         err.contains("jacket_width_mm") && err.contains("outside the allowed range"),
         "{err}"
     );
-    let cfg = write_config(
+    let cfg = write_config_here(
         "noroot",
         &CONFIG.replace("crowning_um = 0.2", "crowning_um = 200.0"),
     );

@@ -2,8 +2,15 @@
 //! test D5) and the zero-stretch profile angle of `dress plan` (claim 2, test F3).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{gearcomp, write_config};
+
+fn write_config_here(name: &str, text: &str) -> PathBuf {
+    write_config("dress-cp", name, "dress.toml", text)
+}
+
 use std::path::PathBuf;
-use std::process::Command;
 
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
 use gearcomp_dressing::envelope::DressingSetup;
@@ -33,28 +40,13 @@ diameters_mm = [160.0, 150.0, 140.0]
 zero_stretch = true
 "#;
 
-fn write_config(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gearcomp-dress-cp-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("dress.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn gearcomp(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// D5 through the CLI: `dress solve` with `contact_point` reports ν_zS; the full time-stepped
 /// simulation (an independent method: vectors shortened at discrete dresser poses) aborted at
 /// that ν_zS shows the switch "final / not yet final" in the row w_0 within one grid cell
 /// (0.25 mm) of b_0 = 20 mm, and machine (5) at that point has V1 = ν_zS, X1 = d_0 + Δd.
 #[test]
 fn d5_contact_line_through_a_point_via_cli() {
-    let cfg = write_config("d5", CONFIG);
+    let cfg = write_config_here("d5", CONFIG);
     let report = cfg.with_file_name("d5.html");
     let out = gearcomp(&[
         "dress",
@@ -138,7 +130,7 @@ fn d5_contact_line_through_a_point_via_cli() {
 /// stretching and the profile still held (< 0.1 µm).
 #[test]
 fn plan_zero_stretch_reports_the_profile_angle() {
-    let cfg = write_config("f3", CONFIG);
+    let cfg = write_config_here("f3", CONFIG);
     let out = gearcomp(&["dress", "plan", cfg.to_str().unwrap(), "--json"]);
     assert!(
         out.status.success(),
@@ -158,7 +150,7 @@ fn plan_zero_stretch_reports_the_profile_angle() {
     }
     let out = gearcomp(&["dress", "plan", cfg.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("alpha deg"));
-    let bad = write_config(
+    let bad = write_config_here(
         "f3bad",
         &CONFIG.replace(
             "zero_stretch = true",
@@ -172,7 +164,7 @@ fn plan_zero_stretch_reports_the_profile_angle() {
         err.contains("alpha_search_deg") && err.contains("0.01 ..= 20"),
         "{err}"
     );
-    let bad = write_config(
+    let bad = write_config_here(
         "cpbad",
         &CONFIG.replace("w_fraction = 0.5", "w_fraction = 1.5"),
     );

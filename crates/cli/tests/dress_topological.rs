@@ -3,8 +3,15 @@
 //! against the ERRATA §1 root where the wanted crowning is that of ERRATA §1 (0.2 µm, G1-Z5).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{gearcomp, write_config};
+
+fn write_config_here(name: &str, text: &str) -> PathBuf {
+    write_config("dress-topo", name, "dress.toml", text)
+}
+
 use std::path::PathBuf;
-use std::process::Command;
 
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
 use gearcomp_dressing::envelope::DressingSetup;
@@ -33,22 +40,6 @@ b_range_mm = [-10.0, 10.0]
 crowning_table = [[-10.0, 0.1], [10.0, 0.3]]
 "#;
 
-fn write_config(name: &str, text: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("gearcomp-dress-topo-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("dress.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn gearcomp(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// G1-Z5 with its gap-filling dresser (ERRATA §1), built here from the library directly.
 fn g1_z5() -> DressingSetup {
     let worm = Worm::design(5, 160.0, 3.0, 20f64.to_radians()).unwrap();
@@ -67,7 +58,7 @@ fn c_um(b: f64) -> f64 {
 
 #[test]
 fn topological_program_hits_the_width_dependent_targets() {
-    let cfg = write_config("ok", CONFIG);
+    let cfg = write_config_here("ok", CONFIG);
     let report = cfg.with_file_name("topo.html");
     let out = gearcomp(&[
         "dress",
@@ -160,7 +151,7 @@ fn topological_program_hits_the_width_dependent_targets() {
 
 #[test]
 fn topological_bad_input_names_key_value_range() {
-    let cfg = write_config("few", &CONFIG.replace("positions = 3", "positions = 1"));
+    let cfg = write_config_here("few", &CONFIG.replace("positions = 3", "positions = 1"));
     let out = gearcomp(&["dress", "solve", cfg.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -168,12 +159,12 @@ fn topological_bad_input_names_key_value_range() {
         err.contains("positions = 1") && err.contains("allowed range 2 ..="),
         "{err}"
     );
-    let cfg = write_config("typo", &CONFIG.replace("positions = 3", "positons = 3"));
+    let cfg = write_config_here("typo", &CONFIG.replace("positions = 3", "positons = 3"));
     let out = gearcomp(&["dress", "solve", cfg.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("positons"), "{err}");
-    let cfg = write_config("range", &CONFIG.replace("[-10.0, 10.0]", "[10.0, -10.0]"));
+    let cfg = write_config_here("range", &CONFIG.replace("[-10.0, 10.0]", "[10.0, -10.0]"));
     let out = gearcomp(&["dress", "solve", cfg.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("b_range_mm"));

@@ -7,6 +7,14 @@
 //! points (seed 004 O537).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::write_config;
+
+fn write_config_here(name: &str, text: &str) -> PathBuf {
+    write_config("grind", name, "dress.toml", text)
+}
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -38,14 +46,6 @@ jacket_width_mm = 0.8
 
 /// cos β_b2 of gear G1 (β = 15°, α_n = 20°: β_b = 14.076095°).
 const COS_BETA_B2: f64 = 0.969_974;
-
-fn write_config(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gearcomp-grind-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("dress.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 /// Gear G1 (z = 40, m_n = 3, α_n = 20°, β = 15°, b = 20 mm) ground with the dressed worm.
 fn run(config: &PathBuf, extra: &[&str]) -> std::process::Output {
@@ -82,7 +82,7 @@ fn all_map(v: &serde_json::Value, key: &str) -> Vec<f64> {
 /// for class 1.
 #[test]
 fn uncorrected_dressed_worm_grinds_the_unmodified_gear() {
-    let cfg = write_config("a", G1);
+    let cfg = write_config_here("a", G1);
     for flank in ["right", "left"] {
         for k in ["0", "-0.8"] {
             let v = json(
@@ -112,7 +112,7 @@ fn uncorrected_dressed_worm_grinds_the_unmodified_gear() {
 /// everywhere, and the gear gets the opposite uniform deviation, f_Ft2 = ∓1.40954/cos β_b2 µm.
 #[test]
 fn dphi_gives_the_closed_form_offset_through_the_chain() {
-    let cfg = write_config("b", &format!("{G1}\n[dressing]\ndphi_s_rad = 1e-3\n"));
+    let cfg = write_config_here("b", &format!("{G1}\n[dressing]\ndphi_s_rad = 1e-3\n"));
     for (flank, s) in [("right", 1.0), ("left", -1.0)] {
         let v = json(&cfg, &["--flank", flank, "--grid-w", "5", "--grid-z", "3"]);
         for p in v["dressed_worm"]["profile_um"].as_array().unwrap() {
@@ -136,7 +136,7 @@ fn dphi_gives_the_closed_form_offset_through_the_chain() {
 #[test]
 fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     let c_um = 0.2;
-    let cfg = write_config("c", &format!("{Z5}\n[dressing]\ncrowning_um = {c_um}\n"));
+    let cfg = write_config_here("c", &format!("{Z5}\n[dressing]\ncrowning_um = {c_um}\n"));
     // First run: the (R7) relation of this set-up.
     let v = json(&cfg, &["--grid-w", "3", "--grid-z", "3"]);
     let a = v["path"]["dw1_dw2"].as_f64().unwrap();
@@ -184,7 +184,7 @@ fn three_point_crowned_worm_grinds_gear_profile_crowning() {
 /// envelope and analytic map agree within 1 % of c, and the table output names the parts.
 #[test]
 fn stress_case_delta_k_and_table() {
-    let cfg = write_config("d", &format!("{Z5}\n[dressing]\ncrowning_um = 2.0\n"));
+    let cfg = write_config_here("d", &format!("{Z5}\n[dressing]\ncrowning_um = 2.0\n"));
     let v = json(&cfg, &["--grid-w", "9", "--grid-z", "3"]);
     let d = &v["dressed_worm"];
     let rel = |k: &str, want: f64| ((d[k].as_f64().unwrap() - want) / want).abs();
@@ -203,7 +203,7 @@ fn stress_case_delta_k_and_table() {
 /// f_Hα = 1.78 µm passes class 4 (3.8 µm) and fails class 1 (1.3 µm).
 #[test]
 fn verdict_in_and_out_of_tolerance() {
-    let cfg = write_config("e", &format!("{G1}\n[dressing]\ndgamma_deg = 2.0\n"));
+    let cfg = write_config_here("e", &format!("{G1}\n[dressing]\ndgamma_deg = 2.0\n"));
     let grid = ["--grid-w", "9", "--grid-z", "5"];
     let v4 = json(&cfg, &[&grid[..], &["--class", "4"]].concat());
     assert_eq!(v4["iso1328"]["within_tolerance"], true);
@@ -220,12 +220,12 @@ fn verdict_in_and_out_of_tolerance() {
 
 #[test]
 fn dressed_input_errors_name_the_field() {
-    let g1 = write_config("f1", G1);
-    let both = write_config(
+    let g1 = write_config_here("f1", G1);
+    let both = write_config_here(
         "f2",
         &format!("{G1}\n[dressing]\ncrowning_um = 1.0\ndd_mm = 0.1\n"),
     );
-    let bad = write_config("f3", &format!("{G1}\n[dressing]\ndd_mm = 7.0\n"));
+    let bad = write_config_here("f3", &format!("{G1}\n[dressing]\ndd_mm = 7.0\n"));
     for (cfg, args, needle) in [
         (&g1, vec!["--module-mm", "2"], "normal_module_mm"),
         (&g1, vec!["--roll-start-mm", "5"], "worm roll distance used"),
@@ -248,8 +248,8 @@ fn dressed_input_errors_name_the_field() {
 /// worm runs at d = d_S/2 + r2, and the gear uses lower worm roll distances.
 #[test]
 fn redressed_worm_needs_the_three_point_correction() {
-    let plain = write_config("g1", &format!("{Z5}\n[dressing]\ndiameter_mm = 150.0\n"));
-    let fixed = write_config(
+    let plain = write_config_here("g1", &format!("{Z5}\n[dressing]\ndiameter_mm = 150.0\n"));
+    let fixed = write_config_here(
         "g2",
         &format!("{Z5}\n[dressing]\ndiameter_mm = 150.0\ncrowning_um = 0.0\n"),
     );
