@@ -19,7 +19,7 @@ use gearcomp_thermal::{Engine, EngineConfig};
 const BATCH: u64 = 20_000;
 
 #[cfg(feature = "postgres")]
-#[path = "../tests/postgres_common/mod.rs"]
+#[path = "../tests/integration/postgres_common/mod.rs"]
 mod postgres_common;
 
 struct Pipeline {

@@ -2,7 +2,7 @@
 //! alarm acknowledgement and model change (audited), bumpless transfer.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
+use crate::common;
 
 use common::{start_with, Api};
 

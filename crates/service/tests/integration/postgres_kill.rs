@@ -6,7 +6,7 @@
 #![cfg(feature = "postgres")]
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod postgres_common;
+use crate::postgres_common;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -51,7 +51,8 @@ fn spawn(cfg: &std::path::Path, duration_s: Option<f64>) -> Served {
     let mut cmd = Command::new(std::env::current_exe().unwrap());
     cmd.args([
         "--exact",
-        "child_service",
+        // The test's name inside the crate's one integration-test binary.
+        "postgres_kill::child_service",
         "--nocapture",
         "--test-threads",
         "1",

@@ -4,7 +4,7 @@
 #![cfg(feature = "modbus")]
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
+use crate::common;
 
 use std::future;
 use std::sync::{Arc, Mutex};

@@ -8,7 +8,7 @@
 //! test fails and says so rather than passing without having looked at the page.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
+use crate::common;
 
 use std::io::Read;
 use std::path::PathBuf;

@@ -1,0 +1,18 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+#[path = "../common/mod.rs"]
+mod common;
+mod postgres_common;
+
+mod dashboard_browser;
+mod http_api;
+mod modbus;
+mod mqtt;
+mod mqtt_reconnect;
+mod opcua;
+mod postgres;
+mod postgres_kill;
+mod replay;
+mod storage;
