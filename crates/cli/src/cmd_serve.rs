@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use gearcomp_service::{serve, Overrides, ServiceConfig};
+use gearcomp_service::{serve_many, MachineEntry, Overrides, ServiceConfig};
 
 /// Runs the compensation service: sensors in, the engine in its cycle, offsets out, every
 /// sample kept, HTTP API and dashboard.
@@ -13,12 +13,14 @@ use gearcomp_service::{serve, Overrides, ServiceConfig};
 grinder of the thermal presets, the record in ./gearcomp.db, the dashboard on \
 http://127.0.0.1:8080 (tokens printed at first start).\n\
 Examples:\n  gearcomp serve --speedup 60\n  gearcomp serve --config machine.toml\n  \
+gearcomp serve --config shaper1.toml --config grinder2.toml   (two machines, one process)\n  \
 gearcomp serve --db gearcomp.db --export-csv log.csv   (then: gearcomp fit log.csv --target measured_drift_um)"
 )]
 pub struct Args {
-    /// Service configuration (TOML); unknown keys are refused.
+    /// Service configuration (TOML); unknown keys are refused. Repeat it to serve several
+    /// machines in one process (each with its own name, record and HTTP port).
     #[arg(long)]
-    pub config: Option<PathBuf>,
+    pub config: Vec<PathBuf>,
     /// Database file (overrides storage.path).
     #[arg(long)]
     pub db: Option<PathBuf>,
@@ -46,15 +48,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", gearcomp_service::auth::hash_token(t));
         return Ok(());
     }
-    let cfg = match &args.config {
-        Some(p) => ServiceConfig::load(p)?,
-        None => ServiceConfig::default(),
+    let machines = match args.config.as_slice() {
+        [] => vec![MachineEntry {
+            source: "(default)".into(),
+            config: ServiceConfig::default(),
+        }],
+        paths => paths
+            .iter()
+            .map(|p| {
+                Ok(MachineEntry {
+                    source: p.display().to_string(),
+                    config: ServiceConfig::load(p)?,
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?,
     };
+    if args.export_csv.is_some() && machines.len() > 1 {
+        anyhow::bail!(
+            "invalid --export-csv with {} --config: expected one machine's configuration",
+            machines.len()
+        );
+    }
+    let cfg = &machines[0].config;
     if let (Some(out), None, gearcomp_service::config::StorageBackend::Postgres) =
         (&args.export_csv, &args.db, cfg.storage.backend)
     {
         // The record is this machine's rows in the PostgreSQL database of the config.
-        let store = gearcomp_service::storage::open_store(&cfg)?;
+        let store = gearcomp_service::storage::open_store(cfg)?;
         let rows = gearcomp_service::storage::export_csv_from(&*store, out)
             .with_context(|| format!("export {} to {}", store.describe(), out.display()))?;
         println!("wrote {} ({rows} rows)", out.display());
@@ -73,8 +93,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("wrote {} ({rows} rows)", out.display());
         return Ok(());
     }
-    serve(
-        cfg,
+    serve_many(
+        machines,
         Overrides {
             duration_s: args.duration_s,
             speedup: args.speedup,

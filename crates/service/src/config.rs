@@ -824,3 +824,76 @@ mod tests {
         }
     }
 }
+
+/// One machine of a multi-machine process: the configuration file it came from (for
+/// messages) and its configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MachineEntry {
+    /// The configuration file (or `(default)` for the embedded default).
+    pub source: String,
+    /// The machine's configuration.
+    pub config: ServiceConfig,
+}
+
+/// What two machines of one process must not share: an identity, a record, a listening
+/// address, or a place the offset is written to (two machines writing one CNC node would
+/// overwrite each other's compensation).
+fn shared_resources(cfg: &ServiceConfig) -> Vec<(&'static str, String)> {
+    let mut keys = vec![("machine.name", cfg.machine.name.clone())];
+    if cfg.storage.backend == StorageBackend::Sqlite {
+        let path = cfg
+            .storage
+            .path
+            .canonicalize()
+            .unwrap_or_else(|_| cfg.storage.path.clone());
+        keys.push(("storage.path", path.display().to_string()));
+    }
+    if cfg.http.port != 0 {
+        keys.push(("http.port", format!("{}:{}", cfg.http.bind, cfg.http.port)));
+    }
+    match &cfg.input {
+        #[cfg(feature = "modbus")]
+        InputSection::Modbus(m) => {
+            if let (Some(o), Some(first)) = (&m.offset_output, m.modules.first()) {
+                keys.push((
+                    "input.offset_output",
+                    format!(
+                        "modbus {}:{} unit {} register {}",
+                        first.host, first.port, first.unit_id, o.address
+                    ),
+                ));
+            }
+        }
+        #[cfg(feature = "opcua")]
+        InputSection::OpcUa(u) => {
+            if let Some(o) = &u.offset_output {
+                keys.push((
+                    "input.offset_output",
+                    format!("opcua {} node {}", u.endpoint, o.node),
+                ));
+            }
+        }
+        _ => {}
+    }
+    keys
+}
+
+/// Checks that the machines of one process keep apart (see [`shared_resources`]); the
+/// error names the key, the shared value and both configuration files.
+pub fn check_machines_apart(machines: &[MachineEntry]) -> Result<()> {
+    let mut seen: std::collections::HashMap<(&'static str, String), &str> =
+        std::collections::HashMap::new();
+    for m in machines {
+        for key in shared_resources(&m.config) {
+            let (field, value) = key.clone();
+            if let Some(first) = seen.insert(key, &m.source) {
+                return Err(invalid(
+                    field,
+                    format!("{value:?} in both {first} and {}", m.source),
+                    "a different value for every machine of one process",
+                ));
+            }
+        }
+    }
+    Ok(())
+}

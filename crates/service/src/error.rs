@@ -45,6 +45,14 @@ pub enum ServiceError {
     /// A background thread or task ended unexpectedly.
     #[error("{0} stopped unexpectedly")]
     Stopped(&'static str),
+    /// An error of one machine of a multi-machine process.
+    #[error("machine of {source_file}: {cause}")]
+    Machine {
+        /// The machine's configuration file.
+        source_file: String,
+        /// The error.
+        cause: Box<ServiceError>,
+    },
     /// The CSV export failed.
     #[error("csv export: {0}")]
     Csv(#[from] csv::Error),

@@ -22,6 +22,6 @@ pub mod service;
 pub mod sources;
 pub mod storage;
 
-pub use config::ServiceConfig;
+pub use config::{MachineEntry, ServiceConfig};
 pub use error::{Result, ServiceError};
-pub use service::{serve, Overrides};
+pub use service::{serve, serve_many, Overrides};

@@ -13,7 +13,7 @@ use gearcomp_thermal::presets::bundle;
 use gearcomp_thermal::{Engine, EngineConfig, Preset, Simulator};
 
 use crate::auth::Tokens;
-use crate::config::{InputSection, ServiceConfig};
+use crate::config::{InputSection, MachineEntry, ServiceConfig};
 use crate::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut};
 use crate::error::{Result, ServiceError};
 use crate::http::{self, AppState, ModelInfo};
@@ -77,20 +77,54 @@ fn input_name(cfg: &ServiceConfig) -> String {
 
 /// Runs the service until ctrl-c, SIGTERM or the duration; returns after everything is
 /// flushed.
-pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
-    if let Some(p) = ov.port {
-        cfg.http.port = p;
+pub fn serve(cfg: ServiceConfig, ov: Overrides) -> Result<()> {
+    serve_many(
+        vec![MachineEntry {
+            source: "(default)".into(),
+            config: cfg,
+        }],
+        ov,
+    )
+}
+
+/// Runs several machines in one process, each with its own engine, cycle thread, inputs,
+/// record and HTTP API, until ctrl-c, SIGTERM or the duration; then stops every machine
+/// (each flushes its record) and returns the first error, if any.
+///
+/// `--port` and `--db` name one machine's port and record, so they are refused with more
+/// than one machine; `--speedup` and `--duration-s` apply to all.
+pub fn serve_many(mut machines: Vec<MachineEntry>, ov: Overrides) -> Result<()> {
+    if machines.is_empty() {
+        return Err(crate::error::invalid(
+            "--config",
+            "none",
+            "at least one machine configuration",
+        ));
     }
-    if let Some(db) = ov.db {
-        cfg.storage.path = db;
+    let several = machines.len() > 1;
+    if several {
+        if let Some(p) = ov.port {
+            return Err(crate::error::invalid(
+                "--port",
+                p,
+                "no --port with several --config (set http.port in each file; 0 picks a free port)",
+            ));
+        }
+        if let Some(db) = &ov.db {
+            return Err(crate::error::invalid(
+                "--db",
+                db.display(),
+                "no --db with several --config (set storage.path in each file)",
+            ));
+        }
     }
-    if let (Some(s), InputSection::Simulator { speedup, .. }) = (ov.speedup, &mut cfg.input) {
-        *speedup = s;
+    for m in &mut machines {
+        apply_overrides(&mut m.config, &ov);
+        m.config
+            .validate()
+            .map_err(|e| in_machine(several, &m.source, e))?;
     }
-    if let (Some(s), InputSection::Replay(r)) = (ov.speedup, &mut cfg.input) {
-        r.speedup = s;
-    }
-    cfg.validate()?;
+    crate::config::check_machines_apart(&machines)?;
     if let Some(d) = ov.duration_s {
         crate::error::check_range("--duration-s", d, 0.0, 1e9, "0…1e9 s")?;
     }
@@ -104,29 +138,84 @@ pub fn serve(mut cfg: ServiceConfig, ov: Overrides) -> Result<()> {
             source,
         })?;
     rt.block_on(async {
-        let running = start(cfg).await?;
-        let record = running.store.describe();
-        {
-            let mut out = std::io::stdout().lock();
-            if let Some(g) = &running.generated {
-                let _ = writeln!(out, "operator token (shown once): {}", g.operator);
-                let _ = writeln!(out, "read-only token (shown once): {}", g.read_only);
+        let mut running: Vec<Running> = Vec::with_capacity(machines.len());
+        for m in machines {
+            match start(m.config).await {
+                Ok(r) => {
+                    announce(&r);
+                    running.push(r);
+                }
+                Err(e) => {
+                    // The machines already started are stopped cleanly (records flushed)
+                    // before the error is returned.
+                    for r in running {
+                        let _ = r.stop().await;
+                    }
+                    return Err(in_machine(several, &m.source, e));
+                }
             }
-            let _ = writeln!(
-                out,
-                "gearcomp serve: machine {} ({}), record {}, listening on http://{}",
-                running.machine,
-                running.model_source,
-                running.store.describe(),
-                running.addr
-            );
-            let _ = out.flush();
         }
         wait_for_stop(ov.duration_s).await;
-        let n = running.stop().await?;
-        println!("gearcomp serve: stopped; {n} samples committed in {record}");
-        Ok(())
+        let mut first_error = None;
+        for r in running {
+            let (machine, record) = (r.machine.clone(), r.store.describe());
+            match r.stop().await {
+                Ok(n) => println!(
+                    "gearcomp serve: machine {machine} stopped; {n} samples committed in {record}"
+                ),
+                Err(e) => {
+                    eprintln!("gearcomp serve: machine {machine}: {e}");
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        first_error.map_or(Ok(()), Err)
     })
+}
+
+fn apply_overrides(cfg: &mut ServiceConfig, ov: &Overrides) {
+    if let Some(p) = ov.port {
+        cfg.http.port = p;
+    }
+    if let Some(db) = &ov.db {
+        cfg.storage.path = db.clone();
+    }
+    if let (Some(s), InputSection::Simulator { speedup, .. }) = (ov.speedup, &mut cfg.input) {
+        *speedup = s;
+    }
+    if let (Some(s), InputSection::Replay(r)) = (ov.speedup, &mut cfg.input) {
+        r.speedup = s;
+    }
+}
+
+/// With several machines an error names the configuration file it belongs to.
+fn in_machine(several: bool, source: &str, e: ServiceError) -> ServiceError {
+    if several {
+        ServiceError::Machine {
+            source_file: source.to_string(),
+            cause: Box::new(e),
+        }
+    } else {
+        e
+    }
+}
+
+/// Prints the machine's generated tokens (shown once) and where it listens.
+fn announce(r: &Running) {
+    let mut out = std::io::stdout().lock();
+    if let Some(g) = &r.generated {
+        let _ = writeln!(out, "operator token (shown once): {}", g.operator);
+        let _ = writeln!(out, "read-only token (shown once): {}", g.read_only);
+    }
+    let _ = writeln!(
+        out,
+        "gearcomp serve: machine {} ({}), record {}, listening on http://{}",
+        r.machine,
+        r.model_source,
+        r.store.describe(),
+        r.addr
+    );
+    let _ = out.flush();
 }
 
 async fn wait_for_stop(duration_s: Option<f64>) {

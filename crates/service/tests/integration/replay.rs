@@ -13,7 +13,7 @@ use common::{engine_ab, start_with, Api};
 use gearcomp_thermal::{Engine, EngineConfig};
 
 /// FL_THERMAL's 16 temperatures as °C channels; Cz = −1.2·t3 + 30 + 0.8·(t5 − t9) on X,
-/// no averaging, dead band or rate limit (the law of `crates/cli/tests/replay_cli.rs`).
+/// no averaging, dead band or rate limit (the law of `crates/cli/tests/integration/replay_cli.rs`).
 fn fl_engine() -> String {
     let mut s = String::new();
     for i in 1..=16 {

@@ -1,7 +1,7 @@
 //! `gearcomp dress` end to end: design, solve (ERRATA §1 G1-Z5 reference), plan, errors.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use common::{gearcomp, write_config};
 

@@ -1,7 +1,7 @@
 //! Tests D1–D4, E1 and the curve-fitting variant against ERRATA §1, §2, §5.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_dressing::envelope::DressingSetup;
 use gearcomp_dressing::kinematics::AxisCorrection;

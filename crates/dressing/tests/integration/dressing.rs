@@ -2,7 +2,7 @@
 //! evaluation, and the screw evaluation against the analytic envelope.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line, simulate, SimSpec};

@@ -2,7 +2,7 @@
 //! conversion cache of a raw value that repeats bit for bit.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_thermal::sensor::rtd_resistance_ohm;
 use gearcomp_thermal::{Alarm, Engine, EngineConfig, Fault, Inputs, Output, Reading};

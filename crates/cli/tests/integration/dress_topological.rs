@@ -3,7 +3,7 @@
 //! against the ERRATA §1 root where the wanted crowning is that of ERRATA §1 (0.2 µm, G1-Z5).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use common::{gearcomp, write_config};
 

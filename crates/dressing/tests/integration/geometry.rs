@@ -1,7 +1,7 @@
 //! Tests B1–B4 (DIN 3960 and the involute helicoid) and the dresser design (ERRATA §1, §6).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_dressing::gear::*;
 use gearcomp_dressing::worm::{Flank, Worm};

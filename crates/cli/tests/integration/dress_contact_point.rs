@@ -2,7 +2,7 @@
 //! test D5) and the zero-stretch profile angle of `dress plan` (claim 2, test F3).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use common::{gearcomp, write_config};
 

@@ -3,7 +3,7 @@
 //! width-dependent 3-point program, and the dressed worm as an interpolated grid.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_dressing::envelope::DressingSetup;
 use gearcomp_dressing::kinematics::AxisCorrection;

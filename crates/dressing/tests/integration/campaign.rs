@@ -1,7 +1,7 @@
 //! Tests F1, F2, F4: a worm's life with the dresser designed for the new worm (claims 1–2).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use gearcomp_dressing::campaign::{plan, Correction, PlanSpec};
 use gearcomp_dressing::worm::Flank;

@@ -7,7 +7,7 @@
 //! points (seed 004 O537).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use common::write_config;
 

@@ -1,0 +1,19 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod common;
+
+mod demo_cli;
+mod dress_cli;
+mod dress_contact_point;
+mod dress_topological;
+mod fit_cli;
+mod gear_cli;
+mod grind_cli;
+mod grind_dressed;
+mod grind_equalise;
+mod replay_cli;
+mod serve_cli;
+mod serve_many_cli;
+mod shape_cli;

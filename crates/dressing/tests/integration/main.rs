@@ -1,0 +1,13 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod campaign;
+mod dressing;
+mod geometry;
+mod kinematics;
+mod solvers;
+mod topology;

@@ -1,0 +1,8 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod bad_input;
+mod independent_checks;
+mod issue2_vectors;
+mod properties;

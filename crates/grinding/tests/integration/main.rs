@@ -1,0 +1,10 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod conical;
+mod conical_envelope;
+mod conical_equalise;
+mod dressed_worm;
+mod envelope;
+mod topological_worm;

@@ -1,0 +1,14 @@
+//! One integration-test binary for the crate: each module was a test file of its own;
+//! one binary links the dependencies once instead of once per file.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod faults;
+mod model_file;
+mod properties;
+mod sampling_and_safety;
+mod seed000_worked_example;
+mod seed001;
+mod step_into;
