@@ -10,6 +10,12 @@
 //! config is dressed (given ΔK, or the 3-point solve of `gearcomp dress`), its profile is
 //! tabulated and used as the grinding worm, and the ground gear is evaluated against ISO 1328.
 //!
+//! `simulate --gear-cone-deg ϑ2 --worm-cone-deg ϑ1` grinds with a conical (beveloid) workpiece
+//! and/or worm: the envelope simulation runs on the chains (29)–(31) of a [`ConicalPair`] and is
+//! compared with the conical pair's analytic map. With both angles 0 the cylindrical chain (28)
+//! runs exactly as before. `solve` refuses cone angles (the line-class transfer is cylindrical
+//! only), and so does `simulate --dress` (conical dressing is not modelled).
+//!
 //! `equalise CONFIG.toml` reads gear and worm (with their cone angles) and finds the worm cone
 //! angle ϑ1 that gives both flanks the same diagonal ratio (A6/T14).
 //!
@@ -28,21 +34,22 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
 use gearcomp_dressing::solve::{solve_three_point, NewtonOptions, ThreePoint};
 use gearcomp_dressing::worm::{Flank as DressFlank, Worm as DressWorm};
-use gearcomp_grinding::conical::BeveloidGear;
+use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{
     equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
 };
+use gearcomp_grinding::conical_sim::{EnvelopeGrinder, MeshKinematics};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
     diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad,
     worm_modification_for_gear, LineMap,
 };
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
-use gearcomp_grinding::flank::{Flank, Hand, InvoluteGear};
+use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
-use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, Grinder, GroundFlank};
+use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
@@ -129,6 +136,14 @@ struct SetupArgs {
     /// ISO 1328-1:2013 accuracy class for the evaluation.
     #[arg(long, default_value_t = 6)]
     class: u8,
+    /// Workpiece cone angle ϑ2 in degrees (beveloid gear, chains (30)/(31); > 0: the reference
+    /// cone grows towards +z). 0 = cylindrical gear; `solve` refuses other values.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    gear_cone_deg: f64,
+    /// Worm cone angle ϑ1 in degrees (conical worm, chains (29)/(31); > 0: the reference cone
+    /// grows towards +z of the worm). 0 = cylindrical worm; `solve` refuses other values.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    worm_cone_deg: f64,
     /// Print JSON instead of tables.
     #[arg(long)]
     json: bool,
@@ -234,10 +249,73 @@ struct Setup {
     grid: FlankGrid,
 }
 
-fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
+/// Cone angles of worm (ϑ1) and workpiece (ϑ2), rad, in the library's convention: ϑ > 0 when
+/// the body's reference cone grows towards +z of that body (docs/grinding.md "Conical tool and
+/// workpiece").
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Cones {
+    worm_rad: f64,
+    gear_rad: f64,
+    /// The values as given at the interface (reported unchanged).
+    worm_deg: f64,
+    gear_deg: f64,
+}
+
+impl Cones {
+    const CYLINDRICAL: Cones = Cones {
+        worm_rad: 0.0,
+        gear_rad: 0.0,
+        worm_deg: 0.0,
+        gear_deg: 0.0,
+    };
+
+    fn is_cylindrical(&self) -> bool {
+        self.worm_rad == 0.0 && self.gear_rad == 0.0
+    }
+}
+
+/// --worm-cone-deg / --gear-cone-deg, range-checked against the library's limit
+/// ([`MAX_CONE_ANGLE_RAD`], 50°) and converted to rad.
+fn cones(a: &SetupArgs) -> Result<Cones> {
+    let max_deg = rad_to_deg(MAX_CONE_ANGLE_RAD);
+    for (opt, v) in [
+        ("--worm-cone-deg", a.worm_cone_deg),
+        ("--gear-cone-deg", a.gear_cone_deg),
+    ] {
+        if !(v.is_finite() && v.abs() <= max_deg) {
+            anyhow::bail!(
+                "{opt} = {v} is out of range: expected -{max_deg} ..= {max_deg} degrees \
+                 (cone angle limit of the grinding library, seed 004: below 50°)"
+            );
+        }
+    }
+    Ok(Cones {
+        worm_rad: deg_to_rad(a.worm_cone_deg),
+        gear_rad: deg_to_rad(a.gear_cone_deg),
+        worm_deg: a.worm_cone_deg,
+        gear_deg: a.gear_cone_deg,
+    })
+}
+
+fn flank_arg(a: &SetupArgs) -> Flank {
+    match a.flank {
+        FlankArg::Right => Flank::Right,
+        FlankArg::Left => Flank::Left,
+    }
+}
+
+fn hand_arg(a: &SetupArgs) -> Hand {
+    match a.worm_hand {
+        HandArg::Right => Hand::Right,
+        HandArg::Left => Hand::Left,
+    }
+}
+
+/// The gear body (cylinder, or the beveloid's body at z = 0) from the set-up options.
+fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
     let alpha_r = deg_to_rad(a.pressure_angle_deg);
     let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
-    let gear = InvoluteGear::asymmetric(
+    InvoluteGear::asymmetric(
         a.teeth,
         a.module_mm,
         alpha_r,
@@ -245,29 +323,29 @@ fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
         deg_to_rad(a.helix_angle_deg),
         0.0,
     )
-    .context("gear")?;
-    let hand = match a.worm_hand {
-        HandArg::Right => Hand::Right,
-        HandArg::Left => Hand::Left,
-    };
-    let flank = match a.flank {
-        FlankArg::Right => Flank::Right,
-        FlankArg::Left => Flank::Left,
-    };
-    let pair = match dressed {
-        None => {
-            let w = InvoluteGear::worm(a.worm_starts, a.module_mm, alpha_r, a.worm_radius_mm, hand)
-                .context("worm")?;
-            let worm =
-                InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
-                    .context("worm")?;
-            WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?
-        }
-        Some(dw) => dressed_pair(a, dw, &gear, flank, hand)?,
-    };
-    let f2 = gear.flank(flank);
-    let r_tip = gear.reference_radius_mm() + a.module_mm;
-    let w_tip = (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt();
+    .context("gear")
+}
+
+/// The worm body from the set-up options; its rack has the gear's profile angles (93).
+fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
+    let alpha_r = deg_to_rad(a.pressure_angle_deg);
+    let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
+    let w = InvoluteGear::worm(
+        a.worm_starts,
+        a.module_mm,
+        alpha_r,
+        a.worm_radius_mm,
+        hand_arg(a),
+    )
+    .context("worm")?;
+    InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0).context("worm")
+}
+
+/// The (w, z) grid of the gear flank `f2` whose tip circle (smallest over the face) is `r_tip`.
+fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, r_tip_mm: f64) -> Result<FlankGrid> {
+    let w_tip = (r_tip_mm * r_tip_mm - f2.r_b_mm * f2.r_b_mm)
+        .max(0.0)
+        .sqrt();
     let w_start = a
         .roll_start_mm
         .unwrap_or((f2.w_ref_mm - 2.0 * a.module_mm).max(0.1 * f2.w_ref_mm));
@@ -281,9 +359,57 @@ fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
         );
     }
     let half = 0.5 * a.face_width_mm;
-    let grid = FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
-        .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")?;
+    FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
+        .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")
+}
+
+fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
+    let gear = gear_body(a)?;
+    let flank = flank_arg(a);
+    let pair = match dressed {
+        None => {
+            let worm = worm_body(a)?;
+            WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?
+        }
+        Some(dw) => dressed_pair(a, dw, &gear, flank, hand_arg(a))?,
+    };
+    let f2 = gear.flank(flank);
+    let r_tip = gear.reference_radius_mm() + a.module_mm;
+    let grid = flank_grid(a, &f2, r_tip)?;
     Ok(Setup { pair, gear, grid })
+}
+
+/// Conical worm and/or workpiece at the reference setting (pivots coincide, γ = −(β1 + β2)).
+struct ConeSetup {
+    pair: ConicalPair,
+    /// The gear's body (teeth, module, angles at z = 0) for the ISO 1328 tolerances.
+    gear: InvoluteGear,
+    grid: FlankGrid,
+}
+
+/// The conical set-up: beveloid worm and gear from the options, chain (29)–(31).
+///
+/// The default end of the roll range uses the gear's tip circle at the narrow end of the face,
+/// so every grid point lies on the flank.
+/// # Formula
+/// r_a,min = r + m_n − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone: addendum m_n
+/// over the local profile shift x(z) = z·tan ϑ2/m_n).
+/// # Source
+/// Beveloid local profile shift, digest §3.7 (R2) [RECONSTRUCTED]; addendum h_a = m_n, ISO
+/// 53 basic rack [STANDARD]; convention fixed here (docs/grinding.md).
+fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
+    let gear = gear_body(a)?;
+    let flank = flank_arg(a);
+    let bev2 = BeveloidGear::new(gear, c.gear_rad)
+        .with_context(|| format!("--gear-cone-deg = {}", a.gear_cone_deg))?;
+    let bev1 = BeveloidGear::new(worm_body(a)?, c.worm_rad)
+        .with_context(|| format!("--worm-cone-deg = {}", a.worm_cone_deg))?;
+    let pair = ConicalPair::reference(&bev1, &bev2, flank)
+        .context("conical worm/gear mesh (chains (29)–(31))")?;
+    let r_tip =
+        gear.reference_radius_mm() + a.module_mm - 0.5 * a.face_width_mm * c.gear_rad.tan().abs();
+    let grid = flank_grid(a, &pair.gear, r_tip)?;
+    Ok(ConeSetup { pair, gear, grid })
 }
 
 /// The worm of a dress config as a grinding worm, and its set-up with the gear.
@@ -374,8 +500,24 @@ struct PathOut {
     c_w2: f64,
     c_c2_mm: f64,
     dw1_dw2: f64,
-    r7_sum_mm: f64,
+    /// (R7) w1/cos β_b1 + w2/cos β_b2, constant on cylindrical chains only (null on conical).
+    r7_sum_mm: Option<f64>,
     rho_kf_deg: f64,
+    /// Feed terms of the conical contact path (76)/(77)/(86) (conical chains only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    conical: Option<ConicalPathOut>,
+}
+
+/// Feed terms of (76)/(77)/(86) that a cylindrical chain does not have (or has as −1/0).
+#[derive(Debug, Serialize)]
+struct ConicalPathOut {
+    c_zv11: f64,
+    c_zv21: f64,
+    c_zv12: f64,
+    c_zv22: f64,
+    b_zv1: f64,
+    b_zv2: f64,
+    b_mm: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -391,6 +533,10 @@ struct MapOut {
 #[derive(Debug, Serialize)]
 struct Output {
     mode: &'static str,
+    /// Worm cone angle ϑ1 in degrees (0 = cylindrical worm).
+    worm_cone_deg: f64,
+    /// Workpiece cone angle ϑ2 in degrees (0 = cylindrical gear).
+    gear_cone_deg: f64,
     path: PathOut,
     diagonal_ratio: f64,
     shift_offset_mm: f64,
@@ -408,18 +554,96 @@ struct Output {
     map: MapOut,
 }
 
-fn path_out(p: &WormGearPair) -> PathOut {
-    PathOut {
-        flank: p.worm.flank.name(),
-        centre_distance_mm: p.centre_distance_mm,
-        crossing_deg: rad_to_deg(p.crossing_rad),
-        c_w1: p.path.c_w1,
-        c_c1_mm: p.path.c_c1_mm,
-        c_w2: p.path.c_w2,
-        c_c2_mm: p.path.c_c2_mm,
-        dw1_dw2: p.path.a,
-        r7_sum_mm: p.path.r7_sum_mm,
-        rho_kf_deg: rad_to_deg(p.rho_kf_rad()),
+/// What `grind_and_report` needs of a worm–workpiece mesh beyond the simulation kinematics.
+trait GrindMesh: MeshKinematics {
+    /// Gear f_Ft2 in mm that the analytic pointwise map predicts at (w2, z2).
+    fn analytic_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64>;
+    /// The contact path for the output.
+    fn path_out(&self) -> PathOut;
+}
+
+impl GrindMesh for WormGearPair {
+    fn analytic_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64> {
+        Ok(predicted_gear_f_ft_mm(
+            self, coupling, worm_mod, w2_mm, z2_mm,
+        ))
+    }
+
+    fn path_out(&self) -> PathOut {
+        PathOut {
+            flank: self.worm.flank.name(),
+            centre_distance_mm: self.centre_distance_mm,
+            crossing_deg: rad_to_deg(self.crossing_rad),
+            c_w1: self.path.c_w1,
+            c_c1_mm: self.path.c_c1_mm,
+            c_w2: self.path.c_w2,
+            c_c2_mm: self.path.c_c2_mm,
+            dw1_dw2: self.path.a,
+            r7_sum_mm: Some(self.path.r7_sum_mm),
+            rho_kf_deg: rad_to_deg(self.rho_kf_rad()),
+            conical: None,
+        }
+    }
+}
+
+impl GrindMesh for ConicalPair {
+    /// The conical pair's analytic map: the worm point that grinds (w2, z2) under the feed
+    /// coupling, and the transverse transfer of (38).
+    ///
+    /// # Formula
+    /// (w1, z1) from (77), (86), (76) at z_V2 with z_V1 = F_ZV1(z_V2);
+    /// f_Ft2(w2, z2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w1, z1), β_bF of the conical flanks.
+    /// # Source
+    /// Seed 004 eq. (38), O537 [SEED]; digest §4.4 (A4) steps 1–2 [RECONSTRUCTED];
+    /// `ConicalPair::map_gear_point`, `ConicalPair::transverse_ratio`.
+    fn analytic_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64> {
+        let m = self
+            .map_gear_point(coupling, w2_mm, z2_mm)
+            .context("analytic map of the conical pair")?;
+        Ok(-self.transverse_ratio() * worm_mod.f_ft_mm(m.w1_mm, m.z1_mm))
+    }
+
+    fn path_out(&self) -> PathOut {
+        let p = &self.path;
+        PathOut {
+            flank: self.worm.flank.name(),
+            centre_distance_mm: self.chain.centre_distance_mm,
+            crossing_deg: rad_to_deg(self.chain.crossing_rad),
+            c_w1: p.c_w1,
+            c_c1_mm: p.c_c1_mm,
+            c_w2: p.c_w2,
+            c_c2_mm: p.c_c2_mm,
+            dw1_dw2: p.a,
+            r7_sum_mm: None,
+            rho_kf_deg: rad_to_deg(self.rho_kf_rad()),
+            conical: Some(ConicalPathOut {
+                c_zv11: p.c_zv11,
+                c_zv21: p.c_zv21,
+                c_zv12: p.c_zv12,
+                c_zv22: p.c_zv22,
+                b_zv1: p.b_zv1,
+                b_zv2: p.b_zv2,
+                b_mm: p.b_mm,
+            }),
+        }
     }
 }
 
@@ -429,11 +653,19 @@ enum WormUsed<'a> {
     Dressed(&'a DressedWorm, Box<DressedOut>),
 }
 
-/// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank).
+/// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank: the
+/// involute helicoid, or the nominal beveloid flank on a conical gear).
+///
+/// `gear` is the workpiece body at z = 0 (reference diameter and module for the ISO 1328
+/// tolerances). The cylindrical [`WormGearPair`] runs the library's `Grinder` (which is
+/// `EnvelopeGrinder<WormGearPair>`), a [`ConicalPair`] the same algorithm on chains (29)–(31).
 #[allow(clippy::too_many_arguments)]
-fn grind_and_report(
+fn grind_and_report<M: GrindMesh>(
     mode: &'static str,
-    s: &Setup,
+    mesh: &M,
+    gear: &InvoluteGear,
+    g: FlankGrid,
+    cones: Cones,
     a: &SetupArgs,
     k: f64,
     lm: Option<LineMap>,
@@ -445,12 +677,11 @@ fn grind_and_report(
         WormUsed::Dressed(d, o) => (d, None, Some(*o)),
     };
     let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
-    let grinder = Grinder::new(&s.pair, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
-    let mut ground = GroundFlank::new(s.grid);
+    let grinder = EnvelopeGrinder::new(mesh, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
+    let mut ground = GroundFlank::new(g);
     grinder
         .grind_flank(&mut ground)
         .context("grinding simulation")?;
-    let g = s.grid;
     let mut map = MapOut {
         w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
         z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
@@ -465,7 +696,7 @@ fn grind_and_report(
         for j in 0..g.n_z {
             let (w, z) = (g.w_mm(i), g.z_mm(j));
             let f = ground.at(i, j).f_ft_mm;
-            let an = predicted_gear_f_ft_mm(&s.pair, &cpl, worm_mod, w, z);
+            let an = mesh.analytic_f_ft_mm(&cpl, worm_mod, w, z)?;
             let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
             dev_mm.push(f - design);
             max_g = max_g.max(f.abs());
@@ -480,18 +711,20 @@ fn grind_and_report(
         map.deviation_um.push(rd);
     }
     let tol = tolerances(
-        2.0 * s.gear.reference_radius_mm(),
-        s.gear.m_n_mm,
+        2.0 * gear.reference_radius_mm(),
+        gear.m_n_mm,
         a.face_width_mm,
         a.class,
     )
     .context("ISO 1328-1 tolerances")?;
     let iso = DeviationMap::new(g, dev_mm)?
-        .evaluate(tol, s.gear.m_n_mm)
+        .evaluate(tol, gear.m_n_mm)
         .context("ISO 1328-1 evaluation")?;
     Ok(Output {
         mode,
-        path: path_out(&s.pair),
+        worm_cone_deg: cones.worm_deg,
+        gear_cone_deg: cones.gear_deg,
+        path: mesh.path_out(),
         diagonal_ratio: k,
         shift_offset_mm: a.shift_offset_mm,
         line_map: lm,
@@ -503,6 +736,8 @@ fn grind_and_report(
         max_abs_deviation_um: mm_to_um(max_d),
         deviation_reference: if wanted.is_some() {
             "wanted gear modification"
+        } else if cones.gear_rad != 0.0 {
+            "nominal beveloid flank"
         } else {
             "unmodified involute flank"
         },
@@ -512,6 +747,20 @@ fn grind_and_report(
 }
 
 fn simulate(a: SimulateArgs) -> Result<()> {
+    let c = cones(&a.setup)?;
+    if !c.is_cylindrical() {
+        if a.dress.is_some() {
+            anyhow::bail!(
+                "--dress with --worm-cone-deg = {} / --gear-cone-deg = {}: grinding with a \
+                 dressed worm is modelled for a cylindrical worm and gear only (dressing of \
+                 conical worms is not supported); give both cone angles 0, or a worm \
+                 modification (--worm-c/--worm-l/--worm-q) instead of --dress",
+                a.setup.worm_cone_deg,
+                a.setup.gear_cone_deg
+            );
+        }
+        return simulate_conical(&a, c);
+    }
     if let Some(path) = &a.dress {
         return simulate_dressed(&a, path);
     }
@@ -530,10 +779,54 @@ fn simulate(a: SimulateArgs) -> Result<()> {
     let (k, lm) = diagonal_choice(&a, &s, rho1)?;
     let out = grind_and_report(
         "simulate",
-        &s,
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
         &a.setup,
         k,
         lm,
+        WormUsed::Line(&worm_mod),
+        None,
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// `simulate` with a conical worm and/or workpiece (chains (29)–(31)).
+///
+/// ρ_F1 defaults to the axial-section estimate of the conical worm flank; --gear-rho-deg picks
+/// K_ZV1 from the conical diagonal ratio (no line map: the line-class transfer is cylindrical
+/// only, so `line_map` is null).
+fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
+    let s = setup_conical(&a.setup, c)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
+    let worm_mod = LineModification::new(
+        rho1,
+        s.pair.worm.w_ref_mm,
+        poly_um(&a.worm_c),
+        poly_um(&a.worm_l),
+        poly_um(&a.worm_q),
+    )
+    .context("worm modification")?;
+    let k = match (a.diagonal_ratio, a.gear_rho_deg) {
+        (Some(k), _) => k,
+        (None, Some(r2)) => s
+            .pair
+            .diagonal_ratio(rho1, deg_to_rad(r2))
+            .context("diagonal ratio for --gear-rho-deg (conical)")?,
+        (None, None) => 0.0,
+    };
+    let out = grind_and_report(
+        "simulate",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        c,
+        &a.setup,
+        k,
+        None,
         WormUsed::Line(&worm_mod),
         None,
     )?;
@@ -818,7 +1111,10 @@ fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
     let (k, lm) = diagonal_choice(a, &s, rho1)?;
     let out = grind_and_report(
         "simulate",
-        &s,
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
         &a.setup,
         k,
         lm,
@@ -829,6 +1125,18 @@ fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
 }
 
 fn solve(a: SolveArgs) -> Result<()> {
+    let c = cones(&a.setup)?;
+    if !c.is_cylindrical() {
+        anyhow::bail!(
+            "grind solve with --worm-cone-deg = {} / --gear-cone-deg = {}: the line-class \
+             transfer (worm modification and diagonal ratio for a wanted gear modification) is \
+             implemented for a cylindrical worm and gear only (chain (28)), not for conical \
+             bodies (docs/grinding.md); give both cone angles 0, or grind a given worm \
+             modification on the conical chain with `grind simulate`",
+            a.setup.worm_cone_deg,
+            a.setup.gear_cone_deg
+        );
+    }
     let s = setup(&a.setup, None)?;
     let rho1 = a
         .worm_rho_deg
@@ -848,7 +1156,10 @@ fn solve(a: SolveArgs) -> Result<()> {
     let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
     let out = grind_and_report(
         "solve",
-        &s,
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
         &a.setup,
         k,
         Some(lm),
@@ -873,6 +1184,18 @@ fn table(out: &Output) -> String {
     let mut t = String::new();
     let p = &out.path;
     let _ = writeln!(t, "gearcomp grind {} — {} flank", out.mode, p.flank);
+    if out.worm_cone_deg != 0.0 || out.gear_cone_deg != 0.0 {
+        let chain = match (out.worm_cone_deg != 0.0, out.gear_cone_deg != 0.0) {
+            (true, false) => "(29), conical worm",
+            (false, true) => "(30), conical workpiece",
+            _ => "(31), conical worm and workpiece",
+        };
+        let _ = writeln!(
+            t,
+            "  cone angles: worm ϑ1 {:.6}°, gear ϑ2 {:.6}° (chain {chain})",
+            out.worm_cone_deg, out.gear_cone_deg
+        );
+    }
     let _ = writeln!(
         t,
         "  centre distance {:.6} mm, crossing angle {:.6}°",
@@ -883,11 +1206,30 @@ fn table(out: &Output) -> String {
         "  contact path: C_Fw1 {:.6}  C_Fc1 {:.6} mm  C_Fw2 {:.6}  C_Fc2 {:.6} mm",
         p.c_w1, p.c_c1_mm, p.c_w2, p.c_c2_mm
     );
-    let _ = writeln!(
-        t,
-        "  roll distances: dw1/dw2 {:.6}, w1/cos β_b1 + w2/cos β_b2 = {:.6} mm; ρ_KF {:.6}°",
-        p.dw1_dw2, p.r7_sum_mm, p.rho_kf_deg
-    );
+    match (&p.conical, p.r7_sum_mm) {
+        (Some(c), _) => {
+            let _ = writeln!(
+                t,
+                "  feed terms: C_FzV11 {:.6}  C_FzV21 {:.6}  C_FzV12 {:.6}  C_FzV22 {:.6}",
+                c.c_zv11, c.c_zv21, c.c_zv12, c.c_zv22
+            );
+            let _ = writeln!(
+                t,
+                "  roll distances (86): w1 = {:.6}·w2 + {:.6}·z_V1 + {:.6}·z_V2 + {:.6} mm; \
+                 ρ_KF {:.6}°",
+                p.dw1_dw2, c.b_zv1, c.b_zv2, c.b_mm, p.rho_kf_deg
+            );
+        }
+        (None, r7) => {
+            let _ = writeln!(
+                t,
+                "  roll distances: dw1/dw2 {:.6}, w1/cos β_b1 + w2/cos β_b2 = {:.6} mm; ρ_KF {:.6}°",
+                p.dw1_dw2,
+                r7.unwrap_or(f64::NAN),
+                p.rho_kf_deg
+            );
+        }
+    }
     let _ = writeln!(
         t,
         "  diagonal ratio K_ZV1 {:.6}, shift offset z_V01 {:.3} mm",

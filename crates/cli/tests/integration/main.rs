@@ -11,6 +11,7 @@ mod dress_topological;
 mod fit_cli;
 mod gear_cli;
 mod grind_cli;
+mod grind_conical_cli;
 mod grind_dressed;
 mod grind_equalise;
 mod replay_cli;
