@@ -3,11 +3,7 @@
 //! digest's analytic mapping.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::Command;
-
-fn gearcomp() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-}
+use crate::common::{gearcomp_cmd as gearcomp, gearcomp_json};
 
 /// The example gear (z2 = 31, m_n = 3, α_n = 20°, β = 15°) and worm (z1 = 1, r1 = 130 mm) are
 /// the defaults; this grid puts the T8 points on grid nodes.
@@ -23,18 +19,7 @@ const GRID: [&str; 8] = [
 ];
 
 fn json(args: &[&str]) -> serde_json::Value {
-    let out = gearcomp()
-        .args(args)
-        .args(GRID)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    gearcomp_json(&[args, &GRID[..]].concat())
 }
 
 fn at(v: &serde_json::Value, key: &str, w: f64, z: f64) -> f64 {

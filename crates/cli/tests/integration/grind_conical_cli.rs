@@ -6,7 +6,7 @@
 //! computed here from the rack geometry.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common::{gearcomp, write_config};
+use crate::common::{gearcomp, gearcomp_json, write_config};
 
 /// Reference example of digest §9.2 (defaults: z2 = 31, m_n = 3, α_n = 20°, β = 15°,
 /// z1 = 1, r1 = 130 mm, b = 30 mm), roll range 11…23 mm.
@@ -42,9 +42,7 @@ fn run_ok(args: &[&str]) -> Vec<u8> {
 }
 
 fn json(args: &[&str]) -> serde_json::Value {
-    let mut all = args.to_vec();
-    all.push("--json");
-    serde_json::from_slice(&run_ok(&all)).unwrap()
+    gearcomp_json(args)
 }
 
 fn f(v: &serde_json::Value) -> f64 {

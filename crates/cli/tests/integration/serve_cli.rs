@@ -8,15 +8,14 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
+use crate::common::{assert_grinder_law, gearcomp_cmd, temp_dir};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gearcomp-serve-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("serve", name)
 }
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+    gearcomp_cmd()
 }
 
 struct Served {
@@ -131,25 +130,8 @@ fn sigterm_finishes_the_cycle_flushes_and_exits_0() {
         .unwrap();
     assert_eq!(rows as u64, n);
 
-    // Independent check of the recorded law: the grinder preset is seed 001's
-    // Cz = Kz·(A − B), Kz = −3.75 µm/°C, on the averaged values of the same cycle.
-    let mut st = conn
-        .prepare(
-            "SELECT o.law_um, a.value, b.value FROM offsets o \
-             JOIN averages a ON a.time_s = o.time_s AND a.channel = 0 \
-             JOIN averages b ON b.time_s = o.time_s AND b.channel = 1 \
-             WHERE o.law_um IS NOT NULL",
-        )
-        .unwrap();
-    let rows: Vec<(f64, f64, f64)> = st
-        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
-        .unwrap()
-        .map(|r| r.unwrap())
-        .collect();
-    assert!(rows.len() > 10, "{}", rows.len());
-    for (law, a, b) in rows {
-        assert!((law - -3.75 * (a - b)).abs() < 1e-9, "{law} vs {a} {b}");
-    }
+    // Independent check of the recorded law (seed 001's Kz·(A − B), in common).
+    assert_grinder_law(&db);
 }
 
 #[test]

@@ -10,15 +10,14 @@ use std::process::{Command, Stdio};
 use std::sync::mpsc::channel;
 use std::time::{Duration, Instant};
 
+use crate::common::{assert_grinder_law, gearcomp_cmd, temp_dir};
+
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gearcomp-many-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("many", name)
 }
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+    gearcomp_cmd()
 }
 
 fn machine_toml(dir: &Path, file: &str, name: &str, preset: &str, db: &str) -> PathBuf {
@@ -176,27 +175,9 @@ fn two_machines_run_apart_in_one_process_and_stop_together() {
     assert!(!ca.iter().any(|c| c == "proximity_um"), "{ca:?}");
     assert!(cb.iter().any(|c| c == "proximity_um"), "{cb:?}");
 
-    // The grinder's record still follows its own law, seed 001's Cz = Kz·(A − B) with
-    // Kz = −3.75 µm/°C, on the averaged values of the same cycle: the second machine in
-    // the process did not leak into it.
-    let conn = rusqlite::Connection::open(dir.join("a.db")).unwrap();
-    let mut st = conn
-        .prepare(
-            "SELECT o.law_um, a.value, b.value FROM offsets o \
-             JOIN averages a ON a.time_s = o.time_s AND a.channel = 0 \
-             JOIN averages b ON b.time_s = o.time_s AND b.channel = 1 \
-             WHERE o.law_um IS NOT NULL",
-        )
-        .unwrap();
-    let rows: Vec<(f64, f64, f64)> = st
-        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
-        .unwrap()
-        .map(|r| r.unwrap())
-        .collect();
-    assert!(rows.len() > 10, "{}", rows.len());
-    for (law, a, b) in rows {
-        assert!((law - -3.75 * (a - b)).abs() < 1e-9, "{law} vs {a} {b}");
-    }
+    // The grinder's record still follows its own law (seed 001's Kz·(A − B)): the second
+    // machine in the process did not leak into it.
+    assert_grinder_law(&dir.join("a.db"));
 }
 
 fn refused(args: &[&std::ffi::OsStr]) -> String {

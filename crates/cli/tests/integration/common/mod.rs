@@ -1,9 +1,22 @@
-//! Helpers shared by the CLI integration tests: a config file in a per-test temp folder and
-//! the `gearcomp` binary run with arguments.
+//! Helpers shared by the CLI integration tests: a per-test temp folder, a config file in it,
+//! the `gearcomp` binary run with arguments, and the check of seed 001's law on a record.
 #![allow(dead_code, clippy::unwrap_used)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// A fresh, empty `<tmp>/gearcomp-<tag>-<pid>-<name>` folder.
+pub fn temp_dir(tag: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gearcomp-{tag}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The `gearcomp` binary built for these tests, as a command to add arguments to.
+pub fn gearcomp_cmd() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+}
 
 /// Writes `text` to `<tmp>/gearcomp-<tag>-<pid>-<name>/<file>` and returns the path; the
 /// folder is per test, so reports written beside the config do not collide.
@@ -17,8 +30,40 @@ pub fn write_config(tag: &str, name: &str, file: &str, text: &str) -> PathBuf {
 
 /// Runs the `gearcomp` binary built for these tests.
 pub fn gearcomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .args(args)
-        .output()
+    gearcomp_cmd().args(args).output().unwrap()
+}
+
+/// Runs `gearcomp` with `args` and `--json`, asserts success, and parses its stdout.
+pub fn gearcomp_json(args: &[&str]) -> serde_json::Value {
+    let out = gearcomp_cmd().args(args).arg("--json").output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// Independent check of a grinder record: the preset is seed 001's Cz = Kz·(A − B) with
+/// Kz = −3.75 µm/°C, on the averaged values of the same cycle, for every offset with a law
+/// value (more than 10 of them).
+pub fn assert_grinder_law(db: &Path) {
+    let conn = rusqlite::Connection::open(db).unwrap();
+    let mut st = conn
+        .prepare(
+            "SELECT o.law_um, a.value, b.value FROM offsets o \
+             JOIN averages a ON a.time_s = o.time_s AND a.channel = 0 \
+             JOIN averages b ON b.time_s = o.time_s AND b.channel = 1 \
+             WHERE o.law_um IS NOT NULL",
+        )
+        .unwrap();
+    let rows: Vec<(f64, f64, f64)> = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
         .unwrap()
+        .map(|r| r.unwrap())
+        .collect();
+    assert!(rows.len() > 10, "{}", rows.len());
+    for (law, a, b) in rows {
+        assert!((law - -3.75 * (a - b)).abs() < 1e-9, "{law} vs {a} {b}");
+    }
 }
