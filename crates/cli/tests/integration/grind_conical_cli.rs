@@ -380,3 +380,46 @@ fn bad_cone_angles_and_unsupported_combinations_are_clear_errors() {
     }
     std::fs::remove_dir_all(std::path::Path::new(dress).parent().unwrap()).unwrap();
 }
+
+/// The analytic column is a first-order map: for a crowned worm on a conical chain its gap to
+/// the envelope must fall with the square of the modification (a mapping error of first
+/// order would fall only linearly), and the ground flank itself is linear in it.
+#[test]
+fn analytic_map_gap_is_second_order_in_the_modification_on_conical_chains() {
+    for (worm_cone, gear_cone) in [("6", "0"), ("4", "7")] {
+        let run = |q: &str| {
+            json(&[
+                "grind",
+                "simulate",
+                "--worm-cone-deg",
+                worm_cone,
+                "--gear-cone-deg",
+                gear_cone,
+                "--worm-rho-deg",
+                "-90",
+                "--worm-q",
+                q,
+                "--roll-start-mm",
+                "12",
+                "--roll-end-mm",
+                "22",
+                "--grid-w",
+                "11",
+                "--grid-z",
+                "7",
+            ])
+        };
+        let (full, half) = (run("4.555"), run("2.2775"));
+        let ground = f(&full["max_abs_ground_um"]) / f(&half["max_abs_ground_um"]);
+        let gap = f(&full["max_abs_ground_minus_analytic_um"])
+            / f(&half["max_abs_ground_minus_analytic_um"]);
+        assert!(
+            (ground - 2.0).abs() < 0.05,
+            "{worm_cone}/{gear_cone}: ground ratio {ground}"
+        );
+        assert!(
+            (3.6..=4.6).contains(&gap),
+            "{worm_cone}/{gear_cone}: gap ratio {gap} (2 would be a first-order error)"
+        );
+    }
+}
