@@ -13,8 +13,9 @@
 //! `simulate --gear-cone-deg ϑ2 --worm-cone-deg ϑ1` grinds with a conical (beveloid) workpiece
 //! and/or worm: the envelope simulation runs on the chains (29)–(31) of a [`ConicalPair`] and is
 //! compared with the conical pair's analytic map. With both angles 0 the cylindrical chain (28)
-//! runs exactly as before. `solve` refuses cone angles (the line-class transfer is cylindrical
-//! only), and so does `simulate --dress` (conical dressing is not modelled).
+//! runs exactly as before. `solve` with cone angles uses the conical line-class transfer
+//! (`conical_lines`) and verifies it by the same envelope simulation; `simulate --dress`
+//! refuses cone angles (conical dressing is not modelled).
 //!
 //! `equalise CONFIG.toml` reads gear and worm (with their cone angles) and finds the worm cone
 //! angle ϑ1 that gives both flanks the same diagonal ratio (A6/T14).
@@ -38,6 +39,7 @@ use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE
 use gearcomp_grinding::conical_equalise::{
     equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
 };
+use gearcomp_grinding::conical_lines;
 use gearcomp_grinding::conical_sim::{EnvelopeGrinder, MeshKinematics};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
@@ -137,11 +139,11 @@ struct SetupArgs {
     #[arg(long, default_value_t = 6)]
     class: u8,
     /// Workpiece cone angle ϑ2 in degrees (beveloid gear, chains (30)/(31); > 0: the reference
-    /// cone grows towards +z). 0 = cylindrical gear; `solve` refuses other values.
+    /// cone grows towards +z). 0 = cylindrical gear.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     gear_cone_deg: f64,
     /// Worm cone angle ϑ1 in degrees (conical worm, chains (29)/(31); > 0: the reference cone
-    /// grows towards +z of the worm). 0 = cylindrical worm; `solve` refuses other values.
+    /// grows towards +z of the worm). 0 = cylindrical worm.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     worm_cone_deg: f64,
     /// Print JSON instead of tables.
@@ -795,8 +797,8 @@ fn simulate(a: SimulateArgs) -> Result<()> {
 /// `simulate` with a conical worm and/or workpiece (chains (29)–(31)).
 ///
 /// ρ_F1 defaults to the axial-section estimate of the conical worm flank; --gear-rho-deg picks
-/// K_ZV1 from the conical diagonal ratio (no line map: the line-class transfer is cylindrical
-/// only, so `line_map` is null).
+/// K_ZV1 and, where it exists, the line map X_F1 = k·X_F2 + c0 of the conical chain
+/// (`conical_line_map`; not for profile lines ρ_F2 = ±90° on a feed-dependent (86)).
 fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
     let s = setup_conical(&a.setup, c)?;
     let rho1 = a
@@ -810,13 +812,22 @@ fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
         poly_um(&a.worm_q),
     )
     .context("worm modification")?;
-    let k = match (a.diagonal_ratio, a.gear_rho_deg) {
-        (Some(k), _) => k,
-        (None, Some(r2)) => s
-            .pair
-            .diagonal_ratio(rho1, deg_to_rad(r2))
-            .context("diagonal ratio for --gear-rho-deg (conical)")?,
-        (None, None) => 0.0,
+    let (k, lm) = match (a.diagonal_ratio, a.gear_rho_deg) {
+        (Some(k), _) => (k, None),
+        (None, Some(r2)) => {
+            let r2 = deg_to_rad(r2);
+            let k = s
+                .pair
+                .diagonal_ratio(rho1, r2)
+                .context("diagonal ratio for --gear-rho-deg (conical)")?;
+            // the line map exists wherever K does, except for profile lines on a chain whose
+            // roll relation (86) depends on the feeds; then only K is reported
+            let lm = conical_lines::conical_line_map(&s.pair, rho1, r2, a.setup.shift_offset_mm)
+                .ok()
+                .map(|m| m.line);
+            (k, lm)
+        }
+        (None, None) => (0.0, None),
     };
     let out = grind_and_report(
         "simulate",
@@ -826,7 +837,7 @@ fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
         c,
         &a.setup,
         k,
-        None,
+        lm,
         WormUsed::Line(&worm_mod),
         None,
     )?;
@@ -1127,15 +1138,7 @@ fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
 fn solve(a: SolveArgs) -> Result<()> {
     let c = cones(&a.setup)?;
     if !c.is_cylindrical() {
-        anyhow::bail!(
-            "grind solve with --worm-cone-deg = {} / --gear-cone-deg = {}: the line-class \
-             transfer (worm modification and diagonal ratio for a wanted gear modification) is \
-             implemented for a cylindrical worm and gear only (chain (28)), not for conical \
-             bodies (docs/grinding.md); give both cone angles 0, or grind a given worm \
-             modification on the conical chain with `grind simulate`",
-            a.setup.worm_cone_deg,
-            a.setup.gear_cone_deg
-        );
+        return solve_conical(&a, c);
     }
     let s = setup(&a.setup, None)?;
     let rho1 = a
@@ -1163,6 +1166,44 @@ fn solve(a: SolveArgs) -> Result<()> {
         &a.setup,
         k,
         Some(lm),
+        WormUsed::Line(&worm_mod),
+        Some(&wanted),
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// `solve` with a conical worm and/or workpiece (chains (29)–(31)): the conical line-class
+/// transfer (`conical_lines::worm_modification_for_gear`), verified by the envelope simulation
+/// of the worm it computes, as on the cylindrical chain.
+///
+/// ρ_F1 defaults to the axial-section estimate of the conical worm flank; the wanted gear
+/// modification is referred to the gear flank's reference roll distance, the worm's to
+/// w_01 = a'·w_02 + g (the worm roll distance along the gear line, docs/grinding.md).
+fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
+    let s = setup_conical(&a.setup, c)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
+    let wanted = LineModification::new(
+        deg_to_rad(a.gear_rho_deg),
+        s.pair.gear.w_ref_mm,
+        poly_um(&a.gear_c),
+        poly_um(&a.gear_l),
+        poly_um(&a.gear_q),
+    )
+    .context("wanted gear modification")?;
+    let (lm, worm_mod) =
+        conical_lines::worm_modification_for_gear(&s.pair, &wanted, rho1, a.setup.shift_offset_mm)
+            .context("worm modification for the wanted gear modification (conical chain)")?;
+    let out = grind_and_report(
+        "solve",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        c,
+        &a.setup,
+        lm.line.k_zv1,
+        Some(lm.line),
         WormUsed::Line(&worm_mod),
         Some(&wanted),
     )?;

@@ -22,6 +22,8 @@
 //! - [`conical_sim`]: the envelope simulation for any chain, and the conical contact path
 //!   fitted from two simulated feed couplings.
 //! - [`conical_equalise`]: the worm cone angle that equalises K_ZV1 on both flanks (A6, T14).
+//! - [`conical_lines`]: line-class transfer on conical chains (worm ↔ gear modification of the
+//!   form (25)/(26)) and its inverse.
 //!
 //! Conventions are collected in `docs/grinding.md`; every formula cites its source.
 //!
@@ -37,6 +39,7 @@
 
 pub mod conical;
 pub mod conical_equalise;
+pub mod conical_lines;
 pub mod conical_sim;
 pub mod contact;
 pub mod decompose;

@@ -5,6 +5,7 @@
 mod conical;
 mod conical_envelope;
 mod conical_equalise;
+mod conical_lines;
 mod dressed_worm;
 mod envelope;
 mod topological_worm;
