@@ -125,6 +125,131 @@ pub struct StorageSection {
     /// Reconnect back-off to PostgreSQL.
     #[serde(default)]
     pub reconnect: Backoff,
+    /// TLS to the PostgreSQL server: `disable` (default), `require` or `verify-full`;
+    /// postgres only. Unset: the URL's `sslmode`, else `disable` ([`StorageSection::tls_mode`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tls: Option<TlsMode>,
+    /// PEM file of the CA(s) the server's certificate must chain to; required with
+    /// `tls = "verify-full"` and only allowed with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ca_file: Option<PathBuf>,
+}
+
+/// TLS to the PostgreSQL server, named as libpq's `sslmode` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TlsMode {
+    /// Plain TCP (the server and network are trusted).
+    #[default]
+    Disable,
+    /// Encrypted, but the server's certificate is not checked (as libpq's `require`):
+    /// protects against eavesdropping, not against an impostor server.
+    Require,
+    /// Encrypted; the server's certificate must chain to `storage.ca_file` and name the
+    /// host of `storage.url`.
+    VerifyFull,
+}
+
+impl TlsMode {
+    /// The name as written in the configuration (libpq's `sslmode` value).
+    pub fn name(self) -> &'static str {
+        match self {
+            TlsMode::Disable => "disable",
+            TlsMode::Require => "require",
+            TlsMode::VerifyFull => "verify-full",
+        }
+    }
+}
+
+/// Splits `sslmode` out of a PostgreSQL URL (`…?sslmode=x&…`) or key=value string
+/// (`… sslmode=x …`): the string without it, and its value if present (the last one
+/// wins, as in libpq).
+pub fn split_sslmode(url: &str) -> (String, Option<String>) {
+    let mut mode = None;
+    if url.starts_with("postgres://") || url.starts_with("postgresql://") {
+        let Some((base, query)) = url.split_once('?') else {
+            return (url.to_string(), None);
+        };
+        let kept: Vec<&str> = query
+            .split('&')
+            .filter(|kv| match kv.split_once('=') {
+                Some(("sslmode", v)) => {
+                    mode = Some(v.to_string());
+                    false
+                }
+                _ => true,
+            })
+            .collect();
+        return if kept.is_empty() {
+            (base.to_string(), mode)
+        } else {
+            (format!("{base}?{}", kept.join("&")), mode)
+        };
+    }
+    // key = value pairs; values may be single-quoted with backslash escapes.
+    let mut out = String::with_capacity(url.len());
+    let mut rest = url;
+    loop {
+        let trimmed = rest.trim_start();
+        if trimmed.is_empty() {
+            break;
+        }
+        let key_len = trimmed
+            .find(|c: char| c == '=' || c.is_whitespace())
+            .unwrap_or(trimmed.len());
+        let key = &trimmed[..key_len];
+        let after_key = trimmed[key_len..].trim_start();
+        let Some(after_eq) = after_key.strip_prefix('=') else {
+            // Malformed: leave the rest for the real parser to report.
+            push_pair(&mut out, trimmed);
+            break;
+        };
+        let value_start = after_eq.trim_start();
+        let (value, used) = if let Some(q) = value_start.strip_prefix('\'') {
+            let mut v = String::new();
+            let mut end = None;
+            let mut chars = q.char_indices();
+            while let Some((i, c)) = chars.next() {
+                match c {
+                    '\\' => {
+                        if let Some((_, n)) = chars.next() {
+                            v.push(n);
+                        }
+                    }
+                    '\'' => {
+                        end = Some(i + 1);
+                        break;
+                    }
+                    _ => v.push(c),
+                }
+            }
+            let Some(end) = end else {
+                push_pair(&mut out, trimmed);
+                break;
+            };
+            (v, 1 + end)
+        } else {
+            let n = value_start
+                .find(char::is_whitespace)
+                .unwrap_or(value_start.len());
+            (value_start[..n].to_string(), n)
+        };
+        let consumed = trimmed.len() - value_start.len() + used;
+        if key == "sslmode" {
+            mode = Some(value);
+        } else {
+            push_pair(&mut out, &trimmed[..consumed]);
+        }
+        rest = &trimmed[consumed..];
+    }
+    (out, mode)
+}
+
+fn push_pair(out: &mut String, pair: &str) {
+    if !out.is_empty() {
+        out.push(' ');
+    }
+    out.push_str(pair);
 }
 
 /// The database behind the record.
@@ -159,6 +284,8 @@ impl Default for StorageSection {
             password_env: None,
             buffer_records: default_buffer_records(),
             reconnect: Backoff::default(),
+            tls: None,
+            ca_file: None,
         }
     }
 }
@@ -544,6 +671,11 @@ impl ServiceConfig {
         if cfg.storage.path.is_relative() {
             cfg.storage.path = dir.join(&cfg.storage.path);
         }
+        if let Some(f) = &cfg.storage.ca_file {
+            if f.is_relative() {
+                cfg.storage.ca_file = Some(dir.join(f));
+            }
+        }
         if let Some(f) = &cfg.engine.file {
             if f.is_relative() {
                 cfg.engine.file = Some(dir.join(f));
@@ -746,8 +878,83 @@ impl ServiceConfig {
                     "a PostgreSQL URL, e.g. postgresql://gearcomp@db-host:5432/plant",
                 ));
             }
+            let mode = s.tls_mode()?;
+            match (mode, &s.ca_file) {
+                (TlsMode::VerifyFull, None) => {
+                    return Err(invalid(
+                        "storage.ca_file",
+                        "(missing)",
+                        "a PEM file of the CA that signed the server's certificate \
+                         (required with storage.tls = \"verify-full\")",
+                    ))
+                }
+                (TlsMode::Disable | TlsMode::Require, Some(f)) => {
+                    return Err(invalid(
+                        "storage.ca_file",
+                        format!("{:?}", f.display().to_string()),
+                        format!(
+                            "no ca_file with storage.tls = \"{}\" (the CA is only checked \
+                             with tls = \"verify-full\")",
+                            mode.name()
+                        ),
+                    ))
+                }
+                _ => {}
+            }
+        } else {
+            if let Some(t) = s.tls {
+                return Err(invalid(
+                    "storage.tls",
+                    format!("\"{}\"", t.name()),
+                    "no tls key with backend = \"sqlite\" (TLS is for a PostgreSQL server: \
+                     set storage.backend = \"postgres\")",
+                ));
+            }
+            if let Some(f) = &s.ca_file {
+                return Err(invalid(
+                    "storage.ca_file",
+                    format!("{:?}", f.display().to_string()),
+                    "no ca_file with backend = \"sqlite\" (TLS is for a PostgreSQL server: \
+                     set storage.backend = \"postgres\")",
+                ));
+            }
         }
         Ok(())
+    }
+}
+
+impl StorageSection {
+    /// The TLS mode in force: `storage.tls` if set, else the URL's `sslmode`, else
+    /// `disable`. Both set and different, or an `sslmode` gearcomp does not offer
+    /// (`prefer`, `allow`: TLS an attacker can strip; `verify-ca`), is an error.
+    pub fn tls_mode(&self) -> Result<TlsMode> {
+        let (_, url_mode) = split_sslmode(self.url.as_deref().unwrap_or_default());
+        let from_url = match url_mode.as_deref() {
+            None => None,
+            Some("disable") => Some(TlsMode::Disable),
+            Some("require") => Some(TlsMode::Require),
+            Some("verify-full") => Some(TlsMode::VerifyFull),
+            Some(other) => {
+                return Err(invalid(
+                    "storage.url",
+                    format!("sslmode={other}"),
+                    "sslmode=disable, require or verify-full (or no sslmode and storage.tls)",
+                ))
+            }
+        };
+        match (self.tls, from_url) {
+            (Some(t), Some(u)) if t != u => Err(invalid(
+                "storage.tls",
+                format!("\"{}\"", t.name()),
+                format!(
+                    "the same mode as sslmode={} in storage.url (remove one of the two)",
+                    u.name()
+                ),
+            )),
+            (Some(t), _) => Ok(t),
+            (None, Some(u)) => Ok(u),
+            (None, None) => Ok(TlsMode::Disable),
+        }
     }
 }
 
@@ -811,7 +1018,65 @@ mod tests {
         assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
     }
 
+    #[test]
+    fn sslmode_is_split_out_of_urls_and_key_value_strings() {
+        let u = "postgresql://gc:pw@db:5432/plant";
+        assert_eq!(
+            split_sslmode(&format!("{u}?sslmode=verify-full")),
+            (u.to_string(), Some("verify-full".into()))
+        );
+        assert_eq!(
+            split_sslmode(&format!(
+                "{u}?connect_timeout=3&sslmode=require&application_name=x"
+            )),
+            (
+                format!("{u}?connect_timeout=3&application_name=x"),
+                Some("require".into())
+            )
+        );
+        assert_eq!(split_sslmode(u), (u.to_string(), None));
+        assert_eq!(
+            split_sslmode("host=db sslmode = 'verify-full' password='a sslmode=x\\' b' dbname=p"),
+            (
+                "host=db password='a sslmode=x\\' b' dbname=p".to_string(),
+                Some("verify-full".into())
+            )
+        );
+        assert_eq!(
+            split_sslmode("host=db dbname=p"),
+            ("host=db dbname=p".into(), None)
+        );
+    }
+
+    #[test]
+    fn tls_mode_follows_the_key_then_the_url_and_refuses_contradictions() {
+        let mut s = StorageSection {
+            backend: StorageBackend::Postgres,
+            url: Some("postgresql://gc@db/plant?sslmode=require".into()),
+            ..StorageSection::default()
+        };
+        assert_eq!(s.tls_mode().unwrap(), TlsMode::Require);
+        s.tls = Some(TlsMode::Require);
+        assert_eq!(s.tls_mode().unwrap(), TlsMode::Require);
+        s.tls = Some(TlsMode::VerifyFull);
+        let e = s.tls_mode().unwrap_err().to_string();
+        assert!(
+            e.contains("storage.tls") && e.contains("sslmode=require"),
+            "{e}"
+        );
+        s.url = Some("postgresql://gc@db/plant".into());
+        assert_eq!(s.tls_mode().unwrap(), TlsMode::VerifyFull);
+        s.tls = None;
+        assert_eq!(s.tls_mode().unwrap(), TlsMode::Disable);
+    }
+
     proptest! {
+        #[test]
+        fn split_sslmode_never_panics(s in "\\PC{0,200}") {
+            let _ = split_sslmode(&s);
+            let _ = split_sslmode(&format!("postgresql://h/d?{s}"));
+        }
+
         #[test]
         fn never_panics_on_any_text(s in "\\PC{0,200}") {
             let _ = ServiceConfig::from_toml_str(&s, "p");

@@ -84,6 +84,15 @@ pub enum ServiceError {
     #[cfg(feature = "postgres")]
     #[error("postgresql: {0}")]
     Postgres(#[from] postgres::Error),
+    /// The first connection to the record failed (server down, refused login, or TLS:
+    /// certificate not trusted, name mismatch, server without TLS).
+    #[error("cannot connect to {store}: {cause}")]
+    Connect {
+        /// The store and its TLS mode (no password).
+        store: String,
+        /// The error with its causes (e.g. why the TLS handshake failed).
+        cause: String,
+    },
 }
 
 /// Builds [`ServiceError::Invalid`].

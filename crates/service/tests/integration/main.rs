@@ -14,5 +14,6 @@ mod mqtt_reconnect;
 mod opcua;
 mod postgres;
 mod postgres_kill;
+mod postgres_tls;
 mod replay;
 mod storage;

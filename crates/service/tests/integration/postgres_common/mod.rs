@@ -59,6 +59,16 @@ pub struct PgServer {
     bin: PathBuf,
     dir: tempfile::TempDir,
     child: Option<(Child, ChildStdin)>,
+    /// Extra `-c name=value` settings (e.g. `ssl=on`).
+    settings: Vec<String>,
+}
+
+/// The server's TLS certificate chain and private key (PEM), for [`PgServer::try_start_tls`].
+pub struct ServerTls {
+    /// Certificate (chain) PEM.
+    pub cert_pem: String,
+    /// Private key PEM.
+    pub key_pem: String,
 }
 
 impl PgServer {
@@ -69,6 +79,16 @@ impl PgServer {
 
     /// As [`PgServer::start`], returning why it could not start.
     pub fn try_start() -> Result<Self, String> {
+        Self::try_start_with(None)
+    }
+
+    /// As [`PgServer::try_start`] with `ssl = on` and this certificate and key (written in
+    /// the server's folder, mode 0600, owned by the server's user as PostgreSQL demands).
+    pub fn try_start_tls(tls: ServerTls) -> Result<Self, String> {
+        Self::try_start_with(Some(tls))
+    }
+
+    fn try_start_with(tls: Option<ServerTls>) -> Result<Self, String> {
         let bin = find_bin_dir().ok_or(
             "PostgreSQL's initdb was not found on PATH or in /usr/lib/postgresql/*/bin: \
              run .ci/run, it installs postgresql",
@@ -77,6 +97,19 @@ impl PgServer {
             .prefix("gearcomp-pg-")
             .tempdir()
             .map_err(|e| e.to_string())?;
+        let mut settings = Vec::new();
+        if let Some(t) = tls {
+            use std::os::unix::fs::PermissionsExt;
+            let cert = dir.path().join("server.crt");
+            let key = dir.path().join("server.key");
+            std::fs::write(&cert, t.cert_pem).map_err(|e| e.to_string())?;
+            std::fs::write(&key, t.key_pem).map_err(|e| e.to_string())?;
+            std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o600))
+                .map_err(|e| e.to_string())?;
+            settings.push("ssl=on".to_string());
+            settings.push(format!("ssl_cert_file={}", cert.display()));
+            settings.push(format!("ssl_key_file={}", key.display()));
+        }
         if is_root() {
             let ok = Command::new("chown")
                 .args(["-R", "postgres:postgres"])
@@ -109,6 +142,7 @@ impl PgServer {
             bin,
             dir,
             child: None,
+            settings,
         };
         s.launch()?;
         Ok(s)
@@ -116,9 +150,10 @@ impl PgServer {
 
     fn launch(&mut self) -> Result<(), String> {
         let data = self.dir.path().join("data");
+        let extra: String = self.settings.iter().map(|s| format!(" -c '{s}'")).collect();
         let script = format!(
             "'{}' -D '{}' -k '{}' -p {} -c listen_addresses=127.0.0.1 -c max_connections=50 \
-             -c shared_buffers=32MB & pid=$!; read _; kill -INT $pid; wait $pid",
+             -c shared_buffers=32MB{extra} & pid=$!; read _; kill -INT $pid; wait $pid",
             self.bin.join("postgres").display(),
             data.display(),
             self.dir.path().display(),
