@@ -4,6 +4,7 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[cfg(feature = "postgres")]
 mod postgres_common;
 
 mod dashboard_browser;
