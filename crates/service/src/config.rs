@@ -119,7 +119,7 @@ pub struct StorageSection {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub password_env: Option<String>,
     /// Records held in memory while PostgreSQL is unreachable, 1000…100 000 000 (about
-    /// 64 bytes each); beyond it raw samples are dropped with an alarm (docs/service.md).
+    /// 64 bytes each); beyond it records go to the spill file `spill_path` (docs/service.md).
     #[serde(default = "default_buffer_records")]
     pub buffer_records: u64,
     /// Reconnect back-off to PostgreSQL.
@@ -133,6 +133,11 @@ pub struct StorageSection {
     /// `tls = "verify-full"` and only allowed with it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ca_file: Option<PathBuf>,
+    /// Local SQLite file taking the records beyond `buffer_records` while PostgreSQL is
+    /// unreachable (postgres only). Unset: `gearcomp-spill-<machine>.db` in the folder of
+    /// the configuration file ([`StorageSection::spill_file`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spill_path: Option<PathBuf>,
 }
 
 /// TLS to the PostgreSQL server, named as libpq's `sslmode` values.
@@ -286,6 +291,7 @@ impl Default for StorageSection {
             reconnect: Backoff::default(),
             tls: None,
             ca_file: None,
+            spill_path: None,
         }
     }
 }
@@ -676,6 +682,12 @@ impl ServiceConfig {
                 cfg.storage.ca_file = Some(dir.join(f));
             }
         }
+        if cfg.storage.backend == StorageBackend::Postgres {
+            let f = cfg.storage.spill_file(&cfg.machine.name);
+            if f.is_relative() {
+                cfg.storage.spill_path = Some(dir.join(f));
+            }
+        }
         if let Some(f) = &cfg.engine.file {
             if f.is_relative() {
                 cfg.engine.file = Some(dir.join(f));
@@ -878,6 +890,15 @@ impl ServiceConfig {
                     "a PostgreSQL URL, e.g. postgresql://gearcomp@db-host:5432/plant",
                 ));
             }
+            if let Some(f) = &s.spill_path {
+                if f.as_os_str().is_empty() || f.is_dir() {
+                    return Err(invalid(
+                        "storage.spill_path",
+                        format!("{:?}", f.display().to_string()),
+                        "a file path for the local spill database (not empty, not a folder)",
+                    ));
+                }
+            }
             let mode = s.tls_mode()?;
             match (mode, &s.ca_file) {
                 (TlsMode::VerifyFull, None) => {
@@ -918,12 +939,29 @@ impl ServiceConfig {
                      set storage.backend = \"postgres\")",
                 ));
             }
+            if let Some(f) = &s.spill_path {
+                return Err(invalid(
+                    "storage.spill_path",
+                    format!("{:?}", f.display().to_string()),
+                    "no spill_path with backend = \"sqlite\" (the spill file holds what a \
+                     PostgreSQL server could not take: set storage.backend = \"postgres\")",
+                ));
+            }
         }
         Ok(())
     }
 }
 
 impl StorageSection {
+    /// The spill file: `spill_path`, else `gearcomp-spill-<machine>.db` (machine names are
+    /// letters, digits, `-` and `_`, safe in a file name) in the working directory;
+    /// [`ServiceConfig::load`] puts it in the configuration file's folder.
+    pub fn spill_file(&self, machine: &str) -> PathBuf {
+        self.spill_path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(format!("gearcomp-spill-{machine}.db")))
+    }
+
     /// The TLS mode in force: `storage.tls` if set, else the URL's `sslmode`, else
     /// `disable`. Both set and different, or an `sslmode` gearcomp does not offer
     /// (`prefer`, `allow`: TLS an attacker can strip; `verify-ca`), is an error.

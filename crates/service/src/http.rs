@@ -211,6 +211,7 @@ async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
             "reachable": !st.stats.unreachable.load(Ordering::Acquire),
             "buffered_records": st.stats.buffered_records.load(Ordering::Acquire),
             "dropped_records": st.stats.dropped_records.load(Ordering::Acquire),
+            "spilled_records": st.stats.spilled_records.load(Ordering::Acquire),
         },
         "stop": l.stop,
         "axes": l.axes,

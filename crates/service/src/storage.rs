@@ -130,6 +130,8 @@ pub struct StoreStats {
     pub buffered_records: AtomicU64,
     /// Records dropped because the memory buffer was full (raw samples first; alarmed).
     pub dropped_records: AtomicU64,
+    /// Records waiting in the local spill file for PostgreSQL (`storage.spill_path`).
+    pub spilled_records: AtomicU64,
 }
 
 const SCHEMA: &str = "

@@ -13,11 +13,14 @@
 //! * **Connection loss**: records wait in memory, in arrival order, while the writer
 //!   reconnects with the back-off of `storage.reconnect`; the alarm `storage.connection`
 //!   is raised at the first failure and cleared when the buffer is written. The buffer is
-//!   bounded by `storage.buffer_records`: beyond it new *raw samples* are dropped (counted,
-//!   alarm `storage.buffer_full`, and a `storage.records_dropped` alarm naming how many and
+//!   bounded by `storage.buffer_records`: beyond it records go to the local spill file
+//!   (`storage.spill_path`, [`spill`]), and every newer one too until it has drained, so
+//!   the order is kept; alarm `storage.spilling` while records are in it. Only if the
+//!   spill cannot be written are new *raw samples* dropped (counted, alarm
+//!   `storage.buffer_full`, and a `storage.records_dropped` alarm naming how many and
 //!   when); averages, offsets, targets and alarms, what the export and the audit need,
-//!   are still kept up to twice the bound, then dropped and counted the same way. The
-//!   compensation itself never waits for the database.
+//!   are then still kept up to twice the bound. A clean stop with the server still down
+//!   puts what is in memory into the spill. The compensation never waits for the database.
 //! * **One writer per machine**: the writer holds a session advisory lock on its machine
 //!   id, so a second `gearcomp serve` with the same machine name is refused.
 //! * **TLS** (`storage.tls`): rustls with the *ring* provider, no system library. Every
@@ -25,7 +28,10 @@
 //!   encrypts without checking the certificate (libpq's `require`), `verify-full` checks
 //!   the chain to `storage.ca_file` and the host name.
 
+mod spill;
+
 use std::collections::VecDeque;
+use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -50,6 +56,7 @@ use super::{
 };
 use crate::config::{split_sslmode, Backoff, ServiceConfig, TlsMode};
 use crate::error::{invalid, Result, ServiceError};
+use spill::Spill;
 
 /// Schema version this build writes.
 pub const SCHEMA_VERSION: i32 = 1;
@@ -322,6 +329,8 @@ pub struct PgStore {
     target: Target,
     buffer_records: u64,
     reconnect: Backoff,
+    /// The local spill file (`storage.spill_path`).
+    spill_path: PathBuf,
     /// Idle read connections, reused by the API's queries.
     pool: Mutex<Vec<Client>>,
 }
@@ -480,6 +489,7 @@ impl PgStore {
             },
             buffer_records: cfg.storage.buffer_records,
             reconnect: cfg.storage.reconnect,
+            spill_path: cfg.storage.spill_file(&cfg.machine.name),
             pool: Mutex::new(vec![client]),
         })
     }
@@ -595,7 +605,9 @@ impl Store for PgStore {
     }
 
     fn last_time_s(&self) -> Result<f64> {
-        self.with(|c, mid| {
+        // Records still in the spill file are later than anything in the database.
+        let spilled = spill::max_time_s(&self.spill_path)?.unwrap_or(f64::NEG_INFINITY);
+        let db = self.with(|c, mid| {
             let mut t = f64::NEG_INFINITY;
             for table in ["samples", "averages", "offsets", "target_values", "alarms"] {
                 let row = c.query_one(
@@ -607,7 +619,8 @@ impl Store for PgStore {
                 }
             }
             Ok(t)
-        })
+        })?;
+        Ok(db.max(spilled))
     }
 
     fn close_stale_alarms(&self, time_s: f64) -> Result<()> {
@@ -844,11 +857,34 @@ impl Store for PgStore {
             full_alarm: false,
             dropped: 0,
             dropped_from_s: 0.0,
+            spill: Spill::new(self.spill_path.clone(), self.target.machine.clone()),
+            spilling: false,
+            spill_alarm: false,
+            spill_failed: false,
+            spill_error: String::new(),
+            loaded: None,
             params,
             stats,
         };
         // Take the writer's lock now so a second service for this machine fails at start.
         w.connect_locked(Duration::from_secs(5))?;
+        // A spill left by a process that ended during an outage goes in before anything new.
+        let left = w.spill.resume(w.last_batch)?;
+        if left > 0 {
+            w.spilling = true;
+            let now = w.params.clock.now_s();
+            // Alarms the earlier process raised in the spill and never cleared.
+            for key in w.spill.open_alarm_keys()? {
+                w.spill.stage(Record::AlarmCleared { time_s: now, key });
+            }
+            w.raise_spilling(format!(
+                "{left} records left in the spill file {} by an earlier run are written to {} \
+                 before new ones",
+                w.spill.path().display(),
+                w.target.describe
+            ));
+        }
+        w.publish();
         std::thread::Builder::new()
             .name("gearcomp-store".into())
             .spawn(move || w.run(rx))
@@ -866,6 +902,8 @@ struct Attempt {
     batch: i64,
     records: usize,
     samples: u64,
+    /// The chunk is spilled rows up to this `seq` (deleted from the file once committed).
+    spill_upto: Option<i64>,
 }
 
 /// The writer thread's state: the connection (if any), the records waiting, the counters.
@@ -887,6 +925,18 @@ struct Writer {
     full_alarm: bool,
     dropped: u64,
     dropped_from_s: f64,
+    /// The local file taking records beyond the bound.
+    spill: Spill,
+    /// True from the first spilled record until the spill is written: every newer record
+    /// goes to the spill too, so the arrival order is kept.
+    spilling: bool,
+    spill_alarm: bool,
+    /// The spill could not be written: records beyond the bound are dropped as without
+    /// a spill until it has drained.
+    spill_failed: bool,
+    spill_error: String,
+    /// `pending` holds spilled rows up to this `seq`, loaded to be written.
+    loaded: Option<i64>,
     params: WriterParams,
     stats: Arc<StoreStats>,
 }
@@ -941,6 +991,13 @@ impl Writer {
 
     fn committed(&mut self, a: Attempt) {
         self.pending.drain(..a.records.min(self.pending.len()));
+        if let Some(upto) = a.spill_upto {
+            self.loaded = None;
+            // Only now that PostgreSQL has them; a failed delete is settled at next start.
+            if let Err(e) = self.spill.delete_upto(upto) {
+                eprintln!("gearcomp serve: {e}");
+            }
+        }
         self.next_id += a.samples;
         self.stats.commits.fetch_add(1, Ordering::Relaxed);
         if a.samples > 0 {
@@ -955,22 +1012,58 @@ impl Writer {
     }
 
     fn publish(&self) {
+        // A chunk loaded from the spill is counted there, not twice.
+        let memory = if self.loaded.is_some() {
+            0
+        } else {
+            self.pending.len()
+        };
         self.stats
             .buffered_records
-            .store(self.pending.len() as u64, Ordering::Release);
+            .store(memory as u64, Ordering::Release);
+        self.stats
+            .spilled_records
+            .store(self.spill.len(), Ordering::Release);
     }
 
-    /// Takes one record into the buffer, or drops it (counted, alarmed) when full.
+    /// Takes one record: into the memory buffer, beyond its bound into the spill file
+    /// (and every later one too while anything is spilled), or, if the spill cannot be
+    /// written, drops it (counted, alarmed).
     fn push(&mut self, r: Record) {
+        if self.spilling && !self.spill_failed {
+            self.spill.stage(r);
+            return;
+        }
         let cap = if matches!(r, Record::Sample { .. }) {
             self.bound
         } else {
             self.bound.saturating_mul(2)
         };
+        if self.spilling {
+            // The spill failed while older records wait in it: a sample kept in memory
+            // would get an id before them, so samples are dropped; the rest (ordered by
+            // time in every query) is kept.
+            if !matches!(r, Record::Sample { .. }) && self.pending.len() < cap {
+                self.pending.push_back(r);
+            } else {
+                self.drop_record();
+            }
+            return;
+        }
         if self.pending.len() < cap {
             self.pending.push_back(r);
             return;
         }
+        if !self.spill_failed {
+            self.spilling = true;
+            self.spill.stage(r);
+            return;
+        }
+        self.drop_record();
+    }
+
+    /// Counts one dropped record and raises `storage.buffer_full` at the first.
+    fn drop_record(&mut self) {
         let now = self.params.clock.now_s();
         if self.dropped == 0 {
             self.dropped_from_s = now;
@@ -980,11 +1073,14 @@ impl Writer {
         if !self.full_alarm {
             self.full_alarm = true;
             let message = format!(
-                "storage.buffer_records = {} reached while {} is unreachable: new raw samples \
-                 are dropped (counted in /api/status dropped_records); averages, offsets and \
-                 alarms are kept up to {} records",
+                "storage.buffer_records = {} reached while {} is unreachable and the spill \
+                 file {} cannot be written ({}): new raw samples are dropped (counted in \
+                 /api/status dropped_records); averages, offsets and alarms are kept up to {} \
+                 records",
                 self.bound,
                 self.target.describe,
+                self.spill.path().display(),
+                self.spill_error,
                 self.bound.saturating_mul(2)
             );
             eprintln!("gearcomp serve: {message}");
@@ -994,6 +1090,104 @@ impl Writer {
                 message,
             });
         }
+    }
+
+    /// Raises `storage.spilling` (in memory, ahead of the spill: alarms are few).
+    fn raise_spilling(&mut self, message: String) {
+        self.spill_alarm = true;
+        eprintln!("gearcomp serve: {message}");
+        self.pending.push_back(Record::AlarmRaised {
+            time_s: self.params.clock.now_s(),
+            key: "storage.spilling".into(),
+            message,
+        });
+    }
+
+    /// Commits the staged spill records to the file; if that fails they are handled as
+    /// without a spill (samples dropped and counted, the rest kept in memory).
+    fn commit_spill(&mut self) {
+        if self.spill.staged() == 0 {
+            return;
+        }
+        match self.spill.commit() {
+            Ok(()) => {
+                if !self.spill_alarm {
+                    let message = format!(
+                        "storage.buffer_records = {} reached while {} is unreachable: newer \
+                         records go to the spill file {} ({} so far; /api/status \
+                         storage.spilled_records counts them) and are written in order when \
+                         the server is back",
+                        self.bound,
+                        self.target.describe,
+                        self.spill.path().display(),
+                        self.spill.len()
+                    );
+                    self.raise_spilling(message);
+                }
+            }
+            Err((e, records)) => {
+                self.spill_failed = true;
+                eprintln!("gearcomp serve: spill failed: {e}");
+                self.spill_error = e;
+                for r in records {
+                    if !matches!(r, Record::Sample { .. })
+                        && self.pending.len() < self.bound.saturating_mul(2)
+                    {
+                        self.pending.push_back(r);
+                    } else {
+                        self.drop_record();
+                    }
+                }
+                if self.spill.is_empty() {
+                    self.spilling = false;
+                }
+            }
+        }
+        self.publish();
+    }
+
+    /// When memory is written and records wait in the spill: loads the next chunk of
+    /// them into `pending`, or, once the spill is empty, ends spilling.
+    fn next_from_spill(&mut self) {
+        self.commit_spill();
+        if !self.spilling {
+            return;
+        }
+        match self.spill.load(CHUNK_RECORDS) {
+            Ok(Some((records, upto))) => {
+                self.pending.extend(records);
+                self.loaded = Some(upto);
+            }
+            Ok(None) if self.spill_failed => {
+                // Nothing readable left: back to memory (records staged meanwhile were
+                // handled by `commit_spill`).
+                self.spilling = false;
+            }
+            Ok(None) => {
+                self.spilling = false;
+                self.spill_failed = false;
+                if self.spill_alarm {
+                    self.spill_alarm = false;
+                    eprintln!(
+                        "gearcomp serve: spill file {} written to {}",
+                        self.spill.path().display(),
+                        self.target.describe
+                    );
+                    self.pending.push_back(Record::AlarmCleared {
+                        time_s: self.params.clock.now_s(),
+                        key: "storage.spilling".into(),
+                    });
+                }
+            }
+            Err(e) => {
+                // Rows that cannot be read stay in the file for the next start.
+                eprintln!("gearcomp serve: {e}");
+                self.spill_failed = true;
+                self.spill_error = e.to_string();
+                self.spilling = false;
+            }
+        }
+        self.publish();
     }
 
     /// Clears the buffer-full alarm once the buffer has drained, leaving a record of what
@@ -1044,8 +1238,9 @@ impl Writer {
                 self.target.describe, self.backoff.min_s, self.backoff.max_s, self.bound
             );
             eprintln!("gearcomp serve: {message}");
-            self.pending.push_back(Record::AlarmRaised {
-                time_s: self.params.clock.now_s(),
+            let time_s = self.params.clock.now_s();
+            self.push(Record::AlarmRaised {
+                time_s,
                 key: "storage.connection".into(),
                 message,
             });
@@ -1060,14 +1255,20 @@ impl Writer {
             // The alarms that closing an outage adds are written in the same flush.
         }
         self.publish();
-        self.pending.is_empty()
+        self.pending.is_empty() && !self.spilling
     }
 
     /// Writes every waiting chunk. Returns false when the alarms closing an outage were
     /// added (call again to write them), true otherwise, also when the store is
     /// unreachable (the records stay, in order).
     fn write_pending(&mut self) -> bool {
-        while !self.pending.is_empty() {
+        loop {
+            if self.pending.is_empty() && self.spilling {
+                self.next_from_spill();
+            }
+            if self.pending.is_empty() {
+                break;
+            }
             if self.client.is_none() {
                 if Instant::now() < self.retry_at {
                     return true;
@@ -1092,7 +1293,14 @@ impl Writer {
                 batch,
                 records: n,
                 samples,
+                spill_upto: self.loaded,
             };
+            if let Some(upto) = self.loaded {
+                // Recorded before sending, so a crash in between is settled at next start.
+                if let Err(e) = self.spill.mark_in_flight(batch, upto) {
+                    eprintln!("gearcomp serve: {e}");
+                }
+            }
             self.attempted = Some(a);
             match write_chunk(
                 client,
@@ -1134,10 +1342,19 @@ impl Writer {
     fn run(mut self, rx: Receiver<Record>) -> Result<()> {
         let mut oldest: Option<Instant> = None;
         loop {
-            let due = match (oldest, self.client.is_some()) {
+            let db_due = match (oldest, self.client.is_some()) {
                 (None, _) => None,
                 (Some(t), true) => Some(t + self.params.commit_interval),
                 (Some(t), false) => Some(self.retry_at.max(t + self.params.commit_interval)),
+            };
+            // The spill file commits at the same cadence, whether or not the server is up.
+            let spill_due = self
+                .spill
+                .staged_since
+                .map(|t| t + self.params.commit_interval);
+            let due = match (db_due, spill_due) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
             };
             let got = match due {
                 None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
@@ -1154,8 +1371,9 @@ impl Writer {
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
+            self.commit_spill();
             self.flush();
-            if self.pending.is_empty() {
+            if self.pending.is_empty() && !self.spilling {
                 oldest = None;
             } else {
                 // Unwritten records (or the alarms the flush itself added) stay due.
@@ -1172,14 +1390,49 @@ impl Writer {
                 .saturating_duration_since(Instant::now());
             std::thread::sleep(wait.max(Duration::from_millis(10)));
         }
-        if self.pending.is_empty() {
-            Ok(())
+        if self.pending.is_empty() && !self.spilling {
+            return Ok(());
+        }
+        self.commit_spill();
+        if self.loaded.is_some() {
+            // A chunk read from the spill: it is still in the file.
+            self.pending.clear();
+        }
+        let memory: Vec<Record> = self.pending.drain(..).collect();
+        let in_doubt = self
+            .attempted
+            .filter(|a| a.spill_upto.is_none())
+            .map(|a| (a.batch, a.records));
+        let kept = if self.spill_failed && !memory.is_empty() {
+            Err(invalid(
+                "storage.spill_path",
+                self.spill.path().display(),
+                "writable",
+            ))
         } else {
-            Err(ServiceError::Unflushed {
-                records: self.pending.len() as u64,
+            self.spill.prepend(&memory, in_doubt)
+        };
+        match kept {
+            Ok(()) if self.spill.staged() == 0 => {
+                eprintln!(
+                    "gearcomp serve: {} unreachable at stop; {} records kept in the spill file \
+                     {}, written at the next start",
+                    self.target.describe,
+                    self.spill.len(),
+                    self.spill.path().display()
+                );
+                Ok(())
+            }
+            Ok(()) => Err(ServiceError::Unflushed {
+                records: self.spill.staged() as u64,
                 store: self.target.describe.clone(),
-                cause: self.last_error.clone(),
-            })
+                cause: format!("{}; {}", self.last_error, self.spill_error),
+            }),
+            Err(e) => Err(ServiceError::Unflushed {
+                records: (memory.len() + self.spill.staged()) as u64,
+                store: self.target.describe.clone(),
+                cause: format!("{}; the spill file too: {e}", self.last_error),
+            }),
         }
     }
 }

@@ -15,6 +15,7 @@ mod mqtt_reconnect;
 mod opcua;
 mod postgres;
 mod postgres_kill;
+mod postgres_spill;
 mod postgres_tls;
 mod replay;
 mod storage;

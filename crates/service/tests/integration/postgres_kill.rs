@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use gearcomp_service::{serve, Overrides, ServiceConfig};
 use postgres_common::PgServer;
 
-const CHILD_ENV: &str = "GEARCOMP_PG_CHILD";
+pub(crate) const CHILD_ENV: &str = "GEARCOMP_PG_CHILD";
 
 /// In the child process: the service from the configuration file named by the variable.
 #[test]
@@ -38,16 +38,16 @@ fn child_service() {
     .unwrap();
 }
 
-struct Served {
-    child: Child,
+pub(crate) struct Served {
+    pub(crate) child: Child,
     base: String,
-    read_only: Option<String>,
+    pub(crate) read_only: Option<String>,
     _lines: Receiver<String>,
 }
 
 // The child is handed back to the caller, which waits on it.
 #[allow(clippy::zombie_processes)]
-fn spawn(cfg: &std::path::Path, duration_s: Option<f64>) -> Served {
+pub(crate) fn spawn(cfg: &std::path::Path, duration_s: Option<f64>) -> Served {
     let mut cmd = Command::new(std::env::current_exe().unwrap());
     cmd.args([
         "--exact",
@@ -94,7 +94,7 @@ fn spawn(cfg: &std::path::Path, duration_s: Option<f64>) -> Served {
     }
 }
 
-fn status(s: &Served, token: &str) -> serde_json::Value {
+pub(crate) fn status(s: &Served, token: &str) -> serde_json::Value {
     reqwest::blocking::Client::new()
         .get(format!("{}/api/status", s.base))
         .bearer_auth(token)
