@@ -1,9 +1,7 @@
 //! `gearcomp dress` end to end: design, solve (ERRATA §1 G1-Z5 reference), plan, errors.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common;
-
-use common::{gearcomp, write_config};
+use crate::common::{gearcomp, write_config};
 
 fn write_config_here(name: &str, text: &str) -> PathBuf {
     write_config("dress", name, "dress.toml", text)

@@ -2,9 +2,7 @@
 //! test D5) and the zero-stretch profile angle of `dress plan` (claim 2, test F3).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common;
-
-use common::{gearcomp, write_config};
+use crate::common::{gearcomp, write_config};
 
 fn write_config_here(name: &str, text: &str) -> PathBuf {
     write_config("dress-cp", name, "dress.toml", text)

@@ -3,9 +3,7 @@
 //! against the ERRATA §1 root where the wanted crowning is that of ERRATA §1 (0.2 µm, G1-Z5).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common;
-
-use common::{gearcomp, write_config};
+use crate::common::{gearcomp, write_config};
 
 fn write_config_here(name: &str, text: &str) -> PathBuf {
     write_config("dress-topo", name, "dress.toml", text)

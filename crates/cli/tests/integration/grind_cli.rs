@@ -3,7 +3,7 @@
 //! digest's analytic mapping.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common::{gearcomp_cmd as gearcomp, gearcomp_json};
+use crate::common::{gearcomp_cmd as gearcomp, gearcomp_json, T8_WORM_ARGS};
 
 /// The example gear (z2 = 31, m_n = 3, α_n = 20°, β = 15°) and worm (z1 = 1, r1 = 130 mm) are
 /// the defaults; this grid puts the T8 points on grid nodes.
@@ -32,22 +32,7 @@ fn at(v: &serde_json::Value, key: &str, w: f64, z: f64) -> f64 {
 /// values vs the digest (ERRATA §7 last column), contact path and K as in digest §9.2–9.3.
 #[test]
 fn grind_simulate_t8_matches_reference_envelope() {
-    let v = json(&[
-        "grind",
-        "simulate",
-        "--worm-rho-deg",
-        "20",
-        "--gear-rho-deg",
-        "45",
-        "--shift-offset-mm",
-        "5",
-        "--worm-c",
-        "0,0.1,0.02",
-        "--worm-l",
-        "0,0.01",
-        "--worm-q",
-        "-0.03",
-    ]);
+    let v = json(&[&["grind", "simulate"][..], &T8_WORM_ARGS[..]].concat());
     assert!((v["diagonal_ratio"].as_f64().unwrap() + 0.877178).abs() < 1e-6);
     assert!((v["path"]["c_w2"].as_f64().unwrap() - 0.250739).abs() < 1e-6);
     assert!((v["path"]["r7_sum_mm"].as_f64().unwrap() - 397.213083).abs() < 1e-6);

@@ -6,30 +6,11 @@
 //! computed here from the rack geometry.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common::{gearcomp, gearcomp_json, write_config};
+use crate::common::{gearcomp, gearcomp_json, write_config, T8_WORM_ARGS};
 
 /// Reference example of digest §9.2 (defaults: z2 = 31, m_n = 3, α_n = 20°, β = 15°,
 /// z1 = 1, r1 = 130 mm, b = 30 mm), roll range 11…23 mm.
 const ROLL: [&str; 4] = ["--roll-start-mm", "11", "--roll-end-mm", "23"];
-
-/// The T8 worm of digest §9.3 (ρ_F1 = 20°, K for ρ_F2 = 45°, z_V01 = 5 mm).
-const T8: [&str; 14] = [
-    "--worm-rho-deg",
-    "20",
-    "--gear-rho-deg",
-    "45",
-    "--shift-offset-mm",
-    "5",
-    "--worm-c",
-    "0,0.1,0.02",
-    "--worm-l",
-    "0,0.01",
-    "--worm-q",
-    "-0.03",
-    // 7 × 11 nodes: w = 11, 13, …, 23 and z = −15, −12, …, 15 hold (15, 0) and (21, 12)
-    "--grid-w",
-    "7",
-];
 
 fn run_ok(args: &[&str]) -> Vec<u8> {
     let out = gearcomp(args);
@@ -77,7 +58,9 @@ fn all_values(v: &serde_json::Value, key: &str) -> Vec<f64> {
 fn t8_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     let mut a = vec!["grind", "simulate"];
     a.extend(ROLL);
-    a.extend(T8);
+    a.extend(T8_WORM_ARGS);
+    // 7 × 11 nodes: w = 11, 13, …, 23 and z = −15, −12, …, 15 hold (15, 0) and (21, 12)
+    a.extend(["--grid-w", "7"]);
     a.extend(["--grid-z", "11"]);
     a.extend(extra);
     a

@@ -69,3 +69,20 @@ pub fn assert_grinder_law(db: &Path) {
         assert!((law - -3.75 * (a - b)).abs() < 1e-9, "{law} vs {a} {b}");
     }
 }
+
+/// The T8 worm and feeds of digest §9.3 for `gearcomp grind simulate`: ρ_F1 = 20°, K for
+/// ρ_F2 = 45°, z_V01 = 5 mm, worm modification C = (0, 0.1, 0.02), L = (0, 0.01), Q = −0.03.
+pub const T8_WORM_ARGS: [&str; 12] = [
+    "--worm-rho-deg",
+    "20",
+    "--gear-rho-deg",
+    "45",
+    "--shift-offset-mm",
+    "5",
+    "--worm-c",
+    "0,0.1,0.02",
+    "--worm-l",
+    "0,0.01",
+    "--worm-q",
+    "-0.03",
+];
