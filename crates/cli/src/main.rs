@@ -5,7 +5,7 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod cmd_demo;
 mod cmd_dress;
@@ -52,7 +52,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    quiet_on_closed_stdout();
+    let matches = accept_negative_values(Cli::command()).get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Gear(a) => cmd_gear::run(a),
         Command::Demo(a) => cmd_demo::run(a),
@@ -80,4 +85,56 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         c.downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
+}
+
+/// Lets every option that takes a value accept a negative one as the next word
+/// (`--helix -30`, `--worm-l -13.4,0.25`), not only as `--helix=-30`.
+///
+/// A single value accepts a word that is a number (`-30`, `-1.5e-3`); clap then never reads it
+/// as a short flag. A comma-separated list accepts any word starting with a hyphen, so that
+/// `-13.4,0.25` is a value; a missing value (`--worm-l --json`) then fails as "invalid value
+/// '--json' for '--worm-l'" instead of being taken for the next option, which names the option
+/// all the same. Applied to every subcommand, so a new option gets it without a word of its own.
+fn accept_negative_values(cmd: clap::Command) -> clap::Command {
+    let cmd = cmd.mut_args(|arg| {
+        if arg.is_positional() || !arg.get_action().takes_values() {
+            arg
+        } else if arg.get_value_delimiter().is_some() {
+            arg.allow_hyphen_values(true)
+        } else {
+            arg.allow_negative_numbers(true)
+        }
+    });
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|sub| sub.get_name().to_owned())
+        .collect();
+    names.into_iter().fold(cmd, |cmd, name| {
+        cmd.mut_subcommand(name, accept_negative_values)
+    })
+}
+
+/// A reader that closes the pipe early (`gearcomp grind simulate --json | head -1`, `| true`)
+/// ends the program quietly, as it ends `cat` or `grep`.
+///
+/// Rust ignores SIGPIPE, so `println!` to a closed pipe panics with "failed printing to stdout:
+/// Broken pipe" (exit 101 and a panic message). Output written with `write!` already returns the
+/// error, which `main` maps to exit 0 (`is_broken_pipe`); for `print!`/`println!` this hook ends
+/// the process with exit 0 instead of the panic report. Every other panic keeps the default
+/// report.
+fn quiet_on_closed_stdout() {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        // std's message: "failed printing to stdout: Broken pipe (os error 32)".
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default_hook(info);
+    }));
 }

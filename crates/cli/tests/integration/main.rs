@@ -14,6 +14,7 @@ mod grind_cli;
 mod grind_conical_cli;
 mod grind_dressed;
 mod grind_equalise;
+mod output_cli;
 mod replay_cli;
 mod serve_cli;
 mod serve_many_cli;
