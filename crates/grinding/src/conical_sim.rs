@@ -27,7 +27,15 @@ pub trait MeshKinematics {
     fn relative_pose(&self, phi2_rad: f64, z_v1_mm: f64, z_v2_mm: f64) -> Isometry3<f64>;
     /// Analytic worm point and machine state for a gear point (search seed).
     fn seed_point(&self, coupling: &FeedCoupling, w2_mm: f64, z2_mm: f64) -> Result<MappedPoint>;
+    /// Number of worm starts z1 (thread turns repeat every normal base pitch / z1).
+    fn worm_starts(&self) -> u32;
 }
+
+/// Envelope and second-order model may differ by this much (mm, normal) plus
+/// [`SECOND_ORDER_REL`] of the second-order correction before a point is marked.
+pub const SECOND_ORDER_ABS_MM: f64 = 2e-5;
+/// Relative part of the second-order consistency bound.
+pub const SECOND_ORDER_REL: f64 = 0.5;
 
 impl MeshKinematics for WormGearPair {
     fn worm_flank(&self) -> &InvoluteFlank {
@@ -50,6 +58,9 @@ impl MeshKinematics for WormGearPair {
     fn seed_point(&self, coupling: &FeedCoupling, w2_mm: f64, z2_mm: f64) -> Result<MappedPoint> {
         Ok(self.map_gear_point(coupling, w2_mm, z2_mm))
     }
+    fn worm_starts(&self) -> u32 {
+        self.worm_starts
+    }
 }
 
 impl MeshKinematics for ConicalPair {
@@ -65,34 +76,118 @@ impl MeshKinematics for ConicalPair {
     fn seed_point(&self, coupling: &FeedCoupling, w2_mm: f64, z2_mm: f64) -> Result<MappedPoint> {
         self.map_gear_point(coupling, w2_mm, z2_mm)
     }
+    fn worm_starts(&self) -> u32 {
+        self.worm_starts
+    }
 }
 
 /// Envelope grinding simulation of one flank for any [`MeshKinematics`].
+///
+/// The worm is bounded: a ray/worm intersection counts only where the worm thread exists
+/// (roll distance between the worm's root and tip radii, [`Self::with_worm_radii`]) and on the
+/// thread turn the search started on (|f_n| below 0.45 of the worm's normal base pitch), so the
+/// minimiser cannot find minima where no worm exists (issue 13 item 2).
 pub struct EnvelopeGrinder<'a, M: MeshKinematics + ?Sized> {
     mesh: &'a M,
     coupling: &'a FeedCoupling,
     worm_mod: &'a dyn FlankModification,
     mode: EnvelopeMode,
     seed_offset_mm: (f64, f64),
+    w1_bounds_mm: (f64, f64),
+    t_cap_mm: f64,
 }
 
 const FD_STEP_MM: f64 = 0.01;
 
+/// Largest Newton step of the state search: rotation (mm of r_b2·φ2) and feed (mm).
+const MAX_STEP_MM: (f64, f64) = (1.0, 5.0);
+
+/// Worm roll distances closer than this to a bound count as contact at the worm's edge.
+const EDGE_MM: f64 = 1e-4;
+
+/// A machine state of the search: offsets from the analytic seed and the ray hit there.
+#[derive(Debug, Clone, Copy)]
+struct State {
+    u: f64,
+    v: f64,
+    t: f64,
+    guess: [f64; 3],
+}
+
+/// Quadratic model of t(u, v) at a state: gradient and Hessian by central differences.
+#[derive(Debug, Clone, Copy)]
+struct Model {
+    g: [f64; 2],
+    h: [f64; 3],
+}
+
+impl Model {
+    /// −½·gᵀH⁻¹g (the drop to the minimum of the quadratic), None if H is not positive
+    /// definite.
+    fn drop_to_minimum(&self) -> Option<f64> {
+        let [huu, huv, hvv] = self.h;
+        let det = huu * hvv - huv * huv;
+        if !(huu > 0.0 && det > 0.0) {
+            return None;
+        }
+        let [gu, gv] = self.g;
+        Some(-0.5 * (hvv * gu * gu - 2.0 * huv * gu * gv + huu * gv * gv) / det)
+    }
+}
+
 impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
     /// A simulation of `mesh` with worm modification `worm_mod` (worm f_Ft1 over (w_F1, z_F1)).
+    /// The worm is unbounded radially until [`Self::with_worm_radii`] is called (the turn
+    /// bound applies always).
     pub fn new(
         mesh: &'a M,
         coupling: &'a FeedCoupling,
         worm_mod: &'a dyn FlankModification,
         mode: EnvelopeMode,
     ) -> Self {
+        let wf = mesh.worm_flank();
+        // normal base pitch of the worm: 2π·r_b1·cos β_b1/z1 (the thread turns' spacing
+        // along the flank normal)
+        let p_bn = 2.0 * std::f64::consts::PI * wf.r_b_mm * wf.beta_b_rad.cos()
+            / f64::from(mesh.worm_starts().max(1));
         Self {
             mesh,
             coupling,
             worm_mod,
             mode,
             seed_offset_mm: (0.0, 0.0),
+            w1_bounds_mm: (0.0, f64::INFINITY),
+            t_cap_mm: 0.45 * p_bn,
         }
+    }
+
+    /// Bounds the worm thread to its real radial extent: root radius r_f1 and tip radius
+    /// r_a1 in mm (converted to roll distances w = √(r² − r_b1²); a root inside the base
+    /// cylinder starts at w = 0).
+    pub fn with_worm_radii(mut self, root_radius_mm: f64, tip_radius_mm: f64) -> Result<Self> {
+        let rb = self.mesh.worm_flank().r_b_mm;
+        check_range(
+            "worm_root_radius_mm",
+            root_radius_mm,
+            0.0,
+            1e6,
+            "0 ≤ root radius < tip radius",
+        )?;
+        check_range(
+            "worm_tip_radius_mm",
+            tip_radius_mm,
+            (root_radius_mm + 1e-6).max(rb + 1e-6),
+            1e6,
+            "tip radius > root radius and > worm base radius",
+        )?;
+        let w = |r: f64| (r * r - rb * rb).max(0.0).sqrt();
+        self.w1_bounds_mm = (w(root_radius_mm), w(tip_radius_mm));
+        Ok(self)
+    }
+
+    /// Worm roll-distance range that may grind (mm).
+    pub fn worm_roll_bounds_mm(&self) -> (f64, f64) {
+        self.w1_bounds_mm
     }
 
     /// Starts every search this far (mm of r_b2·φ2, mm of z_V2) from the analytic seed.
@@ -101,7 +196,9 @@ impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
         self
     }
 
-    /// Distance t along the gear normal from gear point P to the worm flank at (φ2, z_V2).
+    /// Distance t along the gear normal from gear point P to the worm flank at (φ2, z_V2);
+    /// None where the ray meets no worm (outside the worm's radii or on another thread turn)
+    /// or the intersection does not converge.
     ///
     /// # Formula
     /// p1 = K_R·P, d1 = K_R·N (chains (28)–(31), φ1 from (R4), z_V1 = F_ZV1(z_V2)); solve
@@ -115,49 +212,210 @@ impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
         phi2: f64,
         z_v2: f64,
         guess: &mut [f64; 3],
-    ) -> Result<f64> {
+    ) -> Option<f64> {
         let z_v1 = self.coupling.z_v1_mm(z_v2);
         let pose = self.mesh.relative_pose(phi2, z_v1, z_v2);
         let p1 = pose.transform_point(&Point3::from(*p)).coords;
         let d1 = pose.rotation * n;
         let worm = self.mesh.worm_flank();
         let cb1 = worm.beta_b_rad.cos();
-        let mut last = f64::INFINITY;
         for _ in 0..30 {
             let [e, nn, ew, ez, nw, nz] = worm.jet(guess[0], guess[1]);
             let f = cb1 * self.worm_mod.f_ft_mm(guess[0], guess[1]);
             let (gw, gz) = self.worm_mod.gradient(guess[0], guess[1]);
             let r = e + nn * f - p1 - d1 * guess[2];
-            last = r.norm();
             let j = Matrix3::from_columns(&[
                 ew + nw * f + nn * (cb1 * gw),
                 ez + nz * f + nn * (cb1 * gz),
                 -d1,
             ]);
-            let step = j.lu().solve(&r).ok_or(GrindError::NoConvergence {
-                what: "ray/worm intersection (singular Jacobian)",
-                iterations: 0,
-                residual_mm: last,
-            })?;
+            let step = j.lu().solve(&r)?;
             guess[0] -= step.x;
             guess[1] -= step.y;
             guess[2] -= step.z;
-            if step.norm() < 1e-13 * (1.0 + guess[0].abs()) {
-                return Ok(guess[2]);
-            }
             if !guess.iter().all(|v| v.is_finite()) {
-                break;
+                return None;
+            }
+            if step.norm() < 1e-13 * (1.0 + guess[0].abs()) {
+                let on_worm = guess[0] >= self.w1_bounds_mm.0 && guess[0] <= self.w1_bounds_mm.1;
+                return (on_worm && guess[2].abs() <= self.t_cap_mm).then_some(guess[2]);
             }
         }
-        Err(GrindError::NoConvergence {
-            what: "ray/worm intersection",
-            iterations: 30,
-            residual_mm: last,
+        None
+    }
+
+    /// The ray hit at state offsets (u, v) from the seed, starting the intersection from
+    /// `guess`.
+    #[allow(clippy::too_many_arguments)]
+    fn state(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        seed: &MappedPoint,
+        u: f64,
+        v: f64,
+        guess: [f64; 3],
+    ) -> Option<State> {
+        let mut g = guess;
+        let rb2 = self.mesh.gear_flank().r_b_mm;
+        let t = self.distance(p, n, seed.phi2_rad + u / rb2, seed.z_v2_mm + v, &mut g)?;
+        Some(State { u, v, t, guess: g })
+    }
+
+    /// Central-difference model at a state (None if a neighbour has no worm contact).
+    fn model(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        seed: &MappedPoint,
+        s: &State,
+    ) -> Option<Model> {
+        let h = FD_STEP_MM;
+        let t = |du: f64, dv: f64| {
+            self.state(p, n, seed, s.u + du, s.v + dv, s.guess)
+                .map(|x| x.t)
+        };
+        let (tup, tum) = (t(h, 0.0)?, t(-h, 0.0)?);
+        let gu = (tup - tum) / (2.0 * h);
+        let huu = (tup - 2.0 * s.t + tum) / (h * h);
+        if self.mode == EnvelopeMode::RotationOnly {
+            return Some(Model {
+                g: [gu, 0.0],
+                h: [huu, 0.0, 1.0],
+            });
+        }
+        let (tvp, tvm) = (t(0.0, h)?, t(0.0, -h)?);
+        let (tpp, tmm) = (t(h, h)?, t(-h, -h)?);
+        let gv = (tvp - tvm) / (2.0 * h);
+        let hvv = (tvp - 2.0 * s.t + tvm) / (h * h);
+        let huv = (tpp - tup - tvp + 2.0 * s.t - tum - tvm + tmm) / (2.0 * h * h);
+        Some(Model {
+            g: [gu, gv],
+            h: [huu, huv, hvv],
         })
     }
 
-    /// Grinds one gear point: the shortest cut over the machine states.
+    /// Damped Newton on t(u, v): Hessian shifted to positive definite where it is not, step
+    /// limited to [`MAX_STEP_MM`], backtracking until t decreases; states without worm contact
+    /// are rejected like increases. Returns the last state and whether it converged in the
+    /// interior (gradient ≈ 0 with all difference neighbours on the worm).
+    fn newton(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        seed: &MappedPoint,
+        mut s: State,
+    ) -> (State, bool) {
+        let two_d = self.mode == EnvelopeMode::RotationAndFeed;
+        for _ in 0..60 {
+            let Some(m) = self.model(p, n, seed, &s) else {
+                return (s, false);
+            };
+            let [gu, gv] = m.g;
+            let [huu, huv, hvv] = m.h;
+            let (du, dv) = if two_d {
+                // smallest eigenvalue of H; shift it to a positive value (Levenberg)
+                let tr = huu + hvv;
+                let disc = (0.25 * (huu - hvv).powi(2) + huv * huv).sqrt();
+                let lmin = 0.5 * tr - disc;
+                let scale = huu.abs() + hvv.abs() + 1e-12;
+                let mu = if lmin > 1e-6 * scale {
+                    0.0
+                } else {
+                    1e-3 * scale - lmin
+                };
+                let (a, b, c) = (huu + mu, huv, hvv + mu);
+                let det = a * c - b * b;
+                (-(c * gu - b * gv) / det, -(a * gv - b * gu) / det)
+            } else if huu > 0.0 {
+                (-gu / huu, 0.0)
+            } else {
+                (-gu.signum() * 0.1, 0.0)
+            };
+            // limit the step (keep its direction)
+            let shrink = (MAX_STEP_MM.0 / du.abs().max(1e-300))
+                .min(MAX_STEP_MM.1 / dv.abs().max(1e-300))
+                .min(1.0);
+            let (mut du, mut dv) = (du * shrink, dv * shrink);
+            if !(du.is_finite() && dv.is_finite()) {
+                return (s, false);
+            }
+            let mut accepted = false;
+            for _ in 0..40 {
+                if let Some(s1) = self.state(p, n, seed, s.u + du, s.v + dv, s.guess) {
+                    // a jump of more than a quarter of the turn bound is another surface
+                    if s1.t <= s.t + 1e-15 && (s1.t - s.t).abs() < 0.25 * self.t_cap_mm {
+                        s = s1;
+                        accepted = true;
+                        break;
+                    }
+                }
+                du *= 0.5;
+                dv *= 0.5;
+            }
+            let gnorm = gu.abs().max(gv.abs());
+            if !accepted || du.abs().max(dv.abs()) < 1e-9 {
+                return (s, gnorm < 1e-6);
+            }
+        }
+        (s, false)
+    }
+
+    /// Derivative-free compass search from `s` (robust at the worm's edge and where Newton
+    /// stalls): moves of ±δ along u and v, δ halved when none improves, down to 1e-9 mm.
+    fn compass(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        seed: &MappedPoint,
+        mut s: State,
+    ) -> State {
+        let dirs: [(f64, f64); 4] = if self.mode == EnvelopeMode::RotationAndFeed {
+            [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)]
+        } else {
+            [(1.0, 0.0), (-1.0, 0.0), (1.0, 0.0), (-1.0, 0.0)]
+        };
+        let mut delta = 0.05;
+        let mut evals = 0;
+        while delta > 1e-9 && evals < 4000 {
+            let mut improved = false;
+            for (a, b) in dirs {
+                evals += 1;
+                if let Some(s1) = self.state(p, n, seed, s.u + a * delta, s.v + b * delta, s.guess)
+                {
+                    if s1.t < s.t && (s1.t - s.t).abs() < 0.25 * self.t_cap_mm {
+                        s = s1;
+                        improved = true;
+                        break;
+                    }
+                }
+            }
+            if !improved {
+                delta *= 0.5;
+            }
+        }
+        s
+    }
+
+    /// Grinds one gear point: the shortest cut over the machine states, searched from the
+    /// analytic seed (shifted by [`Self::with_seed_offset`]).
     pub fn grind_point(&self, w2_mm: f64, z2_mm: f64) -> Result<GroundPoint> {
+        self.grind_point_from(w2_mm, z2_mm, None)
+    }
+
+    /// Grinds one gear point, also trying `warm` = (rotation mm, feed mm) offsets from the
+    /// analytic seed (e.g. the neighbouring grid point's solution) as a start.
+    ///
+    /// The result carries the first-order analytic value and its second-order correction at
+    /// the seed (−½·gᵀH⁻¹g of the quadratic model of the cut over rotation and feed), and is
+    /// marked when the two disagree beyond what that explains or when the worm touches with
+    /// its tip or root edge.
+    pub fn grind_point_from(
+        &self,
+        w2_mm: f64,
+        z2_mm: f64,
+        warm: Option<(f64, f64)>,
+    ) -> Result<GroundPoint> {
         check_range(
             "w2_mm",
             w2_mm,
@@ -170,97 +428,93 @@ impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
         let p = gear.point(w2_mm, z2_mm);
         let n = gear.normal(w2_mm, z2_mm);
         let seed = self.mesh.seed_point(self.coupling, w2_mm, z2_mm)?;
-        let rb2 = gear.r_b_mm;
-        let mut guess = [seed.w1_mm, seed.z1_mm, 0.0];
         let two_d = self.mode == EnvelopeMode::RotationAndFeed;
-        let mut u = self.seed_offset_mm.0;
-        let mut v = if two_d { self.seed_offset_mm.1 } else { 0.0 };
-        let eval = |u: f64, v: f64, g: &mut [f64; 3]| {
-            self.distance(&p, &n, seed.phi2_rad + u / rb2, seed.z_v2_mm + v, g)
+        let g0 = [seed.w1_mm, seed.z1_mm, 0.0];
+        let at_seed = self.state(&p, &n, &seed, 0.0, 0.0, g0);
+        // candidate starts: the seed (with the configured offset) and the warm start
+        let mut start: Option<State> = None;
+        let off = (
+            self.seed_offset_mm.0,
+            if two_d { self.seed_offset_mm.1 } else { 0.0 },
+        );
+        let mut consider = |s: Option<State>| {
+            if let Some(s) = s {
+                if start.is_none_or(|b| s.t < b.t) {
+                    start = Some(s);
+                }
+            }
         };
-        let h = FD_STEP_MM;
-        let mut t0 = eval(u, v, &mut guess)?;
-        let mut converged = false;
-        for _ in 0..40 {
-            let mut g = guess;
-            let tup = eval(u + h, v, &mut g)?;
-            let tum = eval(u - h, v, &mut g)?;
-            let gu = (tup - tum) / (2.0 * h);
-            let huu = (tup - 2.0 * t0 + tum) / (h * h);
-            let newton_1d = |grad: f64, curv: f64| {
-                if curv > 0.0 {
-                    -grad / curv
-                } else {
-                    -grad.signum() * 0.1
-                }
-            };
-            let (mut du, mut dv);
-            if two_d {
-                let tvp = eval(u, v + h, &mut g)?;
-                let tvm = eval(u, v - h, &mut g)?;
-                let tpp = eval(u + h, v + h, &mut g)?;
-                let tmm = eval(u - h, v - h, &mut g)?;
-                let gv = (tvp - tvm) / (2.0 * h);
-                let hvv = (tvp - 2.0 * t0 + tvm) / (h * h);
-                let huv = (tpp - tup - tvp + 2.0 * t0 - tum - tvm + tmm) / (2.0 * h * h);
-                let det = huu * hvv - huv * huv;
-                if huu > 0.0 && det > 0.0 {
-                    du = -(hvv * gu - huv * gv) / det;
-                    dv = -(huu * gv - huv * gu) / det;
-                } else {
-                    du = newton_1d(gu, huu);
-                    dv = newton_1d(gv, hvv);
-                }
-            } else {
-                du = newton_1d(gu, huu);
-                dv = 0.0;
-            }
-            du = du.clamp(-1.0, 1.0);
-            dv = dv.clamp(-5.0, 5.0);
-            let mut accepted = false;
-            for _ in 0..30 {
-                let mut g2 = guess;
-                let t1 = eval(u + du, v + dv, &mut g2)?;
-                if t1 <= t0 + 1e-15 {
-                    u += du;
-                    v += dv;
-                    t0 = t1;
-                    guess = g2;
-                    accepted = true;
-                    break;
-                }
-                du *= 0.5;
-                dv *= 0.5;
-            }
-            if !accepted || du.abs().max(dv.abs()) < 1e-9 {
-                converged = true;
-                break;
-            }
+        if off == (0.0, 0.0) {
+            consider(at_seed);
+        } else {
+            consider(self.state(&p, &n, &seed, off.0, off.1, g0));
         }
-        if !converged {
-            return Err(GrindError::NoConvergence {
-                what: "envelope minimisation over rotation and feed",
-                iterations: 40,
-                residual_mm: t0,
+        if let Some((u, v)) = warm {
+            let v = if two_d { v } else { 0.0 };
+            let g = at_seed.map_or(g0, |s| s.guess);
+            consider(self.state(&p, &n, &seed, u, v, g));
+        }
+        let Some(start) = start else {
+            return Err(GrindError::NoWormContact {
+                w2_mm,
+                z2_mm,
+                w1_mm: seed.w1_mm,
+                w1_min_mm: self.w1_bounds_mm.0,
+                w1_max_mm: self.w1_bounds_mm.1,
             });
+        };
+        let (mut best, interior) = self.newton(&p, &n, &seed, start);
+        if !interior {
+            best = self.compass(&p, &n, &seed, best);
         }
+        if !best.t.is_finite() {
+            return Err(GrindError::EnvelopeFailed { w2_mm, z2_mm });
+        }
+        let w1 = best.guess[0];
+        let worm_edge = (w1 - self.w1_bounds_mm.0).abs() < EDGE_MM
+            || (w1 - self.w1_bounds_mm.1).abs() < EDGE_MM;
+        let wf = self.mesh.worm_flank();
+        let analytic = -wf.beta_b_rad.cos() * self.worm_mod.f_ft_mm(seed.w1_mm, seed.z1_mm);
+        let second = at_seed.and_then(|s| {
+            let m = self.model(&p, &n, &seed, &s)?;
+            Some(s.t + m.drop_to_minimum()?)
+        });
+        let explained = !worm_edge
+            && second.is_some_and(|m2| {
+                (best.t - m2).abs()
+                    <= SECOND_ORDER_ABS_MM + SECOND_ORDER_REL * (m2 - analytic).abs()
+            });
+        let cb2 = gear.beta_b_rad.cos();
         Ok(GroundPoint {
-            f_n_mm: t0,
-            f_ft_mm: t0 / gear.beta_b_rad.cos(),
-            w1_mm: guess[0],
-            z1_mm: guess[1],
-            z_v2_mm: seed.z_v2_mm + v,
-            phi2_rad: seed.phi2_rad + u / rb2,
+            f_n_mm: best.t,
+            f_ft_mm: best.t / cb2,
+            w1_mm: w1,
+            z1_mm: best.guess[1],
+            z_v2_mm: seed.z_v2_mm + best.v,
+            phi2_rad: seed.phi2_rad + best.u / gear.r_b_mm,
+            offset_mm: (best.u, best.v),
+            analytic_f_ft_mm: analytic / cb2,
+            second_order_f_ft_mm: second.map(|v| v / cb2),
+            worm_edge,
+            explained,
         })
     }
 
-    /// Grinds every point of `out.grid` into the preallocated `out` (no allocation).
+    /// Grinds every point of `out.grid` into the preallocated `out` (no allocation); each
+    /// search also starts from the neighbouring point's solution.
     pub fn grind_flank(&self, out: &mut GroundFlank) -> Result<()> {
         let grid = out.grid;
+        let mut column_start: Option<(f64, f64)> = None;
         for i in 0..grid.n_w {
             let w = grid.w_mm(i);
+            let mut warm = column_start;
             for j in 0..grid.n_z {
-                out.points[i * grid.n_z + j] = self.grind_point(w, grid.z_mm(j))?;
+                let pt = self.grind_point_from(w, grid.z_mm(j), warm)?;
+                warm = Some(pt.offset_mm);
+                if j == 0 {
+                    column_start = warm;
+                }
+                out.points[i * grid.n_z + j] = pt;
             }
         }
         Ok(())

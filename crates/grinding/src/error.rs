@@ -68,6 +68,32 @@ pub enum GrindError {
         /// Last residual.
         residual_mm: f64,
     },
+    /// No state of the search puts the worm thread on the gear point's normal.
+    #[error(
+        "no worm contact at gear point w = {w2_mm} mm, z = {z2_mm} mm: the analytic worm point \
+         w1 = {w1_mm} mm lies outside the worm thread (roll distance {w1_min_mm} ..= \
+         {w1_max_mm} mm between root and tip) or the worm meets another thread turn there"
+    )]
+    NoWormContact {
+        /// Gear roll distance.
+        w2_mm: f64,
+        /// Gear width position.
+        z2_mm: f64,
+        /// Worm roll distance of the analytic map.
+        w1_mm: f64,
+        /// Lowest worm roll distance (root).
+        w1_min_mm: f64,
+        /// Highest worm roll distance (tip).
+        w1_max_mm: f64,
+    },
+    /// The envelope search failed at a gear point.
+    #[error("envelope search over rotation and feed failed at gear point w = {w2_mm} mm, z = {z2_mm} mm")]
+    EnvelopeFailed {
+        /// Gear roll distance.
+        w2_mm: f64,
+        /// Gear width position.
+        z2_mm: f64,
+    },
     /// Input data are too few or inconsistent in size.
     #[error("{field}: got {got}, expected {expected}")]
     BadData {

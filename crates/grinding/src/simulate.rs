@@ -121,6 +121,21 @@ pub struct GroundPoint {
     pub z_v2_mm: f64,
     /// Workpiece rotation of the shortest cut.
     pub phi2_rad: f64,
+    /// State of the shortest cut as offsets from the analytic seed: rotation (mm of
+    /// r_b2·φ2) and feed (mm).
+    pub offset_mm: (f64, f64),
+    /// First-order analytic f_Ft2 in mm: −(cos β_b1/cos β_b2)·f_Ft1 at the mapped worm point.
+    pub analytic_f_ft_mm: f64,
+    /// Second-order model of the envelope in mm: the cut at the analytic state plus the drop
+    /// −½·gᵀH⁻¹g of its quadratic model over rotation and feed (None if that model has no
+    /// minimum).
+    pub second_order_f_ft_mm: Option<f64>,
+    /// The worm touches with its tip or root edge (the shortest cut lies on the bound of the
+    /// worm's radii).
+    pub worm_edge: bool,
+    /// Envelope and second-order model agree (within `conical_sim::SECOND_ORDER_ABS_MM` +
+    /// `SECOND_ORDER_REL`·|second-order correction|), and the worm touches with its flank.
+    pub explained: bool,
 }
 
 /// A ground flank: one [`GroundPoint`] per grid point, index i_w·n_z + j_z.
