@@ -16,6 +16,7 @@ mod grind_dressed;
 mod grind_equalise;
 mod output_cli;
 mod replay_cli;
+mod replay_props;
 mod serve_cli;
 mod serve_many_cli;
 mod shape_cli;
