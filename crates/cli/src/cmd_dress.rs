@@ -4,18 +4,16 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use gearcomp_dressing::campaign::{
-    plan_with_options, profile_stretch, Correction, PlanOptions, PlanRow, PlanSpec,
-    StretchReference,
-};
-use gearcomp_dressing::dresser::{Dresser, DresserSpec};
+use gearcomp_dressing::campaign::{plan_with_options, Correction, PlanOptions, PlanRow, PlanSpec};
+use gearcomp_dressing::dresser::Dresser;
 use gearcomp_dressing::envelope::DressingSetup;
 use gearcomp_dressing::kinematics::AxisCorrection;
-use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
-use gearcomp_dressing::solve::{
-    axial_position_for_contact_point, solve_four_point, solve_three_point, FourPoint,
-    NewtonOptions, ThreePoint,
+use gearcomp_dressing::request::{
+    check_key, current_worm, min_worn_diameter_mm, solve_request, Checks, DresserInput, Method,
+    SolveInput, WormInput, DEFAULT_BUDGET_MM,
 };
+use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
+use gearcomp_dressing::solve::{axial_position_for_contact_point, NewtonOptions};
 use gearcomp_dressing::topology::{
     solve_topological_four_point, solve_topological_three_point, topological_program,
     CorrectionSchedule, TopoFourPoint, TopoThreePoint, WidthPoly, WormTopology,
@@ -88,13 +86,6 @@ struct DresserCfg {
     clearance_mm: f64,
 }
 
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "kebab-case")]
-enum Method {
-    ThreePoint,
-    FourPoint,
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SolveCfg {
@@ -111,6 +102,12 @@ struct SolveCfg {
     contact_point: Option<ContactPointCfg>,
     /// Topological program over the worm width ([solve.topological], §4.A.5/§4.A.7).
     topological: Option<TopoCfg>,
+    /// Clearance budget for the opposite-flank cut and the jacket depth (mm), as in [plan].
+    #[serde(default = "budget")]
+    budget_mm: f64,
+    /// Output a solution beyond the budget (flagged) instead of refusing it.
+    #[serde(default)]
+    accept_penetration: bool,
 }
 
 /// `[solve.topological]`: the solve repeated at contact-line positions over the worm width.
@@ -170,7 +167,7 @@ fn three_point() -> Correction {
     Correction::ThreePoint
 }
 fn budget() -> f64 {
-    0.1
+    DEFAULT_BUDGET_MM
 }
 
 /// Runs `gearcomp dress`.
@@ -188,22 +185,20 @@ fn load(path: &Path) -> anyhow::Result<(Config, Worm, Dresser)> {
     let cfg: Config =
         toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
     let w = &cfg.worm;
-    let worm = Worm::design(
-        w.starts,
-        w.diameter_mm,
-        w.normal_module_mm,
-        rad(w.profile_angle_deg),
-    )
-    .context("[worm]")?;
-    let dresser = Dresser::design(
-        &worm,
-        DresserSpec {
-            d_a_mm: cfg.dresser.diameter_mm,
-            jacket_width_mm: cfg.dresser.jacket_width_mm,
-            clearance_mm: cfg.dresser.clearance_mm,
-        },
-    )
-    .context("[dresser]")?;
+    // Both build functions name the TOML key and its unit in their errors.
+    let worm = WormInput {
+        starts: w.starts,
+        diameter_mm: w.diameter_mm,
+        normal_module_mm: w.normal_module_mm,
+        profile_angle_deg: w.profile_angle_deg,
+    }
+    .build()?;
+    let dresser = DresserInput {
+        diameter_mm: cfg.dresser.diameter_mm,
+        jacket_width_mm: cfg.dresser.jacket_width_mm,
+        clearance_mm: cfg.dresser.clearance_mm,
+    }
+    .build(&worm)?;
     Ok((cfg, worm, dresser))
 }
 
@@ -317,6 +312,12 @@ struct SolveOut {
     stretch_percent: f64,
     opposite_flank_cut_um: f64,
     jacket_depth_um: f64,
+    /// The clearance budget both are compared with (µm), `[solve] budget_mm`.
+    budget_um: f64,
+    /// Opposite-flank cut beyond the budget (only with `accept_penetration = true`).
+    penetration: bool,
+    /// Jacket deeper than the budget below the root (only with `accept_penetration = true`).
+    undercut: bool,
     contact_line: Vec<(f64, f64)>,
     /// ν_zS as fifth unknown: present when [solve] has a contact_point.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -367,77 +368,27 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             c.config.display()
         );
     };
-    let worm_now = match sc.diameter_mm {
-        Some(d) => worm.worn(d).context("[solve] diameter_mm")?,
-        None => worm,
-    };
-    let setup = DressingSetup::new(worm_now, dresser);
+    let worm_now = current_worm(&worm, sc.diameter_mm)?;
+    let setup = DressingSetup::new(worm_now, dresser.clone());
     if let Some(tc) = &sc.topological {
         return run_solve_topological(c, &sc, tc, &worm, &setup);
     }
     let fl = sc.flank;
-    let (w_nf, w_na) = setup.active_profile(fl)?;
+    let input = SolveInput {
+        flank: fl,
+        method: sc.method,
+        diameter_mm: sc.diameter_mm,
+        crowning_um: sc.crowning_um,
+        points: sc.points.clone(),
+        budget_mm: sc.budget_mm,
+        accept_penetration: sc.accept_penetration,
+    };
+    let outcome = solve_request(&worm, &dresser, &input)?;
+    let setup = outcome.setup;
+    let (w_nf, w_na) = outcome.active_mm;
     let at = |q: f64| w_nf + q * (w_na - w_nf);
-    let points: Vec<[f64; 2]> = match (&sc.points, sc.crowning_um) {
-        (Some(p), _) => p.clone(),
-        (None, Some(cr)) if sc.method == Method::ThreePoint => {
-            vec![[0.05, 0.0], [0.5, -cr], [0.95, 0.0]]
-        }
-        _ => bail!("[solve] needs `points`, or `crowning_um` with method = \"three-point\""),
-    };
-    for p in &points {
-        if !(0.0..=1.0).contains(&p[0]) || !p[1].is_finite() || p[1].abs() > 1000.0 {
-            bail!(
-                "[solve] point {:?}: fraction must be in 0..=1 and f within ±1000 µm",
-                p
-            );
-        }
-    }
-    let k0 = AxisCorrection::default();
-    let opts = NewtonOptions::default();
-    let sol = match sc.method {
-        Method::ThreePoint => {
-            if points.len() != 3 {
-                bail!("[solve] three-point needs 3 points, got {}", points.len());
-            }
-            // The dresser radius that dresses the tip circle of the new worm keeps doing so.
-            let design = DressingSetup::new(worm, setup.dresser.clone());
-            let r_tip = design.association(fl, design.active_profile(fl)?.1, &k0)?;
-            let p = ThreePoint {
-                flank: fl,
-                w_mm: [at(points[0][0]), at(points[1][0]), at(points[2][0])],
-                f_mm: [
-                    points[0][1] * 1e-3,
-                    points[1][1] * 1e-3,
-                    points[2][1] * 1e-3,
-                ],
-                w_assoc_mm: w_na,
-                r_a_mm: r_tip,
-            };
-            solve_three_point(&setup, &p, k0, &opts)?
-        }
-        Method::FourPoint => {
-            if points.len() != 4 {
-                bail!("[solve] four-point needs 4 points, got {}", points.len());
-            }
-            let p = FourPoint {
-                flank: fl,
-                w_mm: [
-                    at(points[0][0]),
-                    at(points[1][0]),
-                    at(points[2][0]),
-                    at(points[3][0]),
-                ],
-                f_mm: [
-                    points[0][1] * 1e-3,
-                    points[1][1] * 1e-3,
-                    points[2][1] * 1e-3,
-                    points[3][1] * 1e-3,
-                ],
-            };
-            solve_four_point(&setup, &p, k0, &opts)?
-        }
-    };
+    let sol = outcome.solution;
+    let checks = outcome.checks;
     let dk = sol.dk;
     let ws: Vec<f64> = (0..=20).map(|i| at(f64::from(i) / 20.0)).collect();
     let line0 = contact_line(&setup, fl, &ws, &dk)?;
@@ -470,8 +421,7 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
     };
     let prof = setup.profile(fl, &ws, &dk)?;
     // P_FS against the new worm dressed uncorrected (docs/dressing.md).
-    let reference = StretchReference::new(&worm, &setup.dresser, fl)?;
-    let stretch = profile_stretch(&setup, fl, &reference, &dk, (w_nf, w_na))?;
+    let stretch = outcome.stretch;
     let out = SolveOut {
         method: format!("{:?}", sc.method),
         flank: fl,
@@ -489,8 +439,11 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             .map(|(w, f)| (*w, f * 1e3))
             .collect(),
         stretch_percent: 100.0 * stretch,
-        opposite_flank_cut_um: 1e3 * setup.opposite_flank_cut(fl, &dk)?,
-        jacket_depth_um: 1e3 * setup.jacket_depth(&dk),
+        opposite_flank_cut_um: 1e3 * checks.opposite_cut_mm,
+        jacket_depth_um: 1e3 * checks.jacket_depth_mm,
+        budget_um: 1e3 * checks.budget_mm,
+        penetration: checks.penetration,
+        undercut: checks.undercut,
         contact_line: line0,
         contact_point,
     };
@@ -513,9 +466,16 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
             println!("{w:>12.5} {f:>10.4}");
         }
         println!(
-            "stretching P_FS {:+.3} %, opposite flank cut {:.2} um, jacket {:.2} um below root",
-            out.stretch_percent, out.opposite_flank_cut_um, out.jacket_depth_um
+            "stretching P_FS {:+.3} %, opposite flank cut {:.2} um, jacket {:.2} um below root (budget {:.1} um)",
+            out.stretch_percent, out.opposite_flank_cut_um, out.jacket_depth_um, out.budget_um
         );
+        if out.penetration || out.undercut {
+            println!(
+                "WARNING: beyond [solve] budget_mm ({}{}); output because accept_penetration = true",
+                if out.penetration { "PENETRATION of the opposite flank" } else { "" },
+                if out.undercut { " UNDERCUT: jacket below the root" } else { "" }
+            );
+        }
         if let Some(cp) = &out.contact_point {
             println!(
                 "contact line through (w {:.5} mm, b {:.4} mm) at worm axial position nu_zS {:.5} mm",
@@ -573,6 +533,24 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
             c.config.display()
         );
     };
+    check_key("[plan] crowning_um", pc.crowning_um, -50.0, 50.0, "µm")?;
+    check_key("[plan] budget_mm", pc.budget_mm, 0.0, 5.0, "mm")?;
+    if pc.diameters_mm.is_empty() || pc.diameters_mm.len() > 1000 {
+        bail!(
+            "[plan] diameters_mm: has {} diameters, allowed 1 ..= 1000 (mm)",
+            pc.diameters_mm.len()
+        );
+    }
+    let d_lo = (min_worn_diameter_mm(&worm) * 1e4).ceil() / 1e4;
+    for (i, d) in pc.diameters_mm.iter().enumerate() {
+        check_key(
+            &format!("[plan] diameters_mm[{i}]"),
+            *d,
+            d_lo,
+            worm.d_s0_mm,
+            "mm",
+        )?;
+    }
     let spec = PlanSpec {
         flank: pc.flank,
         diameters_mm: pc.diameters_mm,
@@ -604,7 +582,7 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         println!(
-            "{:>8} {:>10} {:>12} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} flags",
+            "{:>8} {:>10} {:>12} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} flags",
             "d_S mm",
             "alpha deg",
             "dphi rad",
@@ -613,9 +591,15 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
             "dnu mm",
             "dev um",
             "range um",
+            "foot um",
+            "tip um",
             "P %",
             "opp um",
             "jack um"
+        );
+        println!(
+            "(dev, range: f - target over 5 % ..= 95 % of the active profile, the span of the targets; \
+             foot = 0 %, the dresser's fillet/flank junction, and tip = 100 % are given apart)"
         );
         for r in &rows {
             let flags = match (r.penetration, r.undercut) {
@@ -624,9 +608,9 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
                 (false, true) => "UNDERCUT",
                 (false, false) => "",
             };
-            println!("{:>8.2} {:>10.5} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
+            println!("{:>8.2} {:>10.5} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
                 r.d_s_mm, deg(r.alpha_n_rad), r.dk.dphi_s_rad, deg(r.dk.dgamma_rad), r.dk.dd_mm, r.dk.dnu_ya_mm,
-                r.deviation_max_um, r.deviation_range_um, 100.0 * r.stretch,
+                r.deviation_max_um, r.deviation_range_um, r.deviation_foot_um, r.deviation_tip_um, 100.0 * r.stretch,
                 1e3 * r.opposite_cut_mm, 1e3 * r.jacket_depth_mm);
         }
     }
@@ -719,6 +703,12 @@ struct TopoPositionOut {
     iterations: usize,
     /// Largest of the 9 residuals (µm).
     max_residual_um: f64,
+    /// Opposite-flank cut (µm) and jacket depth below the root (µm) at this position.
+    opposite_flank_cut_um: f64,
+    jacket_depth_um: f64,
+    /// Either beyond `[solve] budget_mm` (only with `accept_penetration = true`).
+    penetration: bool,
+    undercut: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -798,6 +788,7 @@ fn run_solve_topological(
             "[solve.topological] b_range_mm = [{b_lo}, {b_hi}]: need -10000 <= start < end <= 10000 (mm)"
         );
     }
+    check_key("[solve] budget_mm", sc.budget_mm, 0.0, 5.0, "mm")?;
     if sc.contact_point.is_some() {
         bail!("[solve] contact_point and [solve.topological] exclude each other: the program sets the contact line positions");
     }
@@ -883,7 +874,23 @@ fn run_solve_topological(
     };
     let mut positions = Vec::with_capacity(n);
     for s in &program.solutions {
+        // The penetration check of `dress plan`, per position.
+        let ck = Checks::of(setup, fl, &s.dk, sc.budget_mm)?;
+        if !ck.ok() && !sc.accept_penetration {
+            bail!(
+                "not producible ([solve.topological]): at b0 = {:.3} mm the dresser cuts {:.1} µm into the opposite flank and its jacket reaches {:.1} µm below the worm root circle; [solve] budget_mm = {} mm ({:.0} µm) is exceeded. Reduce the crowning or its slope, or set [solve] accept_penetration = true to output the program anyway (flagged)",
+                s.b0_mm,
+                1e3 * ck.opposite_cut_mm,
+                1e3 * ck.jacket_depth_mm,
+                sc.budget_mm,
+                1e3 * sc.budget_mm
+            );
+        }
         positions.push(TopoPositionOut {
+            opposite_flank_cut_um: 1e3 * ck.opposite_cut_mm,
+            jacket_depth_um: 1e3 * ck.jacket_depth_mm,
+            penetration: ck.penetration,
+            undercut: ck.undercut,
             b0_mm: s.b0_mm,
             nu_zs_mm: s.nu_zs_mm,
             crowning_um: crowning.as_ref().map(|cw| cw.at(s.b0_mm).0),

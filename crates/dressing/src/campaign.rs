@@ -49,10 +49,19 @@ pub struct PlanRow {
     pub iterations: usize,
     /// Machine axes of machine (5) at φ_S = 0.
     pub axes: AxesBsp2,
-    /// Largest |f_nFS − target| over the active profile (µm).
+    /// Largest |f_nFS − target| over the evaluation range [`Self::deviation_eval_mm`] (µm).
     pub deviation_max_um: f64,
-    /// Range of f_nFS − target over the active profile (µm), uniform offset removed.
+    /// Range of f_nFS − target over the evaluation range (µm), uniform offset removed.
     pub deviation_range_um: f64,
+    /// Evaluation range of the deviation: the roll distances of the outer targets, 5 % and
+    /// 95 % of the active profile (mm). Outside it the target parabola is extrapolated, and
+    /// the foot (0 %) is the fillet/flank junction of the dresser, reported separately.
+    pub deviation_eval_mm: (f64, f64),
+    /// f_nFS − target at the foot of the active profile, w_Nf (0 %, the fillet/flank junction
+    /// dressed uncorrected) (µm).
+    pub deviation_foot_um: f64,
+    /// f_nFS − target at the tip circle, w_Na (100 %) (µm).
+    pub deviation_tip_um: f64,
     /// Relative profile stretching P_FS (1 = 100 %).
     pub stretch: f64,
     /// Cut into the opposite flank (mm, > 0 = below nominal).
@@ -396,12 +405,15 @@ pub fn plan_with_options(
             .zip(f.iter())
             .map(|(&w, &fv)| (w, 1e3 * (fv - target(&wt, spec.crowning_mm, w))))
             .collect();
-        let dev_max = profile.iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
-        let (lo, hi) = profile
+        // Evaluation range 5 % ..= 95 % (indices 1 ..= 19); foot and tip reported apart.
+        let eval = &profile[1..20];
+        let dev_max = eval.iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
+        let (lo, hi) = eval
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
                 (a.min(p.1), b.max(p.1))
             });
+        let (deviation_foot_um, deviation_tip_um) = (profile[0].1, profile[20].1);
         let stretch = profile_stretch(setup, spec.flank, &reference, &dk, (w_nf, w_na))?;
         let opposite_cut_mm = setup.opposite_flank_cut(spec.flank, &dk)?;
         let jacket_depth_mm = setup.jacket_depth(&dk);
@@ -416,6 +428,9 @@ pub fn plan_with_options(
             axes,
             deviation_max_um: dev_max,
             deviation_range_um: hi - lo,
+            deviation_eval_mm: (at(0.05), at(0.95)),
+            deviation_foot_um,
+            deviation_tip_um,
             stretch,
             opposite_cut_mm,
             jacket_depth_mm,

@@ -263,9 +263,117 @@ impl DressingSetup {
                 });
             }
         }
-        Err(DressError::NoConvergence {
-            what: "envelope (screw) point",
-            detail: format!("last s = {s} mm, t = {t} rad"),
+        // Newton did not settle (a ridge of the envelope, a start on the wrong branch, or a
+        // deep cut): evaluate the definition directly, f = min_t s*(t).
+        self.dress_ray_bracketed(fr, p, n, t_hint)
+    }
+
+    /// Entry depth s*(t) of the ray P + s n into the dresser at time t: the smallest s in
+    /// [−s_in, s_out] with g(s, t) ≤ 0 (scan, then bisection); `s_out` when the dresser misses.
+    fn entry_depth(
+        &self,
+        fr: &ScrewFrame,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        t: f64,
+        s_in: f64,
+        s_out: f64,
+    ) -> f64 {
+        let u_max = self.dresser.u_max();
+        let inside = |s: f64| {
+            let e = self.g_eval(fr, p, n, s, t);
+            e.z_a.abs() < u_max && e.g <= 0.0
+        };
+        let h = 0.02;
+        let steps = ((s_in + s_out) / h).ceil() as usize;
+        let mut lo = -s_in;
+        if inside(lo) {
+            return lo;
+        }
+        for k in 1..=steps {
+            let hi = (-s_in + h * k as f64).min(s_out);
+            if inside(hi) {
+                let mut a = lo;
+                let mut b = hi;
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if inside(m) {
+                        b = m;
+                    } else {
+                        a = m;
+                    }
+                }
+                return 0.5 * (a + b);
+            }
+            lo = hi;
+        }
+        s_out
+    }
+
+    /// The screw evaluation by its definition, without Newton: f = min_t s*(t) over the
+    /// window, by a scan over t and a golden-section refinement; the result is polished by the
+    /// 2-D Newton when that converges next to it (then it also carries g_tt).
+    fn dress_ray_bracketed(
+        &self,
+        fr: &ScrewFrame,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        t_hint: f64,
+    ) -> Result<PointDressing> {
+        let m_n = self.worm.m_n_mm;
+        let (s_in, s_out) = (2.5 * m_n, 1.5 * m_n);
+        let tw = self.t_window_rad;
+        let nscan = 320;
+        let dt = 2.0 * tw / nscan as f64;
+        let (mut best_t, mut best_s) = (t_hint, f64::INFINITY);
+        for i in 0..=nscan {
+            let t = t_hint - tw + dt * i as f64;
+            let s = self.entry_depth(fr, p, n, t, s_in, s_out);
+            if s < best_s {
+                best_s = s;
+                best_t = t;
+            }
+        }
+        if best_s >= s_out {
+            return Err(DressError::NoConvergence {
+                what: "envelope scan",
+                detail: "the dresser never comes near this flank point".into(),
+            });
+        }
+        let (mut lo, mut hi) = (best_t - dt, best_t + dt);
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let sd = |t: f64| self.entry_depth(fr, p, n, t, s_in, s_out);
+        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        let (mut f1, mut f2) = (sd(x1), sd(x2));
+        for _ in 0..60 {
+            if f1 < f2 {
+                hi = x2;
+                (x2, f2) = (x1, f1);
+                x1 = hi - g * (hi - lo);
+                f1 = sd(x1);
+            } else {
+                lo = x1;
+                (x1, f1) = (x2, f2);
+                x2 = lo + g * (hi - lo);
+                f2 = sd(x2);
+            }
+        }
+        let t = 0.5 * (lo + hi);
+        let s = sd(t).min(best_s);
+        if s <= -s_in {
+            return Err(DressError::NoConvergence {
+                what: "envelope (screw) point",
+                detail: format!("the dresser cuts deeper than {s_in} mm below the nominal flank"),
+            });
+        }
+        let e = self.g_eval(fr, p, n, s, t);
+        Ok(PointDressing {
+            f_mm: s,
+            r_a_mm: e.rho,
+            z_a_mm: e.z_a,
+            t_rad: t,
+            g_tt: e.g_tt,
+            g_s: e.g_s,
         })
     }
 
@@ -447,10 +555,74 @@ impl DressingSetup {
                 return Ok(w);
             }
         }
-        Err(DressError::NoConvergence {
+        self.roll_dressed_by_bracketed(flank, r_a_mm, dk, w_start_mm)
+    }
+
+    /// [`Self::roll_dressed_by`] without derivatives: r_FA(w) falls with w, so step outward
+    /// from the start until r_FA(w) − r_A changes sign, then bisect. The search covers the
+    /// involute from 1 m_n below the root to 1 m_n above the tip.
+    fn roll_dressed_by_bracketed(
+        &self,
+        flank: Flank,
+        r_a_mm: f64,
+        dk: &AxisCorrection,
+        w_start_mm: f64,
+    ) -> Result<f64> {
+        let wm = &self.worm;
+        let w_min = wm.roll_from_radius((wm.r_f_mm - wm.m_n_mm).max(wm.r_b_mm * 1.001));
+        let w_max = wm.roll_from_radius(wm.r_a_mm + wm.m_n_mm);
+        let h = 0.05 * wm.m_n_mm;
+        let res = |w: f64| self.association(flank, w, dk).map(|r| r - r_a_mm).ok();
+        let w0 = w_start_mm.clamp(w_min, w_max);
+        let no_root = || DressError::NoConvergence {
             what: "inverse radius association",
-            detail: format!("r_A = {r_a_mm} mm"),
-        })
+            detail: format!(
+                "no flank point between radius {:.3} and {:.3} mm is dressed by the dresser \
+                 radius {r_a_mm:.4} mm under this correction",
+                wm.radius_from_roll(w_min),
+                wm.radius_from_roll(w_max)
+            ),
+        };
+        let r0 = res(w0).ok_or_else(no_root)?;
+        if r0 == 0.0 {
+            return Ok(w0);
+        }
+        // r_FA falls with w: r0 > 0 means the root lies at larger w.
+        let dir = if r0 > 0.0 { 1.0 } else { -1.0 };
+        let (mut a, mut ra) = (w0, r0);
+        let mut b = None;
+        let mut k = 1.0;
+        loop {
+            let w = (w0 + dir * h * k).clamp(w_min, w_max);
+            let Some(rw) = res(w) else { break };
+            if rw.signum() != ra.signum() {
+                b = Some(w);
+                break;
+            }
+            (a, ra) = (w, rw);
+            if w <= w_min || w >= w_max {
+                break;
+            }
+            k += 1.0;
+        }
+        let Some(mut b) = b else {
+            return Err(no_root());
+        };
+        for _ in 0..80 {
+            let m = 0.5 * (a + b);
+            let Some(rm) = res(m) else {
+                return Err(no_root());
+            };
+            if rm.signum() == ra.signum() {
+                (a, ra) = (m, rm);
+            } else {
+                b = m;
+            }
+            if (b - a).abs() < 1e-12 {
+                break;
+            }
+        }
+        Ok(0.5 * (a + b))
     }
 
     /// Active profile [w_Nf, w_Na] of `flank` under uncorrected dressing: w_Na on the tip circle,

@@ -42,9 +42,37 @@ pub enum DressError {
         /// Why the solver gave up.
         reason: String,
     },
+    /// A value of the user's input (named by its TOML key, e.g. `[worm] profile_angle_deg`)
+    /// is invalid; the detail states the value and the allowed range in the key's unit.
+    #[error("{}", input_message(key, detail))]
+    Input {
+        /// The TOML key as the user wrote it, with its table.
+        key: String,
+        /// Value, allowed range and unit, or why the value cannot be used.
+        detail: String,
+    },
+    /// The request is valid but this worm and dresser cannot produce it; the detail names the
+    /// limit and the producible range at this geometry.
+    #[error("not producible ({key}): {detail}")]
+    NotProducible {
+        /// The TOML key of the request (e.g. `[solve] crowning_um`).
+        key: String,
+        /// The limit reached and what is producible.
+        detail: String,
+    },
     /// A pose cannot be realised by the machine's axes.
     #[error("pose not reachable by the machine axes: {0}")]
     Unreachable(String),
+}
+
+/// "`[worm] starts` = 0 is outside …" for range details (they start with "= "), else
+/// "`key`: detail".
+fn input_message(key: &str, detail: &str) -> String {
+    if detail.starts_with("= ") {
+        format!("{key} {detail}")
+    } else {
+        format!("{key}: {detail}")
+    }
 }
 
 impl DressError {

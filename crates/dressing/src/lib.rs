@@ -15,7 +15,9 @@
 //!   (damped Newton, natural-monotonicity test, scaled unknowns, Tikhonov-filtered steps);
 //! - [`topology`]: topological dressing, ΔK(ν_zS) over the worm width, the 9-component 4-point
 //!   and the width-dependent 3-point solves, the dressed worm f_nFS(w, b) as a grid;
-//! - [`campaign`]: the plan of a worm's whole life (claims 1–2).
+//! - [`campaign`]: the plan of a worm's whole life (claims 1–2);
+//! - [`request`]: a `[solve]` request in the user's keys and units, validated, solved and
+//!   checked against the clearance budget, with the producible range when it is not.
 //!
 //! Design trade-off: the dresser flank is tabulated once (exact envelope at 1201 stations,
 //! natural cubic spline) instead of being re-solved at every query; the spline error
@@ -40,6 +42,7 @@ pub mod envelope;
 pub mod error;
 pub mod gear;
 pub mod kinematics;
+pub mod request;
 pub mod simulation;
 pub mod solve;
 pub mod spline;

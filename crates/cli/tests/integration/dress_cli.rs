@@ -104,5 +104,9 @@ fn dress_bad_input_names_the_field() {
     );
     let out = gearcomp(&["dress", "solve", cfg.to_str().unwrap()]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("not producible"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("[solve] crowning_um = 200 µm is outside the allowed range -50 ..= 50 µm"),
+        "{err}"
+    );
 }

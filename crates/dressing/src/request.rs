@@ -1,0 +1,659 @@
+//! A dressing request as the operator states it (the `gearcomp dress` TOML keys, in degrees,
+//! mm and µm), validated key by key, solved, and checked against what the worm and the dresser
+//! can carry: the same penetration check as the worm-life plan (opposite-flank cut and jacket
+//! depth against the clearance budget), and, when a request cannot be produced, the producible
+//! range at this geometry (the largest share of the modification, the worm diameters).
+//!
+//! Every error of this module names the TOML key the user wrote and its unit; the library's
+//! own field names (radians, `_rad`, `z_s`, …) never reach the user from here.
+
+use crate::campaign::{profile_stretch, StretchReference};
+use crate::dresser::{Dresser, DresserSpec};
+use crate::envelope::DressingSetup;
+use crate::error::{DressError, Result};
+use crate::kinematics::AxisCorrection;
+use crate::solve::{
+    solve_four_point, solve_three_point, FourPoint, NewtonOptions, Solution, ThreePoint,
+};
+use crate::worm::{Flank, Worm};
+use serde::{Deserialize, Serialize};
+
+/// `[worm]`: the new worm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WormInput {
+    /// `starts`: number of threads z_S.
+    pub starts: u32,
+    /// `diameter_mm`: reference diameter of the new worm d_S0 (mm).
+    pub diameter_mm: f64,
+    /// `normal_module_mm` (mm).
+    pub normal_module_mm: f64,
+    /// `profile_angle_deg`: normal profile angle (degrees).
+    pub profile_angle_deg: f64,
+}
+
+/// `[dresser]`: the profile roller dresser, designed for the new worm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DresserInput {
+    /// `diameter_mm`: outer (jacket) diameter d_A (mm).
+    pub diameter_mm: f64,
+    /// `jacket_width_mm` (mm).
+    pub jacket_width_mm: f64,
+    /// `clearance_mm` per flank (mm).
+    pub clearance_mm: f64,
+}
+
+/// Solve method of `[solve] method`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Three targets plus the radius association at the tip.
+    ThreePoint,
+    /// Four targets (minimum-norm correction).
+    FourPoint,
+}
+
+/// `[solve]` (the single, non-topological solve).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolveInput {
+    /// `flank`.
+    pub flank: Flank,
+    /// `method`.
+    pub method: Method,
+    /// `diameter_mm`: current worm diameter (mm); `None` = the new worm.
+    pub diameter_mm: Option<f64>,
+    /// `crowning_um`: targets (0, −c, 0) at 5/50/95 % of the active profile (3-point).
+    pub crowning_um: Option<f64>,
+    /// `points`: explicit targets [fraction of the active profile, f in µm].
+    pub points: Option<Vec<[f64; 2]>>,
+    /// `budget_mm`: clearance budget for the opposite-flank cut and the jacket depth (mm).
+    pub budget_mm: f64,
+    /// `accept_penetration`: return a solution beyond the budget (flagged) instead of an error.
+    pub accept_penetration: bool,
+}
+
+/// Default `[solve] budget_mm`, the same as `[plan] budget_mm` (mm).
+pub const DEFAULT_BUDGET_MM: f64 = 0.1;
+
+/// Largest |crowning| / |target| accepted (µm).
+pub const MAX_TARGET_UM: f64 = 1000.0;
+
+fn input_err(key: &str, detail: String) -> DressError {
+    DressError::Input {
+        key: key.to_string(),
+        detail,
+    }
+}
+
+/// `lo ≤ v ≤ hi` (finite) for a TOML key, the message in the key's unit.
+pub fn check_key(key: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(v)
+    } else {
+        let u = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        Err(input_err(
+            key,
+            format!("= {v}{u} is outside the allowed range {lo} ..= {hi}{u}"),
+        ))
+    }
+}
+
+/// Smallest worm diameter `[solve] diameter_mm` may take: tip and root 2.25 m_n above the
+/// base circle, so the whole tooth depth stays on the involute (mm).
+pub fn min_worn_diameter_mm(worm: &Worm) -> f64 {
+    2.0 * (worm.r_b_mm + 2.25 * worm.m_n_mm)
+}
+
+/// The worm at `[solve] diameter_mm` (the new worm when absent), the key checked.
+pub fn current_worm(design: &Worm, diameter_mm: Option<f64>) -> Result<Worm> {
+    match diameter_mm {
+        Some(d) => {
+            let lo = (min_worn_diameter_mm(design) * 1e4).ceil() / 1e4;
+            check_key("[solve] diameter_mm", d, lo, design.d_s0_mm, "mm")?;
+            design.worn(d)
+        }
+        None => Ok(*design),
+    }
+}
+
+impl WormInput {
+    /// The new worm, every key checked first.
+    pub fn build(&self) -> Result<Worm> {
+        check_key("[worm] starts", f64::from(self.starts), 1.0, 20.0, "")?;
+        check_key(
+            "[worm] normal_module_mm",
+            self.normal_module_mm,
+            0.05,
+            100.0,
+            "mm",
+        )?;
+        check_key(
+            "[worm] profile_angle_deg",
+            self.profile_angle_deg,
+            5.0,
+            45.0,
+            "degrees",
+        )?;
+        let d_min = f64::from(self.starts) * self.normal_module_mm * 1.0001;
+        if !(self.diameter_mm.is_finite() && self.diameter_mm > d_min && self.diameter_mm <= 1e4) {
+            return Err(input_err(
+                "[worm] diameter_mm",
+                format!(
+                    "= {} mm is outside the allowed range {:.4} ..= 10000 mm (it must exceed \
+                     starts × normal_module_mm = {} mm)",
+                    self.diameter_mm,
+                    d_min,
+                    f64::from(self.starts) * self.normal_module_mm
+                ),
+            ));
+        }
+        Worm::design(
+            self.starts,
+            self.diameter_mm,
+            self.normal_module_mm,
+            self.profile_angle_deg.to_radians(),
+        )
+        .map_err(|e| input_err("[worm]", format!("no worm with these values: {e}")))
+    }
+}
+
+impl DresserInput {
+    /// The dresser for the new `worm`, every key checked first.
+    pub fn build(&self, worm: &Worm) -> Result<Dresser> {
+        check_key("[dresser] diameter_mm", self.diameter_mm, 5.0, 2000.0, "mm")?;
+        let half_pitch = worm.axial_pitch_mm() / 2.0;
+        if !(self.jacket_width_mm.is_finite()
+            && self.jacket_width_mm > 0.0
+            && self.jacket_width_mm <= half_pitch)
+        {
+            return Err(input_err(
+                "[dresser] jacket_width_mm",
+                format!(
+                    "= {} mm is outside the allowed range 0 < jacket_width_mm ..= {half_pitch:.4} mm \
+                     (half the axial pitch); the jacket dresses the root and joins both flanks \
+                     through the fillets, so it needs a width > 0",
+                    self.jacket_width_mm
+                ),
+            ));
+        }
+        check_key(
+            "[dresser] clearance_mm",
+            self.clearance_mm,
+            0.0,
+            0.2 * worm.m_n_mm,
+            "mm",
+        )?;
+        Dresser::design(
+            worm,
+            DresserSpec {
+                d_a_mm: self.diameter_mm,
+                jacket_width_mm: self.jacket_width_mm,
+                clearance_mm: self.clearance_mm,
+            },
+        )
+        .map_err(|e| match e {
+            DressError::Geometry(g) => input_err("[dresser]", g),
+            other => input_err("[dresser]", other.to_string()),
+        })
+    }
+}
+
+/// Opposite-flank cut and jacket depth of a solution against the clearance budget: the check
+/// of `dress plan` (`PlanRow::penetration`, `PlanRow::undercut`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Checks {
+    /// Largest cut into the opposite flank (mm, > 0 = below nominal).
+    pub opposite_cut_mm: f64,
+    /// Depth of the jacket below the root circle (mm, < 0 = root not reached).
+    pub jacket_depth_mm: f64,
+    /// The budget compared with (mm).
+    pub budget_mm: f64,
+    /// Opposite-flank cut beyond the budget.
+    pub penetration: bool,
+    /// Jacket deeper than the budget below the root.
+    pub undercut: bool,
+}
+
+impl Checks {
+    /// The checks of ΔK on `flank`.
+    pub fn of(
+        setup: &DressingSetup,
+        flank: Flank,
+        dk: &AxisCorrection,
+        budget_mm: f64,
+    ) -> Result<Self> {
+        let opposite_cut_mm = setup.opposite_flank_cut(flank, dk)?;
+        let jacket_depth_mm = setup.jacket_depth(dk);
+        Ok(Self {
+            opposite_cut_mm,
+            jacket_depth_mm,
+            budget_mm,
+            penetration: opposite_cut_mm > budget_mm,
+            undercut: jacket_depth_mm > budget_mm,
+        })
+    }
+
+    /// Both within the budget.
+    pub fn ok(&self) -> bool {
+        !self.penetration && !self.undercut
+    }
+
+    /// "opposite-flank cut 904 µm and jacket 671 µm below the root" (only what exceeds).
+    fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if self.penetration {
+            parts.push(format!(
+                "the dresser cuts {:.1} µm into the opposite flank",
+                1e3 * self.opposite_cut_mm
+            ));
+        }
+        if self.undercut {
+            parts.push(format!(
+                "its jacket reaches {:.1} µm below the worm root circle",
+                1e3 * self.jacket_depth_mm
+            ));
+        }
+        parts.join(" and ")
+    }
+}
+
+/// The solved request.
+#[derive(Debug, Clone)]
+pub struct SolveOutcome {
+    /// Worm as it is now, dresser and uncorrected setting.
+    pub setup: DressingSetup,
+    /// Active profile [w_Nf, w_Na] of the current worm (mm).
+    pub active_mm: (f64, f64),
+    /// Target roll distances (mm).
+    pub target_w_mm: Vec<f64>,
+    /// Targets f (mm).
+    pub target_f_mm: Vec<f64>,
+    /// The solve.
+    pub solution: Solution,
+    /// Penetration check.
+    pub checks: Checks,
+    /// Relative profile stretching P_FS against the new worm (1 = 100 %).
+    pub stretch: f64,
+}
+
+/// The validated problem: targets (fraction, µm) and where they came from.
+struct Targets {
+    points: Vec<[f64; 2]>,
+    /// The TOML key the targets were written with.
+    key: &'static str,
+}
+
+fn targets(input: &SolveInput) -> Result<Targets> {
+    let (points, key) = match (&input.points, input.crowning_um) {
+        (Some(_), Some(_)) => {
+            return Err(input_err(
+                "[solve] crowning_um",
+                "give either crowning_um or points, not both".into(),
+            ))
+        }
+        (Some(p), None) => (p.clone(), "[solve] points"),
+        (None, Some(c)) => {
+            if input.method != Method::ThreePoint {
+                return Err(input_err(
+                    "[solve] crowning_um",
+                    "crowning_um is for method = \"three-point\"; four-point needs `points`".into(),
+                ));
+            }
+            check_key("[solve] crowning_um", c, -50.0, 50.0, "µm")?;
+            (
+                vec![[0.05, 0.0], [0.5, -c], [0.95, 0.0]],
+                "[solve] crowning_um",
+            )
+        }
+        (None, None) => return Err(input_err(
+            "[solve]",
+            "needs `points` (fraction, µm), or `crowning_um` (µm) with method = \"three-point\""
+                .into(),
+        )),
+    };
+    let need = match input.method {
+        Method::ThreePoint => 3,
+        Method::FourPoint => 4,
+    };
+    if points.len() != need {
+        return Err(input_err(
+            "[solve] points",
+            format!(
+                "method {:?} needs {need} points (fraction, µm), got {}",
+                input.method,
+                points.len()
+            ),
+        ));
+    }
+    for (i, p) in points.iter().enumerate() {
+        if !(p[0].is_finite() && (0.0..=1.0).contains(&p[0])) {
+            return Err(input_err(
+                "[solve] points",
+                format!(
+                    "row {i}: fraction {} is outside the allowed range 0 ..= 1 (share of the \
+                     active profile, no unit)",
+                    p[0]
+                ),
+            ));
+        }
+        if !(p[1].is_finite() && p[1].abs() <= MAX_TARGET_UM) {
+            return Err(input_err(
+                "[solve] points",
+                format!(
+                    "row {i}: f = {} µm is outside the allowed range -{MAX_TARGET_UM} ..= {MAX_TARGET_UM} µm",
+                    p[1]
+                ),
+            ));
+        }
+        for (j, q) in points.iter().enumerate().take(i) {
+            if (q[0] - p[0]).abs() < 1e-3 {
+                return Err(input_err(
+                    "[solve] points",
+                    format!(
+                        "rows {j} and {i} have the same fraction {} (closer than 0.001 of the \
+                         active profile): each target needs its own roll distance",
+                        p[0]
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(Targets { points, key })
+}
+
+/// Solves `targets` scaled by `scale` on the worm of diameter `d_s_mm`; `start` is the
+/// continuation start. Returns (setup, active profile, target w, target f, solution).
+type Solved = (DressingSetup, (f64, f64), Vec<f64>, Vec<f64>, Solution);
+
+#[allow(clippy::too_many_arguments)]
+fn solve_scaled(
+    design: &Worm,
+    dresser: &Dresser,
+    flank: Flank,
+    method: Method,
+    points: &[[f64; 2]],
+    scale: f64,
+    d_s_mm: f64,
+    start: AxisCorrection,
+) -> Result<Solved> {
+    let worm = design.worn(d_s_mm)?;
+    let setup = DressingSetup::new(worm, dresser.clone());
+    let (w_nf, w_na) = setup.active_profile(flank)?;
+    let at = |q: f64| w_nf + q * (w_na - w_nf);
+    let ws: Vec<f64> = points.iter().map(|p| at(p[0])).collect();
+    let fs: Vec<f64> = points.iter().map(|p| scale * p[1] * 1e-3).collect();
+    let opts = NewtonOptions::default();
+    let k0 = AxisCorrection::default();
+    let solve = |start: AxisCorrection| -> Result<Solution> {
+        match method {
+            Method::ThreePoint => {
+                // The dresser radius that dresses the tip circle of the new worm keeps doing so.
+                let new = DressingSetup::new(*design, dresser.clone());
+                let r_tip = new.association(flank, new.active_profile(flank)?.1, &k0)?;
+                let p = ThreePoint {
+                    flank,
+                    w_mm: [ws[0], ws[1], ws[2]],
+                    f_mm: [fs[0], fs[1], fs[2]],
+                    w_assoc_mm: w_na,
+                    r_a_mm: r_tip,
+                };
+                solve_three_point(&setup, &p, start, &opts)
+            }
+            Method::FourPoint => {
+                let p = FourPoint {
+                    flank,
+                    w_mm: [ws[0], ws[1], ws[2], ws[3]],
+                    f_mm: [fs[0], fs[1], fs[2], fs[3]],
+                };
+                solve_four_point(&setup, &p, start, &opts)
+            }
+        }
+    };
+    let sol = solve(start).or_else(|e| if start == k0 { Err(e) } else { solve(k0) })?;
+    Ok((setup, (w_nf, w_na), ws, fs, sol))
+}
+
+/// Whether `scale` × the targets is producible within the budget at `d_s_mm`; the ΔK found
+/// (for continuation) when it is.
+#[allow(clippy::too_many_arguments)]
+fn producible(
+    design: &Worm,
+    dresser: &Dresser,
+    flank: Flank,
+    method: Method,
+    points: &[[f64; 2]],
+    scale: f64,
+    d_s_mm: f64,
+    budget_mm: f64,
+    start: AxisCorrection,
+) -> Option<AxisCorrection> {
+    let (setup, _, _, _, sol) =
+        solve_scaled(design, dresser, flank, method, points, scale, d_s_mm, start).ok()?;
+    let c = Checks::of(&setup, flank, &sol.dk, budget_mm).ok()?;
+    c.ok().then_some(sol.dk)
+}
+
+/// Largest λ ∈ [0, 1] such that λ × the targets is producible within the budget at `d_s_mm`
+/// (continuation from λ = 0, then bisection to 1e-3); `None` when not even λ = 0 (the
+/// unmodified profile) is.
+#[allow(clippy::too_many_arguments)]
+pub fn largest_producible_scale(
+    design: &Worm,
+    dresser: &Dresser,
+    flank: Flank,
+    method: Method,
+    points: &[[f64; 2]],
+    d_s_mm: f64,
+    budget_mm: f64,
+) -> Option<f64> {
+    let k0 = AxisCorrection::default();
+    let mut k = producible(
+        design, dresser, flank, method, points, 0.0, d_s_mm, budget_mm, k0,
+    )?;
+    let (mut lo, mut hi) = (0.0, 1.0);
+    if producible(
+        design, dresser, flank, method, points, 1.0, d_s_mm, budget_mm, k,
+    )
+    .is_some()
+    {
+        return Some(1.0);
+    }
+    while hi - lo > 1e-3 {
+        let mid = 0.5 * (lo + hi);
+        match producible(
+            design, dresser, flank, method, points, mid, d_s_mm, budget_mm, k,
+        ) {
+            Some(km) => {
+                lo = mid;
+                k = km;
+            }
+            None => hi = mid,
+        }
+    }
+    Some(lo)
+}
+
+/// Smallest worm diameter (mm, to 0.1 mm) at which the full targets are producible within the
+/// budget, searched by bisection between `d_from_mm` (not producible) and the new worm;
+/// `None` when the new worm cannot carry them either.
+#[allow(clippy::too_many_arguments)]
+pub fn smallest_producible_diameter(
+    design: &Worm,
+    dresser: &Dresser,
+    flank: Flank,
+    method: Method,
+    points: &[[f64; 2]],
+    d_from_mm: f64,
+    budget_mm: f64,
+) -> Option<f64> {
+    let k0 = AxisCorrection::default();
+    let mut k = producible(
+        design,
+        dresser,
+        flank,
+        method,
+        points,
+        1.0,
+        design.d_s0_mm,
+        budget_mm,
+        k0,
+    )?;
+    let (mut lo, mut hi) = (d_from_mm, design.d_s0_mm);
+    while hi - lo > 0.1 {
+        let mid = 0.5 * (lo + hi);
+        match producible(
+            design, dresser, flank, method, points, 1.0, mid, budget_mm, k,
+        ) {
+            Some(km) => {
+                hi = mid;
+                k = km;
+            }
+            None => lo = mid,
+        }
+    }
+    Some(hi)
+}
+
+/// "what is producible here": the largest share of the modification at this diameter and the
+/// diameters at which the full modification is producible.
+#[allow(clippy::too_many_arguments)]
+fn producible_range(
+    design: &Worm,
+    dresser: &Dresser,
+    input: &SolveInput,
+    t: &Targets,
+    d_s_mm: f64,
+) -> String {
+    let (fl, m, b) = (input.flank, input.method, input.budget_mm);
+    let budget = format!("[solve] budget_mm = {b} mm");
+    let scale = largest_producible_scale(design, dresser, fl, m, &t.points, d_s_mm, b);
+    let share = match (scale, input.crowning_um) {
+        (None, _) => format!(
+            "at the worm diameter {d_s_mm} mm not even the unmodified profile stays within \
+             {budget}"
+        ),
+        (Some(s), Some(c)) => format!(
+            "at the worm diameter {d_s_mm} mm the largest crowning this worm and dresser carry \
+             within {budget} is crowning_um = {:.3} µm",
+            s * c
+        ),
+        (Some(s), None) => format!(
+            "at the worm diameter {d_s_mm} mm at most {:.1} % of these points (every f scaled \
+             alike) is producible within {budget}",
+            100.0 * s
+        ),
+    };
+    let dia = if d_s_mm >= design.d_s0_mm {
+        String::new()
+    } else {
+        match smallest_producible_diameter(design, dresser, fl, m, &t.points, d_s_mm, b) {
+            Some(d) => format!(
+                "; the requested {} is producible for [solve] diameter_mm from {d:.1} to {} mm",
+                t.key.trim_start_matches("[solve] "),
+                design.d_s0_mm
+            ),
+            None => format!(
+                "; the requested {} is not producible at any diameter, not even on the new worm \
+                 ({} mm)",
+                t.key.trim_start_matches("[solve] "),
+                design.d_s0_mm
+            ),
+        }
+    };
+    format!("{share}{dia}")
+}
+
+/// Validates and solves a `[solve]` request on the worm `design` (new) with `dresser`:
+/// every input error names its TOML key and unit; a solution beyond the clearance budget is an
+/// error (naming `budget_mm` and what is producible) unless `accept_penetration`; a request
+/// with no root, or whose evaluation fails, is an error stating the producible range.
+///
+/// # Source
+/// seed 004, E121–E122 (3-point), E106–E107 (4-point), O343–O361 (penetration check) [SEED]
+pub fn solve_request(design: &Worm, dresser: &Dresser, input: &SolveInput) -> Result<SolveOutcome> {
+    check_key("[solve] budget_mm", input.budget_mm, 0.0, 5.0, "mm")?;
+    let d_s = current_worm(design, input.diameter_mm)?.d_s_mm;
+    let t = targets(input)?;
+    let k0 = AxisCorrection::default();
+    let solved = solve_scaled(
+        design,
+        dresser,
+        input.flank,
+        input.method,
+        &t.points,
+        1.0,
+        d_s,
+        k0,
+    )
+    .or_else(|_| {
+        // Continuation: walk the targets up from the unmodified profile.
+        let mut k = k0;
+        let mut last = None;
+        for i in 1..=8 {
+            let s = f64::from(i) / 8.0;
+            let r = solve_scaled(
+                design,
+                dresser,
+                input.flank,
+                input.method,
+                &t.points,
+                s,
+                d_s,
+                k,
+            )?;
+            k = r.4.dk;
+            last = Some(r);
+        }
+        last.ok_or(DressError::NoConvergence {
+            what: "continuation",
+            detail: String::new(),
+        })
+    });
+    let (setup, active, ws, fs, sol) = match solved {
+        Ok(v) => v,
+        Err(e) => {
+            let why = match &e {
+                DressError::NoRoot { .. } => {
+                    format!("the axis corrections have no root for these targets ({e})")
+                }
+                _ => format!("the dressing of this worm cannot be evaluated ({e})"),
+            };
+            return Err(DressError::NotProducible {
+                key: t.key.to_string(),
+                detail: format!(
+                    "{why}; {}",
+                    producible_range(design, dresser, input, &t, d_s)
+                ),
+            });
+        }
+    };
+    let checks = Checks::of(&setup, input.flank, &sol.dk, input.budget_mm)?;
+    if !checks.ok() && !input.accept_penetration {
+        return Err(DressError::NotProducible {
+            key: t.key.to_string(),
+            detail: format!(
+                "{} beyond [solve] budget_mm = {} mm ({:.0} µm): the worm cannot carry this \
+                 modification at the worm diameter {d_s} mm; {}. Set [solve] accept_penetration = \
+                 true to output the solution anyway (flagged)",
+                checks.describe(),
+                input.budget_mm,
+                1e3 * input.budget_mm,
+                producible_range(design, dresser, input, &t, d_s)
+            ),
+        });
+    }
+    let reference = StretchReference::new(design, dresser, input.flank)?;
+    let stretch = profile_stretch(&setup, input.flank, &reference, &sol.dk, active)?;
+    Ok(SolveOutcome {
+        setup,
+        active_mm: active,
+        target_w_mm: ws,
+        target_f_mm: fs,
+        solution: sol,
+        checks,
+        stretch,
+    })
+}
