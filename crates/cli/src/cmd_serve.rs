@@ -14,7 +14,7 @@ grinder of the thermal presets, the record in ./gearcomp.db, the dashboard on \
 http://127.0.0.1:8080 (tokens printed at first start).\n\
 Examples:\n  gearcomp serve --speedup 60\n  gearcomp serve --config machine.toml\n  \
 gearcomp serve --config shaper1.toml --config grinder2.toml   (two machines, one process)\n  \
-gearcomp serve --db gearcomp.db --export-csv log.csv   (then: gearcomp fit log.csv --target measured_drift_um)"
+gearcomp serve --db gearcomp.db --export-csv log.csv   (then: gearcomp fit --data log.csv --target measured_drift_um)"
 )]
 pub struct Args {
     /// Service configuration (TOML); unknown keys are refused. Repeat it to serve several

@@ -238,17 +238,28 @@ fn export_is_read_by_gearcomp_fit() {
         "time_s,bed_top_c,wheel_head_c,column_c,oil_c,measured_drift_um,Z_offset_um"
     );
     assert!(text.lines().count() > 100);
+    // The exact follow-up command `serve --help` prints, with its log.csv.
+    let help = bin().args(["serve", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout).into_owned();
+    let example = help
+        .split("(then: gearcomp ")
+        .nth(1)
+        .and_then(|rest| rest.split(')').next())
+        .unwrap_or_else(|| panic!("no follow-up example in serve --help: {help}"));
     let model = dir.join("model.toml");
+    let example_args: Vec<std::ffi::OsString> = example
+        .split_whitespace()
+        .map(|w| {
+            if w == "log.csv" {
+                csv.clone().into_os_string()
+            } else {
+                w.into()
+            }
+        })
+        .collect();
     let out = bin()
-        .args(["fit", "--data"])
-        .arg(&csv)
-        .args([
-            "--target",
-            "measured_drift_um",
-            "--model",
-            "static",
-            "--out",
-        ])
+        .args(&example_args)
+        .args(["--model", "static", "--out"])
         .arg(&model)
         .output()
         .unwrap();
