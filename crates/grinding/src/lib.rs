@@ -16,6 +16,7 @@
 //! - [`machine`]: machine chain (35) and its inverse.
 //! - [`simulate`]: brute-force envelope grinding simulation over rotation and feed, storing the
 //!   worm point that ground each gear point, and the contact path fitted from it.
+//! - [`solve`]: the worm for a wanted gear modification, iterated on the envelope simulation.
 //! - [`iso1328`]: ISO 1328-1:2013 profile and helix evaluation and tolerances.
 //! - [`conical`]: conical (beveloid) worm and/or workpiece: beveloid flanks, chains (29)–(31),
 //!   the contact path (50)–(86) with its feed terms, generating coupling and diagonal ratio.
@@ -53,5 +54,6 @@ pub mod kinematics;
 pub mod machine;
 pub mod modification;
 pub mod simulate;
+pub mod solve;
 
 pub use error::{GrindError, Result};

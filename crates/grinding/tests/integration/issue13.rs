@@ -156,3 +156,67 @@ fn item3_twist_worm_grinds_every_point() {
         assert!(p.explained, "({i}, {j}) {p:?}");
     }
 }
+
+/// Item 4: the iterated solve on the reference gear (z2 = 31, m_n = 3, β = 15°, worm r1 =
+/// 130 mm, grid w_P ± 6 mm × ±15 mm, 25 × 31). The first-order worm leaves 1.44 % of a lead
+/// crowning (−0.02 µm/mm²·z², 4.5 µm) and 0.38 µm of a 0.2 µm/mm² twist (18 µm), as the issue
+/// measured; the iteration brings both below 0.5 % of the wish. The final worm is ground again
+/// by the brute-force envelope at sample points: the wish is met there within the same bound.
+#[test]
+fn item4_iterated_solve_meets_the_wish() {
+    use gearcomp_grinding::modification::FlankModification;
+    use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
+    let gear = InvoluteGear::new(31, 3.0, 20f64.to_radians(), 15f64.to_radians()).unwrap();
+    let worm = InvoluteGear::worm(1, 3.0, 20f64.to_radians(), 130.0, Hand::Right).unwrap();
+    let pair = WormGearPair::reference(&worm, &gear, Flank::Right).unwrap();
+    let wp = pair.gear.w_ref_mm;
+    let grid = FlankGrid::new((wp - 6.0, wp + 6.0), (-15.0, 15.0), 25, 31).unwrap();
+    let (root, tip) = (126.25, 133.75);
+    for (name, c, l, first_lo, first_hi) in [
+        (
+            "lead crowning",
+            um(&[0.0, 0.0, -0.02]),
+            Poly(vec![]),
+            0.0640,
+            0.0650,
+        ),
+        ("twist", Poly(vec![]), um(&[0.0, 0.2]), 0.380, 0.386),
+    ] {
+        let wanted = LineModification::new(0.0, wp, c, l, Poly(vec![])).unwrap();
+        let rho1 = rho1_estimate_rad(&pair);
+        let r = solve_iterated(
+            &pair,
+            &wanted,
+            rho1,
+            0.0,
+            grid,
+            (root, tip),
+            &IterationOptions::default(),
+        )
+        .unwrap();
+        let first_um = r.iterations[0].max_abs_deviation_mm * 1e3;
+        assert!(
+            first_um > first_lo && first_um < first_hi,
+            "{name}: first order {first_um}"
+        );
+        let bound = (0.005 * r.wish_max_abs_mm).max(1e-5);
+        assert!(r.converged && r.remaining_mm <= bound, "{name}: {r:?}");
+        assert!(r.iterations.len() >= 2);
+        // independent check of the final worm
+        let cpl = FeedCoupling::linear(r.line_map.k_zv1, 0.0).unwrap();
+        let set = BruteSettings {
+            w1_bounds_mm: w_bounds(&pair, root, tip),
+            ray_half_mm: 0.1,
+            ray_step_mm: 0.004,
+            half_u_mm: 3.0,
+            half_v_mm: 10.0,
+        };
+        let cb2 = pair.gear.beta_b_rad.cos();
+        for &(i, j) in &[(0, 0), (24, 30), (12, 15), (3, 27)] {
+            let (w2, z2) = (grid.w_mm(i), grid.z_mm(j));
+            let (t, _, _) = brute_envelope(&pair, 1, &cpl, &r.worm, &set, w2, z2).unwrap();
+            let miss = (t / cb2 - wanted.f_ft_mm(w2, z2)).abs();
+            assert!(miss <= bound + 1e-6, "{name} ({i}, {j}): {miss}");
+        }
+    }
+}
