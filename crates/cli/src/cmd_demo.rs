@@ -187,14 +187,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut engine = Engine::new(&bundle.config).context("building the compensation engine")?;
     let mut sim = Simulator::new(bundle.machine.clone(), args.seed)?;
+    // A progress line for a person at a terminal; a log file or a pipe gets one line at the
+    // end instead of a hundred carriage returns.
+    let interactive = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let run = run_closed_loop(&mut sim, &mut engine, hours, |f| {
-        eprint!(
-            "\rgearcomp demo: simulating {hours} h on the {} preset {:>3.0} %",
-            preset.name(),
-            100.0 * f
-        )
+        if interactive {
+            eprint!(
+                "\rgearcomp demo: simulating {hours} h on the {} preset {:>3.0} %",
+                preset.name(),
+                100.0 * f
+            )
+        }
     })?;
-    eprintln!();
+    if interactive {
+        eprintln!();
+    } else {
+        eprintln!(
+            "gearcomp demo: simulated {hours} h on the {} preset",
+            preset.name()
+        );
+    }
     let (u, c) = (run.uncompensated(), run.compensated());
     let cfg_toml = bundle.config.to_toml_string().unwrap_or_default();
     let title = format!(

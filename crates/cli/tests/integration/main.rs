@@ -5,6 +5,7 @@
 mod common;
 
 mod demo_cli;
+mod demo_props;
 mod dress_cli;
 mod dress_contact_point;
 mod dress_topological;
