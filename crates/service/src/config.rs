@@ -306,6 +306,38 @@ pub struct HttpSection {
     /// TCP port; 0 picks a free one (printed on stdout).
     #[serde(default = "default_port")]
     pub port: u16,
+    /// HTTPS: the server's certificate chain and key (PEM). Required for a bind address
+    /// other than loopback unless `allow_plaintext = true`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tls: Option<HttpTls>,
+    /// Serve plain HTTP on a non-loopback address (tokens cross the network in clear):
+    /// only on a network that is itself protected.
+    #[serde(default)]
+    pub allow_plaintext: bool,
+    /// Most connections open at once (1…100000); a connection beyond is closed at once.
+    #[serde(default = "default_max_connections")]
+    pub max_connections: u32,
+    /// A connection must deliver a request's headers within this time (0.1…600 s), also
+    /// between the requests of a kept-alive connection; otherwise it is closed.
+    #[serde(default = "default_header_read_timeout")]
+    pub header_read_timeout_s: f64,
+}
+
+/// HTTPS certificate and key (PEM files, relative to the configuration file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HttpTls {
+    /// Certificate chain, leaf first (PEM).
+    pub cert_file: PathBuf,
+    /// Private key (PEM: PKCS#8, PKCS#1 or SEC1).
+    pub key_file: PathBuf,
+}
+
+fn default_max_connections() -> u32 {
+    256
+}
+fn default_header_read_timeout() -> f64 {
+    10.0
 }
 
 fn default_bind() -> IpAddr {
@@ -320,6 +352,10 @@ impl Default for HttpSection {
         Self {
             bind: default_bind(),
             port: default_port(),
+            tls: None,
+            allow_plaintext: false,
+            max_connections: default_max_connections(),
+            header_read_timeout_s: default_header_read_timeout(),
         }
     }
 }
@@ -506,6 +542,81 @@ pub struct MqttInput {
     /// Reconnect back-off.
     #[serde(default)]
     pub reconnect: Backoff,
+    /// Largest message payload accepted, bytes (16…16 MiB). A larger message is dropped
+    /// with an alarm; the connection stays (the client itself accepts any packet the
+    /// broker forwards, so one oversized message cannot disconnect it).
+    #[serde(default = "mqtt_max_payload")]
+    pub max_payload_bytes: u32,
+    /// Broker login name; the password comes from `password_file` or `password_env`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub username: Option<String>,
+    /// File whose first line is the broker password (relative to the configuration file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password_file: Option<PathBuf>,
+    /// Environment variable holding the broker password.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password_env: Option<String>,
+}
+
+#[cfg(feature = "mqtt")]
+fn mqtt_max_payload() -> u32 {
+    10_240
+}
+
+#[cfg(feature = "mqtt")]
+impl MqttInput {
+    /// The broker login: `None` without `username`; the password is read from the file or
+    /// environment variable named in the configuration (never from the file itself, never
+    /// logged).
+    pub fn credentials(&self) -> Result<Option<(String, String)>> {
+        self.check_login()?;
+        let Some(user) = &self.username else {
+            return Ok(None);
+        };
+        let password = match (&self.password_file, &self.password_env) {
+            (Some(f), _) => {
+                let text = std::fs::read_to_string(f).map_err(|e| {
+                    invalid(
+                        "input.password_file",
+                        format!("{} ({e})", f.display()),
+                        "a readable file whose first line is the broker password",
+                    )
+                })?;
+                text.lines().next().unwrap_or("").to_string()
+            }
+            (None, Some(var)) => std::env::var(var).map_err(|_| {
+                invalid(
+                    "input.password_env",
+                    var,
+                    "the name of a set environment variable holding the broker password",
+                )
+            })?,
+            (None, None) => String::new(),
+        };
+        Ok(Some((user.clone(), password)))
+    }
+
+    /// The login keys fit together (nothing is read).
+    pub fn check_login(&self) -> Result<()> {
+        let Some(user) = &self.username else {
+            if self.password_file.is_some() || self.password_env.is_some() {
+                return Err(invalid(
+                    "input.username",
+                    "(missing)",
+                    "a broker login name when input.password_file or input.password_env is set",
+                ));
+            }
+            return Ok(());
+        };
+        if self.password_file.is_some() == self.password_env.is_some() {
+            return Err(invalid(
+                "input.username",
+                user,
+                "exactly one of input.password_file or input.password_env with it",
+            ));
+        }
+        Ok(())
+    }
 }
 
 #[cfg(feature = "mqtt")]
@@ -698,6 +809,19 @@ impl ServiceConfig {
                 r.path = dir.join(&r.path);
             }
         }
+        if let Some(t) = &mut cfg.http.tls {
+            for f in [&mut t.cert_file, &mut t.key_file] {
+                if f.is_relative() {
+                    *f = dir.join(&*f);
+                }
+            }
+        }
+        #[cfg(feature = "mqtt")]
+        if let InputSection::Mqtt(m) = &mut cfg.input {
+            if let Some(f) = m.password_file.as_mut().filter(|f| f.is_relative()) {
+                *f = dir.join(&*f);
+            }
+        }
         #[cfg(feature = "opcua")]
         if let InputSection::OpcUa(o) = &mut cfg.input {
             if o.pki_dir.is_relative() {
@@ -754,6 +878,7 @@ impl ServiceConfig {
             "0.01…1 s (a crash loses at most this)",
         )?;
         self.validate_postgres()?;
+        self.validate_http()?;
         for (i, t) in self.auth.tokens.iter().enumerate() {
             if t.sha256.len() != 64
                 || !t
@@ -808,6 +933,14 @@ impl ServiceConfig {
                     "5…3600 s",
                 )?;
                 m.reconnect.validate("input.reconnect")?;
+                check_range(
+                    "input.max_payload_bytes",
+                    m.max_payload_bytes as f64,
+                    16.0,
+                    16.0 * 1024.0 * 1024.0,
+                    "16…16777216 bytes",
+                )?;
+                m.check_login()?;
             }
             #[cfg(feature = "modbus")]
             InputSection::Modbus(m) => {
@@ -865,6 +998,33 @@ impl ServiceConfig {
 impl ServiceConfig {
     /// The PostgreSQL keys of `[storage]`: a URL when the backend is postgres, a build with
     /// the `postgres` feature, a buffer bound and back-off in range.
+    fn validate_http(&self) -> Result<()> {
+        let h = &self.http;
+        if !h.bind.is_loopback() && h.tls.is_none() && !h.allow_plaintext {
+            return Err(invalid(
+                "http.bind",
+                h.bind,
+                "a loopback address (127.0.0.1, ::1), or [http.tls] cert_file/key_file for \
+                 HTTPS, or http.allow_plaintext = true to send tokens in clear on a protected \
+                 network",
+            ));
+        }
+        check_range(
+            "http.max_connections",
+            h.max_connections as f64,
+            1.0,
+            100_000.0,
+            "1…100000",
+        )?;
+        check_range(
+            "http.header_read_timeout_s",
+            h.header_read_timeout_s,
+            0.1,
+            600.0,
+            "0.1…600 s",
+        )
+    }
+
     fn validate_postgres(&self) -> Result<()> {
         let s = &self.storage;
         check_range(

@@ -120,6 +120,14 @@ pub enum InputMsg {
         /// The key it was raised with.
         key: String,
     },
+    /// An adapter that counts a repeated cause itself: the total so far for an active
+    /// input alarm (shown with the alarm; no new row).
+    AlarmCount {
+        /// The key it was raised with.
+        key: String,
+        /// Occurrences so far.
+        count: u64,
+    },
     /// Replace the engine (operator model change), with a bumpless transfer.
     SwapEngine(Box<Engine>, Box<EngineConfig>),
     /// The operator acknowledged the stop request.
@@ -211,6 +219,8 @@ pub struct Live {
 impl Live {
     /// The initial state for these names.
     pub fn new(channels: &[String], axes: &[String]) -> Self {
+    /// Occurrences of each active input alarm (see [`crate::alarms`]).
+    pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
         Self {
             time_s: f64::NAN,
             status: "starting",
@@ -244,6 +254,7 @@ impl Live {
 }
 
 /// Bumpless transfer after an engine swap: the output holds the last applied offset until
+            input_alarm_counts: Default::default(),
 /// the new engine has a value, then the difference decays at a fixed rate.
 ///
 /// # Formula
@@ -374,7 +385,7 @@ pub struct Cycle {
     prev_fault: Vec<Option<Fault>>,
     prev_engine_alarm: Option<&'static str>,
     prev_stop: bool,
-    input_alarms: std::collections::BTreeSet<String>,
+    input_alarms: crate::alarms::InputAlarms,
     bumpless: Bumpless,
     applied_um: [f64; MAX_AXES],
     seq: u64,
@@ -516,16 +527,13 @@ impl Cycle {
                 value,
             }),
             InputMsg::RaiseAlarm { key, message } => {
-                if self.input_alarms.insert(key.clone()) {
-                    self.raise(self.clock.now_s(), key, message);
+                if let Some(e) = self.input_alarms.raise(key, message) {
+                    self.input_alarm_edge(e);
                 }
             }
             InputMsg::ClearAlarm { key } => {
-                if self.input_alarms.remove(&key) {
-                    self.record(Record::AlarmCleared {
-                        time_s: self.clock.now_s(),
-                        key,
-                    });
+                for e in self.input_alarms.clear(key) {
+                    self.input_alarm_edge(e);
                 }
             }
             InputMsg::SwapEngine(engine, config) => {
@@ -677,6 +685,24 @@ impl Cycle {
                 time_s: t,
                 seq: self.seq,
                 offsets_um: next,
+    fn input_alarm_edge(&self, e: crate::alarms::Edge) {
+        match e {
+            crate::alarms::Edge::Raised { key, message } => {
+                self.raise(self.clock.now_s(), key, message)
+            }
+            crate::alarms::Edge::Cleared { key } => self.record(Record::AlarmCleared {
+                time_s: self.clock.now_s(),
+                key,
+            }),
+        }
+    }
+
+    fn publish_alarm_counts(&self) {
+        if let Ok(mut live) = self.live.lock() {
+            live.input_alarm_counts = self.input_alarms.counts();
+        }
+    }
+
                 n_axes: n_axes as u8,
                 scan_at: self.scan_at,
             };
@@ -730,6 +756,7 @@ impl Cycle {
             }
             if self.last_step.elapsed() >= self.period {
                 self.step();
+                self.publish_alarm_counts();
             }
         }
         // Finish: whatever arrived is stepped once more so the record ends on a cycle.
@@ -738,6 +765,11 @@ impl Cycle {
                 break;
             }
         }
+                self.publish_alarm_counts();
+            }
+            InputMsg::AlarmCount { key, count } => {
+                self.input_alarms.set_count(key, count);
+                self.publish_alarm_counts();
         if self.n_fresh > 0 {
             self.step();
         }

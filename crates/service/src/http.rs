@@ -11,7 +11,7 @@
 use std::path::PathBuf;
 use std::sync::mpsc::SyncSender;
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
 use axum::extract::{Path as UrlPath, Query, State};
@@ -327,7 +327,24 @@ async fn alarms(
     let active = q.active.unwrap_or(false);
     let limit = q.limit.unwrap_or(200).min(10_000);
     match db(&st, move |c| c.alarms(active, limit)).await {
-        Ok(rows) => Json(rows).into_response(),
+        Ok(rows) => {
+            // An active input alarm with repeats carries its count (see crate::alarms);
+            // every other row counts once.
+            let counts = live(&st).input_alarm_counts;
+            let rows: Vec<serde_json::Value> = rows
+                .into_iter()
+                .map(|r| {
+                    let count = match r.cleared_s {
+                        None => counts.get(&r.key).copied().unwrap_or(1),
+                        Some(_) => 1,
+                    };
+                    let mut v = json!(r);
+                    v["count"] = json!(count);
+                    v
+                })
+                .collect();
+            Json(rows).into_response()
+        }
         Err(e) => e,
     }
 }
@@ -412,10 +429,31 @@ async fn get_model(State(st): State<Shared>, headers: HeaderMap) -> Response {
     Json(json!({ "source": m.source, "config_toml": toml, "model_files": models })).into_response()
 }
 
-async fn put_model(State(st): State<Shared>, headers: HeaderMap, body: Bytes) -> Response {
+/// Largest engine configuration accepted by `PUT /api/model`, bytes.
+pub const MAX_MODEL_BYTES: usize = 1024 * 1024;
+
+async fn put_model(
+    State(st): State<Shared>,
+    headers: HeaderMap,
+    body: axum::body::Body,
+) -> Response {
+    // The token is checked before a byte of the body is read: an unauthenticated request
+    // gets 401 whatever it sends, and only an operator's body is read (up to the limit).
     let who = match authorize(&st, &headers, None, Role::Operator) {
         Ok(w) => w,
         Err(r) => return r,
+    };
+    let body: Bytes = match axum::body::to_bytes(body, MAX_MODEL_BYTES).await {
+        Ok(b) => b,
+        Err(_) => {
+            return err(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                format!(
+                    "body over {MAX_MODEL_BYTES} bytes (or cut off); expected an engine \
+                     configuration (TOML) of at most {MAX_MODEL_BYTES} bytes"
+                ),
+            )
+        }
     };
     let text = match std::str::from_utf8(&body) {
         Ok(t) => t.to_string(),
@@ -507,5 +545,166 @@ async fn audit_log(State(st): State<Shared>, headers: HeaderMap) -> Response {
     match res {
         Ok(rows) => Json(rows).into_response(),
         Err(e) => e,
+    }
+}
+
+/// Limits of the HTTP server (see `[http]` in docs/service.md).
+#[derive(Debug, Clone, Copy)]
+pub struct ServerLimits {
+    /// Most connections open at once; a connection beyond is closed at once.
+    pub max_connections: usize,
+    /// A connection must deliver a request's headers (and, with HTTPS, finish its
+    /// handshake) within this time, also between the requests of a kept-alive connection.
+    pub header_read_timeout: Duration,
+}
+
+impl ServerLimits {
+    /// The limits of an `[http]` section.
+    pub fn of(h: &crate::config::HttpSection) -> Self {
+        Self {
+            max_connections: h.max_connections as usize,
+            header_read_timeout: Duration::from_secs_f64(h.header_read_timeout_s),
+        }
+    }
+}
+
+/// The HTTPS acceptor of `[http.tls]` (rustls, ring provider): the certificate chain and
+/// key are read and checked at start; the error names the key and the file.
+pub fn tls_acceptor(t: &crate::config::HttpTls) -> crate::error::Result<tokio_rustls::TlsAcceptor> {
+    use crate::error::invalid;
+    use rustls::pki_types::pem::PemObject;
+    use rustls::pki_types::{CertificateDer, PrivateKeyDer};
+    let certs: Vec<CertificateDer<'static>> = CertificateDer::pem_file_iter(&t.cert_file)
+        .and_then(|it| it.collect::<std::result::Result<Vec<_>, _>>())
+        .map_err(|e| {
+            invalid(
+                "http.tls.cert_file",
+                format!("{} ({e})", t.cert_file.display()),
+                "a readable PEM file with the server's certificate chain",
+            )
+        })?;
+    if certs.is_empty() {
+        return Err(invalid(
+            "http.tls.cert_file",
+            t.cert_file.display(),
+            "a PEM file with at least one CERTIFICATE block",
+        ));
+    }
+    let key = PrivateKeyDer::from_pem_file(&t.key_file).map_err(|e| {
+        invalid(
+            "http.tls.key_file",
+            format!("{} ({e})", t.key_file.display()),
+            "a readable PEM file with the private key (PKCS#8, PKCS#1 or SEC1)",
+        )
+    })?;
+    let provider = Arc::new(rustls::crypto::ring::default_provider());
+    let cfg = rustls::ServerConfig::builder_with_provider(provider)
+        .with_safe_default_protocol_versions()
+        .map_err(|e| invalid("http.tls", e, "TLS 1.2 or 1.3 with the ring provider"))?
+        .with_no_client_auth()
+        .with_single_cert(certs, key)
+        .map_err(|e| {
+            invalid(
+                "http.tls.key_file",
+                format!("{} ({e})", t.key_file.display()),
+                "the private key of the certificate in http.tls.cert_file",
+            )
+        })?;
+    Ok(tokio_rustls::TlsAcceptor::from(Arc::new(cfg)))
+}
+
+/// Serves `app` on `listener` until `stop` fires (or its sender is dropped), then lets the
+/// open requests finish (at most 10 s).
+///
+/// Unlike `axum::serve` this bounds what a client can hold: at most
+/// `limits.max_connections` connections (each one beyond is closed at once, so the
+/// server's descriptors and memory stay bounded), and a connection that does not deliver
+/// its request headers within `limits.header_read_timeout` is closed (hyper's HTTP/1
+/// header-read timer; for HTTPS the handshake has the same bound). An idle or half-open
+/// connection therefore holds its slot for at most that long.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    app: Router,
+    limits: ServerLimits,
+    tls: Option<tokio_rustls::TlsAcceptor>,
+    mut stop: tokio::sync::oneshot::Receiver<()>,
+) {
+    let permits = Arc::new(tokio::sync::Semaphore::new(limits.max_connections));
+    let (closing_tx, closing_rx) = tokio::sync::watch::channel(false);
+    loop {
+        let tcp = tokio::select! {
+            r = listener.accept() => match r {
+                Ok((tcp, _)) => tcp,
+                // Out of descriptors or a connection reset before accept: wait briefly,
+                // never spin.
+                Err(_) => {
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    continue;
+                }
+            },
+            _ = &mut stop => break,
+        };
+        let Ok(permit) = permits.clone().try_acquire_owned() else {
+            drop(tcp);
+            continue;
+        };
+        let _ = tcp.set_nodelay(true);
+        let app = app.clone();
+        let tls = tls.clone();
+        let closing = closing_rx.clone();
+        tokio::spawn(async move {
+            let _permit = permit;
+            match tls {
+                None => serve_connection(tcp, app, limits, closing).await,
+                Some(acc) => {
+                    let hs = tokio::time::timeout(limits.header_read_timeout, acc.accept(tcp));
+                    if let Ok(Ok(stream)) = hs.await {
+                        serve_connection(stream, app, limits, closing).await;
+                    }
+                }
+            }
+        });
+    }
+    drop(listener);
+    let _ = closing_tx.send(true);
+    // Every connection returns its permit when it ends.
+    let all = u32::try_from(limits.max_connections).unwrap_or(u32::MAX);
+    let _ = tokio::time::timeout(Duration::from_secs(10), permits.acquire_many(all)).await;
+}
+
+async fn serve_connection<I>(
+    io: I,
+    app: Router,
+    limits: ServerLimits,
+    mut closing: tokio::sync::watch::Receiver<bool>,
+) where
+    I: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin + Send + 'static,
+{
+    let svc = hyper_util::service::TowerToHyperService::new(app);
+    let mut builder = hyper::server::conn::http1::Builder::new();
+    builder
+        .timer(hyper_util::rt::TokioTimer::new())
+        .header_read_timeout(limits.header_read_timeout)
+        .keep_alive(true);
+    let conn = builder.serve_connection(hyper_util::rt::TokioIo::new(io), svc);
+    let mut conn = std::pin::pin!(conn);
+    tokio::select! {
+        _ = conn.as_mut() => {}
+        _ = closed(&mut closing) => {
+            conn.as_mut().graceful_shutdown();
+            let _ = conn.await;
+        }
+    }
+}
+
+/// Resolves once the server is closing (or its signal is gone).
+async fn closed(closing: &mut tokio::sync::watch::Receiver<bool>) {
+    loop {
+        if *closing.borrow_and_update() {
+            return;
+        }
+        if closing.changed().await.is_err() {
+            return;
+        }
     }
 }

@@ -13,6 +13,7 @@
 //!
 //! Conventions are listed in `docs/service.md`.
 
+pub mod alarms;
 pub mod auth;
 pub mod config;
 pub mod cycle;

@@ -209,10 +209,11 @@ fn announce(r: &Running) {
     }
     let _ = writeln!(
         out,
-        "gearcomp serve: machine {} ({}), record {}, listening on http://{}",
+        "gearcomp serve: machine {} ({}), record {}, listening on {}://{}",
         r.machine,
         r.model_source,
         r.store.describe(),
+        r.scheme,
         r.addr
     );
     let _ = out.flush();
@@ -250,6 +251,8 @@ async fn wait_for_stop(duration_s: Option<f64>) {
 pub struct Running {
     /// The HTTP address bound.
     pub addr: std::net::SocketAddr,
+    /// `http`, or `https` with `[http.tls]`.
+    pub scheme: &'static str,
     /// Tokens generated at this (first) start, to be shown once.
     pub generated: Option<crate::auth::Generated>,
     /// The database file.
@@ -275,6 +278,11 @@ pub struct Running {
 /// Starts every part of the service on the current tokio runtime (multi-threaded).
 pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     cfg.validate()?;
+    // The broker password is read at start so a missing file or variable stops it here.
+    #[cfg(feature = "mqtt")]
+    if let crate::config::InputSection::Mqtt(m) = &cfg.input {
+        m.credentials()?;
+    }
     let (engine_cfg, model_source) = engine_config(&cfg)?;
     let engine = Engine::new(&engine_cfg)?;
     let channels: Vec<String> = engine.channel_names().to_vec();
@@ -355,6 +363,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     stats.last_sample_id.store(totals.1, Ordering::Release);
 
     let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
+    let http_tls = cfg.http.tls.as_ref().map(http::tls_acceptor).transpose()?;
+    let scheme = if http_tls.is_some() { "https" } else { "http" };
+    let http_limits = http::ServerLimits::of(&cfg.http);
         .await
         .map_err(|source| ServiceError::Io {
             action: "bind",
@@ -510,11 +521,14 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     });
     let (http_stop_tx, http_stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(async move {
-        let _ = axum::serve(listener, http::router(state))
-            .with_graceful_shutdown(async {
-                let _ = http_stop_rx.await;
-            })
-            .await;
+        http::serve(
+            listener,
+            http::router(state),
+            http_limits,
+            http_tls,
+            http_stop_rx,
+        )
+        .await;
     });
 
     Ok(Running {
@@ -534,6 +548,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         http_stop: http_stop_tx,
         server,
     })
+        scheme,
 }
 
 impl Running {

@@ -71,6 +71,114 @@ fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
     let _ = tx.try_send(m);
 }
 
+/// A connection counts as established once it has stayed up this long: only then is the
+/// connection alarm cleared and the back-off reset, so a broker that accepts and at once
+/// drops the client (or a poison message that ends each session) neither resets the wait
+/// nor flaps the alarm.
+pub const STABLE_CONNECTION_S: f64 = 1.0;
+
+/// The alarm of messages on topics under the channel prefix that name no configured
+/// channel: one alarm for every such topic, with a count.
+pub const UNKNOWN_TOPIC_KEY: &str = "mqtt.unknown_topic";
+
+/// An unknown-topic alarm clears when no such message has arrived for this long.
+pub const UNKNOWN_TOPIC_QUIET_S: f64 = 60.0;
+
+/// The MQTT protocol's largest packet (remaining length 268,435,455 plus a 5-byte fixed
+/// header). The client accepts any packet the broker forwards, so an oversized message
+/// is dropped by [`check_payload`] instead of ending the connection; the broker's own
+/// limit bounds the memory.
+pub const MQTT_PROTOCOL_MAX_PACKET: usize = 268_435_455 + 5;
+
+/// Longest topic text quoted in an alarm.
+const TOPIC_SHOWN_CHARS: usize = 120;
+
+fn shown(text: &str, n: usize) -> String {
+    let mut it = text.chars();
+    let head: String = it.by_ref().take(n).collect();
+    if it.next().is_some() {
+        format!("{head}… ({} bytes)", text.len())
+    } else {
+        head
+    }
+}
+
+/// Refuses a payload over `max_bytes` with a message naming its size and the limit.
+pub fn check_payload(len: usize, max_bytes: u32) -> Result<(), String> {
+    if len > max_bytes as usize {
+        Err(format!(
+            "payload of {len} bytes exceeds input.max_payload_bytes = {max_bytes}; dropped"
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// State shared by the receive loop and its timer task.
+#[derive(Default)]
+struct ConnState {
+    /// When the current connection was acknowledged.
+    connected_at: Option<std::time::Instant>,
+    /// The connection alarm is raised.
+    conn_alarm: bool,
+    /// Unknown-topic messages so far in the current alarm, and the count last sent.
+    unknown_count: u64,
+    unknown_sent: u64,
+    unknown_last: Option<std::time::Instant>,
+}
+
+fn lock(s: &std::sync::Mutex<ConnState>) -> std::sync::MutexGuard<'_, ConnState> {
+    match s.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    }
+}
+
+/// Clears the connection alarm once the connection is stable, sends the unknown-topic
+/// count and clears that alarm once quiet; ends when the receive loop is gone.
+async fn timers(state: std::sync::Weak<std::sync::Mutex<ConnState>>, tx: SyncSender<InputMsg>) {
+    let mut tick = tokio::time::interval(Duration::from_millis(250));
+    loop {
+        tick.tick().await;
+        let Some(state) = state.upgrade() else { return };
+        let mut s = lock(&state);
+        if s.conn_alarm
+            && s.connected_at
+                .is_some_and(|t| t.elapsed().as_secs_f64() >= STABLE_CONNECTION_S)
+            && tx
+                .try_send(InputMsg::ClearAlarm {
+                    key: "mqtt.connection".into(),
+                })
+                .is_ok()
+        {
+            s.conn_alarm = false;
+        }
+        if s.unknown_count > 0 {
+            if s.unknown_count != s.unknown_sent
+                && tx
+                    .try_send(InputMsg::AlarmCount {
+                        key: UNKNOWN_TOPIC_KEY.into(),
+                        count: s.unknown_count,
+                    })
+                    .is_ok()
+            {
+                s.unknown_sent = s.unknown_count;
+            }
+            if s.unknown_last
+                .is_some_and(|t| t.elapsed().as_secs_f64() >= UNKNOWN_TOPIC_QUIET_S)
+                && tx
+                    .try_send(InputMsg::ClearAlarm {
+                        key: UNKNOWN_TOPIC_KEY.into(),
+                    })
+                    .is_ok()
+            {
+                s.unknown_count = 0;
+                s.unknown_sent = 0;
+            }
+        }
+    }
+}
+
 /// Runs until the task is aborted.
 pub async fn run(p: MqttParts) {
     let MqttParts {
@@ -88,6 +196,26 @@ pub async fn run(p: MqttParts) {
         .unwrap_or_else(|| format!("gearcomp-{machine}"));
     let mut opts = MqttOptions::new(client_id, cfg.host.clone(), cfg.port);
     opts.set_keep_alive(Duration::from_secs(cfg.keep_alive_s));
+    // Incoming: anything the broker forwards (see MQTT_PROTOCOL_MAX_PACKET); outgoing:
+    // the library's default, far above an offset message.
+    opts.set_max_packet_size(MQTT_PROTOCOL_MAX_PACKET, 10 * 1024);
+    let conn_key = "mqtt.connection".to_string();
+    match cfg.credentials() {
+        Ok(Some((user, password))) => {
+            opts.set_credentials(user, password);
+        }
+        Ok(None) => {}
+        Err(e) => {
+            // Checked at start; the file or variable has gone since.
+            send(
+                &tx,
+                InputMsg::RaiseAlarm {
+                    key: conn_key.clone(),
+                    message: format!("MQTT broker {}:{}: {e}", cfg.host, cfg.port),
+                },
+            );
+        }
+    }
     let (client, mut eventloop) = AsyncClient::new(opts, 256);
     let base = format!("{}/{}", cfg.topic_prefix, machine);
     let channel_prefix = format!("{base}/channel/");
@@ -114,43 +242,59 @@ pub async fn run(p: MqttParts) {
         });
     }
 
-    let conn_key = "mqtt.connection".to_string();
+    let state = std::sync::Arc::new(std::sync::Mutex::new(ConnState::default()));
+    tokio::spawn(timers(std::sync::Arc::downgrade(&state), tx.clone()));
+    // Payload alarms raised per channel, so a flood of bad messages sends one edge, not
+    // one message per publish, to the cycle.
+    let mut payload_alarm = vec![false; channels.len()];
     let mut failures = 0u32;
     loop {
         match eventloop.poll().await {
             Ok(Event::Incoming(Packet::ConnAck(_))) => {
-                failures = 0;
+                lock(&state).connected_at = Some(std::time::Instant::now());
                 let _ = client.try_subscribe(format!("{channel_prefix}+"), QoS::AtLeastOnce);
-                send(
-                    &tx,
-                    InputMsg::ClearAlarm {
-                        key: conn_key.clone(),
-                    },
-                );
             }
             Ok(Event::Incoming(Packet::Publish(p))) => {
                 let now = clock.now_s();
                 let Some(name) = p.topic.strip_prefix(&channel_prefix) else {
                     continue;
                 };
-                let key = format!("mqtt.payload.{name}");
                 let Some(ch) = channels.iter().position(|c| c == name) else {
-                    send(
-                        &tx,
-                        InputMsg::RaiseAlarm {
-                            key,
+                    let mut s = lock(&state);
+                    s.unknown_count += 1;
+                    s.unknown_last = Some(std::time::Instant::now());
+                    if s.unknown_count == 1 {
+                        drop(s);
+                        let raised = tx.try_send(InputMsg::RaiseAlarm {
+                            key: UNKNOWN_TOPIC_KEY.into(),
                             message: format!(
-                                "MQTT topic {}: channel {name:?} is not configured (channels: {})",
-                                p.topic,
+                                "MQTT topic {}: channel {:?} is not configured (channels: {}); \
+                                 further messages on unconfigured topics are counted in this alarm",
+                                shown(&p.topic, TOPIC_SHOWN_CHARS),
+                                shown(name, 40),
                                 channels.join(", ")
                             ),
-                        },
-                    );
+                        });
+                        if raised.is_err() {
+                            // Queue full: raised with the next one.
+                            lock(&state).unknown_count = 0;
+                        }
+                    }
                     continue;
                 };
-                match parse_reading(&p.payload) {
+                let parsed = check_payload(p.payload.len(), cfg.max_payload_bytes)
+                    .and_then(|()| parse_reading(&p.payload));
+                match parsed {
                     Ok(raw) => {
-                        send(&tx, InputMsg::ClearAlarm { key });
+                        if payload_alarm[ch]
+                            && tx
+                                .try_send(InputMsg::ClearAlarm {
+                                    key: format!("mqtt.payload.{name}"),
+                                })
+                                .is_ok()
+                        {
+                            payload_alarm[ch] = false;
+                        }
                         send(
                             &tx,
                             InputMsg::Sample {
@@ -161,22 +305,40 @@ pub async fn run(p: MqttParts) {
                         );
                     }
                     Err(msg) => {
-                        let shown: String = String::from_utf8_lossy(&p.payload)
-                            .chars()
-                            .take(80)
-                            .collect();
-                        send(
-                            &tx,
-                            InputMsg::RaiseAlarm {
-                                key,
-                                message: format!("MQTT topic {}: {msg} (got {shown:?})", p.topic),
-                            },
-                        );
+                        if payload_alarm[ch] {
+                            continue;
+                        }
+                        let got: String =
+                            String::from_utf8_lossy(&p.payload[..p.payload.len().min(320)])
+                                .chars()
+                                .take(80)
+                                .collect();
+                        let retained = if p.retain { " (retained)" } else { "" };
+                        payload_alarm[ch] = tx
+                            .try_send(InputMsg::RaiseAlarm {
+                                key: format!("mqtt.payload.{name}"),
+                                message: format!(
+                                    "MQTT topic {}{retained}: {msg} (got {got:?})",
+                                    p.topic
+                                ),
+                            })
+                            .is_ok();
                     }
                 }
             }
             Ok(_) => {}
             Err(e) => {
+                {
+                    let mut s = lock(&state);
+                    // Only a connection that stayed up resets the back-off.
+                    if s.connected_at
+                        .take()
+                        .is_some_and(|t| t.elapsed().as_secs_f64() >= STABLE_CONNECTION_S)
+                    {
+                        failures = 0;
+                    }
+                    s.conn_alarm = true;
+                }
                 failures = failures.saturating_add(1);
                 let wait_s = cfg.reconnect.wait_s(failures);
                 send(

@@ -9,8 +9,10 @@ mod postgres_common;
 
 mod dashboard_browser;
 mod http_api;
+mod http_limits;
 mod modbus;
 mod mqtt;
+mod mqtt_limits;
 mod mqtt_reconnect;
 mod opcua;
 mod postgres;

@@ -163,7 +163,7 @@ async fn mqtt_in_and_out_with_faults() {
                 .collect();
             keys.contains(&"mqtt.payload.A")
                 && keys.contains(&"mqtt.payload.B")
-                && keys.contains(&"mqtt.payload.nope")
+                && keys.contains(&"mqtt.unknown_topic")
         })
         .await;
     let msg = |k: &str| {
@@ -183,7 +183,7 @@ async fn mqtt_in_and_out_with_faults() {
         msg("mqtt.payload.A")
     );
     assert!(msg("mqtt.payload.B").contains("\"value\" = \"hot\""));
-    assert!(msg("mqtt.payload.nope").contains("not configured"));
+    assert!(msg("mqtt.unknown_topic").contains("not configured"));
 
     // Inputs stale (nothing for > 0.6 s): the axis freezes at its last good value.
     let frozen = api

@@ -1,0 +1,292 @@
+//! The HTTP server as an attacker on the plant network would use it, on loopback:
+//! 2,000 idle connections that never send a header, an unauthenticated 10 MB upload, and
+//! HTTPS (rustls) checked with a client that trusts only the test's CA. Asserted on what
+//! the server answers: the API still answers, idle connections are closed by the server,
+//! the upload gets 401 before its body is read, HTTPS serves and refuses the wrong CA, and
+//! a non-loopback bind without TLS is refused naming the key that allows it.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use crate::common;
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::sync::Arc;
+use std::time::Duration;
+
+use common::{start_with, Api};
+use rcgen::{CertificateParams, DnType, KeyPair};
+
+/// Sends `head` (and `body_bytes` bytes of body) on a fresh connection; returns the status
+/// line the server answered with (empty if it closed without one).
+fn raw_request(addr: std::net::SocketAddr, head: &str, body_bytes: usize) -> String {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    // The server may answer and close before taking the body: a failed write is fine.
+    let chunk = vec![b'x'; 64 * 1024];
+    let mut sent = 0;
+    while sent < body_bytes {
+        let n = chunk.len().min(body_bytes - sent);
+        if s.write_all(&chunk[..n]).is_err() {
+            break;
+        }
+        sent += n;
+    }
+    let mut buf = Vec::new();
+    let mut tmp = [0u8; 4096];
+    while !buf.windows(2).any(|w| w == b"\r\n") {
+        match s.read(&mut tmp) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => buf.extend_from_slice(&tmp[..n]),
+        }
+    }
+    String::from_utf8_lossy(&buf)
+        .lines()
+        .next()
+        .unwrap_or("")
+        .to_string()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idle_connections_and_big_uploads_cannot_stop_the_api() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = start_with(
+        dir.path(),
+        "[http]\nport = 0\nmax_connections = 64\nheader_read_timeout_s = 1.0\n\
+         [storage]\npath = \"idle.db\"\n[input]\nkind = \"simulator\"\nspeedup = 60.0\n",
+    )
+    .await;
+    let g = run.generated.clone().unwrap();
+    let (op, ro) = (g.operator.clone(), g.read_only.clone());
+    let addr = run.addr;
+
+    // 2,000 connections that send nothing (a bounded loop; a refused one is counted).
+    let idle = tokio::task::spawn_blocking(move || {
+        let mut v = Vec::new();
+        let mut refused = 0;
+        for _ in 0..2000 {
+            match TcpStream::connect_timeout(&addr, Duration::from_secs(1)) {
+                Ok(s) => v.push(s),
+                Err(_) => refused += 1,
+            }
+        }
+        (v, refused)
+    })
+    .await
+    .unwrap();
+    let (idle, refused) = idle;
+    assert!(idle.len() + refused == 2000);
+
+    // The API answers while they are held open: bounded retries (each ≤ 2 s).
+    let api = Api::new(&run);
+    let client = reqwest::Client::builder()
+        .timeout(Duration::from_secs(2))
+        .build()
+        .unwrap();
+    let mut answered = None;
+    for attempt in 0..20 {
+        let r = client
+            .get(format!("{}/api/status", api.base))
+            .bearer_auth(&ro)
+            .send()
+            .await;
+        if let Ok(r) = r {
+            if r.status().as_u16() == 200 {
+                answered = Some(attempt);
+                break;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+    let attempt = answered.expect("the API did not answer with 2,000 idle connections open");
+    eprintln!(
+        "API answered at attempt {attempt} with {} idle connections open",
+        idle.len()
+    );
+
+    // Every idle connection was closed by the server (beyond the limit at once, within it
+    // after the 1 s header-read timeout): a read sees end of stream or a reset.
+    let closed = tokio::task::spawn_blocking(move || {
+        // The first read may wait out the timeout; by then every other one is closed,
+        // and the first one found open ends the check (bounded even if none closes).
+        let mut closed = 0;
+        for (i, mut s) in idle.into_iter().enumerate() {
+            let wait = if i == 0 { 5000 } else { 200 };
+            s.set_read_timeout(Some(Duration::from_millis(wait)))
+                .unwrap();
+            let mut b = [0u8; 1];
+            match s.read(&mut b) {
+                Ok(0) => closed += 1,
+                Err(e)
+                    if e.kind() != std::io::ErrorKind::WouldBlock
+                        && e.kind() != std::io::ErrorKind::TimedOut =>
+                {
+                    closed += 1
+                }
+                _ => break,
+            }
+        }
+        closed
+    })
+    .await
+    .unwrap();
+    assert_eq!(closed + refused, 2000, "idle connections left open");
+
+    // An unauthenticated 10 MB PUT is refused with 401 before its body is read.
+    let head = format!(
+        "PUT /api/model HTTP/1.1\r\nHost: {addr}\r\nContent-Type: text/plain\r\n\
+         Content-Length: {}\r\n\r\n",
+        10 * 1024 * 1024
+    );
+    let line = tokio::task::spawn_blocking(move || raw_request(addr, &head, 256 * 1024))
+        .await
+        .unwrap();
+    assert!(line.starts_with("HTTP/1.1 401"), "{line:?}");
+    // A read-only token is refused with 403, also before the body.
+    let head = format!(
+        "PUT /api/model HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {ro}\r\n\
+         Content-Length: {}\r\n\r\n",
+        10 * 1024 * 1024
+    );
+    let line = tokio::task::spawn_blocking(move || raw_request(addr, &head, 0))
+        .await
+        .unwrap();
+    assert!(line.starts_with("HTTP/1.1 403"), "{line:?}");
+    // The operator's oversized body gets 413 naming the limit.
+    let r = api
+        .client
+        .put(format!("{}/api/model", api.base))
+        .bearer_auth(&op)
+        .body(vec![b'#'; 2 * 1024 * 1024])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status().as_u16(), 413);
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert!(v["error"].as_str().unwrap().contains("1048576"), "{v}");
+    run.stop().await.unwrap();
+}
+
+/// A self-signed certificate for 127.0.0.1 and localhost: (cert PEM, key PEM, DER).
+fn self_signed() -> (String, String, Vec<u8>) {
+    let key = KeyPair::generate().unwrap();
+    let mut p =
+        CertificateParams::new(vec!["localhost".to_string(), "127.0.0.1".to_string()]).unwrap();
+    p.distinguished_name
+        .push(DnType::CommonName, "gearcomp test service");
+    let cert = p.self_signed(&key).unwrap();
+    (cert.pem(), key.serialize_pem(), cert.der().to_vec())
+}
+
+/// GET `path` over TLS trusting only `root_der`; the status line, or the TLS error.
+async fn https_get(
+    addr: std::net::SocketAddr,
+    root_der: &[u8],
+    path: &str,
+    token: &str,
+) -> Result<String, String> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut roots = rustls::RootCertStore::empty();
+    roots
+        .add(rustls::pki_types::CertificateDer::from(root_der.to_vec()))
+        .unwrap();
+    let cfg = rustls::ClientConfig::builder_with_provider(Arc::new(
+        rustls::crypto::ring::default_provider(),
+    ))
+    .with_safe_default_protocol_versions()
+    .unwrap()
+    .with_root_certificates(roots)
+    .with_no_client_auth();
+    let conn = tokio_rustls::TlsConnector::from(Arc::new(cfg));
+    let tcp = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let name = rustls::pki_types::ServerName::try_from("127.0.0.1").unwrap();
+    let mut tls = conn.connect(name, tcp).await.map_err(|e| e.to_string())?;
+    tls.write_all(
+        format!(
+            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {token}\r\n\
+             Connection: close\r\n\r\n"
+        )
+        .as_bytes(),
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    let _ = tls.read_to_end(&mut out).await;
+    let text = String::from_utf8_lossy(&out).to_string();
+    Ok(text)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn https_with_rustls_and_no_plaintext_on_the_plant_network() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cert, key, der) = self_signed();
+    std::fs::write(dir.path().join("api.crt"), cert).unwrap();
+    std::fs::write(dir.path().join("api.key"), key).unwrap();
+    let run = start_with(
+        dir.path(),
+        "[http]\nport = 0\ntls = { cert_file = \"api.crt\", key_file = \"api.key\" }\n\
+         [storage]\npath = \"tls.db\"\n[input]\nkind = \"simulator\"\nspeedup = 60.0\n",
+    )
+    .await;
+    assert_eq!(run.scheme, "https");
+    let ro = run.generated.clone().unwrap().read_only;
+    let addr = run.addr;
+
+    // The right CA: 200 with the status JSON naming the machine.
+    let text = https_get(addr, &der, "/api/status", &ro).await.unwrap();
+    assert!(text.starts_with("HTTP/1.1 200"), "{text}");
+    assert!(text.contains("\"machine\""), "{text}");
+    // Without a token: 401 over TLS too.
+    let text = https_get(addr, &der, "/api/status", "none").await.unwrap();
+    assert!(text.starts_with("HTTP/1.1 401"), "{text}");
+    // A client trusting another CA refuses the server.
+    let (_, _, other) = self_signed();
+    let e = https_get(addr, &other, "/api/status", &ro)
+        .await
+        .unwrap_err();
+    assert!(e.to_lowercase().contains("certificate"), "{e}");
+    // Plain HTTP to the HTTPS port gets no HTTP answer.
+    let line = tokio::task::spawn_blocking(move || {
+        raw_request(
+            addr,
+            &format!("GET /api/status HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+            0,
+        )
+    })
+    .await
+    .unwrap();
+    assert!(!line.starts_with("HTTP/1.1 200"), "{line:?}");
+    run.stop().await.unwrap();
+
+    // A non-loopback bind without TLS is refused, naming the key that would allow it.
+    let p = dir.path().join("open.toml");
+    std::fs::write(&p, "[http]\nbind = \"0.0.0.0\"\nport = 0\n").unwrap();
+    let e = gearcomp_service::ServiceConfig::load(&p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("http.bind") && e.contains("0.0.0.0") && e.contains("http.allow_plaintext"),
+        "{e}"
+    );
+    std::fs::write(
+        &p,
+        "[http]\nbind = \"0.0.0.0\"\nport = 0\nallow_plaintext = true\n",
+    )
+    .unwrap();
+    gearcomp_service::ServiceConfig::load(&p).unwrap();
+    // A key that does not belong to the certificate is refused at start.
+    let (_, other_key, _) = self_signed();
+    std::fs::write(dir.path().join("other.key"), other_key).unwrap();
+    std::fs::write(
+        &p,
+        "[http]\nport = 0\ntls = { cert_file = \"api.crt\", key_file = \"other.key\" }\n\
+         [storage]\npath = \"tls2.db\"\n",
+    )
+    .unwrap();
+    let cfg = gearcomp_service::ServiceConfig::load(&p).unwrap();
+    let e = match gearcomp_service::service::start(cfg).await {
+        Ok(_) => panic!("started with a key of another certificate"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("http.tls.key_file"), "{e}");
+}
