@@ -8,23 +8,63 @@ use anyhow::Context as _;
 use gearcomp_core::model::{
     AxisModel, ModelFile, Provenance, ReferenceRadius, ShrinkGear, ShrinkMethod, MODEL_FORMAT,
 };
-use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
+use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
 use gearcomp_identify::dendrogram::dendrogram_svg;
 use gearcomp_identify::identify::{
     identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, RepresentativeBy, Split,
 };
+use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::{combined_offsets_um, shrink_offset_um, workpiece_shrink};
 use gearcomp_report::{Chart, HtmlReport, Series};
 
 /// Model kind (`--model`).
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum ModelArg {
+    /// Every family compared by leave-one-run-out (runs) or rolling-origin (one run)
+    /// validation on the training rows; the best is kept.
+    Auto,
     /// Value + filtered rate per sensor; sensors, τ and class count by cross-validation.
     Dynamic,
     /// Seed 003 as written: every class representative, current values, least squares.
     Static,
     /// As static, fitted by ridge regression (α by cross-validation).
     Ridge,
+}
+
+/// Model family of `--model auto` (`--family`).
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum FamilyArg {
+    /// Current values, least squares, sensors by forward selection.
+    Static,
+    /// Current values, ridge (α by validation).
+    Ridge,
+    /// Current values, principal-component regression.
+    Pcr,
+    /// Sensors and sensor differences A − B, least squares.
+    Differences,
+    /// A pure delay per sensor.
+    Delay,
+    /// Value + first-order lag per sensor, one shared τ.
+    LeadLag,
+    /// First-order transfer function per sensor (value + lag, τ per sensor).
+    Tf1,
+    /// Second-order transfer function per sensor (value + two lags).
+    Tf2,
+}
+
+impl From<FamilyArg> for Family {
+    fn from(f: FamilyArg) -> Self {
+        match f {
+            FamilyArg::Static => Family::Static,
+            FamilyArg::Ridge => Family::Ridge,
+            FamilyArg::Pcr => Family::Pcr,
+            FamilyArg::Differences => Family::Differences,
+            FamilyArg::Delay => Family::Delay,
+            FamilyArg::LeadLag => Family::LeadLag,
+            FamilyArg::Tf1 => Family::Tf1,
+            FamilyArg::Tf2 => Family::Tf2,
+        }
+    }
 }
 
 /// Class formation (`--grouping`).
@@ -70,10 +110,14 @@ pub enum ShrinkMethodArg {
 Without --data the embedded FL_THERMAL test (46 h, 16 temperatures, 5 probes) is used, trained on the first 24 h."
 )]
 pub struct Args {
-    /// CSV log with a header row: time column (s), temperature columns, target columns.
+    /// CSV log(s) with a header row: time column (s), temperature columns, target columns.
+    /// Several files are several runs (one per file, named after the file).
     /// Default: the embedded FL_THERMAL data set.
+    #[arg(long, num_args = 1..)]
+    pub data: Vec<PathBuf>,
+    /// The log has no time column: rows are this many seconds apart (restarting per run).
     #[arg(long)]
-    pub data: Option<PathBuf>,
+    pub sample_interval_s: Option<f64>,
     /// Target columns (names or glob patterns such as "ch*_um"), e.g. measured drift in µm.
     #[arg(long, num_args = 1.., default_value = "*_um")]
     pub target: Vec<String>,
@@ -83,21 +127,26 @@ pub struct Args {
     /// Name of the time column (seconds, strictly increasing).
     #[arg(long, default_value = "time_s")]
     pub time_column: String,
-    /// Column holding a run number: enables k-fold by run and --test-runs.
+    /// Column naming the run of each row (time restarts in each run): validation by
+    /// leave-one-run-out and --test-runs.
     #[arg(long)]
     pub run_column: Option<String>,
-    /// Train on rows with time < this many hours; test on the rest.
-    #[arg(long, default_value_t = 24.0, conflicts_with_all = ["test_runs", "no_test"])]
-    pub train_before_h: f64,
-    /// Test on these run numbers (comma separated), train on the other runs.
-    #[arg(long, value_delimiter = ',', requires = "run_column")]
-    pub test_runs: Vec<f64>,
+    /// Train on rows with time < this many hours; test on the rest (one run only;
+    /// default 24 h on one run; with several runs the last run tests by default).
+    #[arg(long, conflicts_with_all = ["test_runs", "no_test"])]
+    pub train_before_h: Option<f64>,
+    /// Test on these runs (comma separated names or numbers), train on the other runs.
+    #[arg(long, value_delimiter = ',', conflicts_with = "no_test")]
+    pub test_runs: Vec<String>,
     /// Train on all rows (no test error is reported).
     #[arg(long)]
     pub no_test: bool,
     /// Model kind.
-    #[arg(long, value_enum, default_value = "dynamic")]
+    #[arg(long, value_enum, default_value = "auto")]
     pub model: ModelArg,
+    /// Print the result as JSON (family, sensors, coefficients, folds, errors).
+    #[arg(long)]
+    pub json: bool,
     /// How sensors are grouped into classes.
     #[arg(long, value_enum, default_value = "fuzzy-equivalence")]
     pub grouping: GroupingArg,
@@ -117,7 +166,13 @@ pub struct Args {
         default_value = "300,600,900,1200,1800,2400,3600,7200"
     )]
     pub tau_s: Vec<f64>,
-    /// Largest number of sensors per target (dynamic model).
+    /// Candidate pure delays in seconds (delay family of --model auto).
+    #[arg(long, value_delimiter = ',', default_value = "300,900,1800,3600")]
+    pub delay_s: Vec<f64>,
+    /// Families compared by --model auto (comma separated; default: all).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub family: Vec<FamilyArg>,
+    /// Largest number of sensors per target (every family).
     #[arg(long, default_value_t = 8)]
     pub max_sensors: usize,
     /// Cross-validation folds: runs (with --run-column) or contiguous time blocks.
@@ -179,28 +234,129 @@ pub struct Args {
     pub shrink_method: ShrinkMethodArg,
 }
 
-fn load(path: &Option<PathBuf>, sel: &Selection, skip: bool) -> anyhow::Result<(Table, String)> {
+fn load(
+    paths: &[PathBuf],
+    sel: &Selection,
+    skip: bool,
+    sample_interval_s: Option<f64>,
+) -> anyhow::Result<(Table, String)> {
     let opts = ReadOptions {
         skip_bad_rows: skip,
+        sample_interval_s,
         ..ReadOptions::default()
     };
-    let (text, name) = match path {
-        Some(p) => (
-            std::fs::read_to_string(p).with_context(|| format!("read {}", p.display()))?,
-            p.display().to_string(),
-        ),
-        None => (
+    let files: Vec<(String, String)> = if paths.is_empty() {
+        vec![(
             gearcomp_datasets::fl_thermal_csv()
                 .context("decompress the embedded FL_THERMAL data")?,
             "FL_THERMAL (embedded)".to_string(),
-        ),
+        )]
+    } else {
+        paths
+            .iter()
+            .map(|p| {
+                Ok((
+                    std::fs::read_to_string(p).with_context(|| format!("read {}", p.display()))?,
+                    p.display().to_string(),
+                ))
+            })
+            .collect::<anyhow::Result<_>>()?
     };
-    Ok((read_csv(&text, &name, sel, opts)?, name))
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(t, n)| (t.as_str(), n.as_str()))
+        .collect();
+    let name = files
+        .iter()
+        .map(|f| f.1.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    Ok((read_runs(&refs, sel, opts)?, name))
+}
+
+/// A figure for printing: "-" instead of NaN or infinity.
+fn num(v: f64, prec: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.prec$}")
+    } else {
+        "-".into()
+    }
+}
+
+/// A coefficient-like figure in exponent form, "-" when not finite.
+fn num_e(v: f64, prec: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.prec$e}")
+    } else {
+        "-".into()
+    }
 }
 
 fn thin(points: Vec<(f64, f64)>, max: usize) -> Vec<(f64, f64)> {
     let step = points.len().div_ceil(max.max(1)).max(1);
     points.into_iter().step_by(step).collect()
+}
+
+/// A number for JSON: null when not finite.
+fn jnum(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// `fit --json`: per target the chosen family, sensors, model terms, validation folds,
+/// the family comparison, train and test error.
+fn fit_json(
+    id: &gearcomp_identify::identify::Identification,
+    base: &[(f64, Option<f64>)],
+    data_name: &str,
+    table: &Table,
+    file: &ModelFile,
+) -> anyhow::Result<serde_json::Value> {
+    let n_train = id.train.iter().filter(|&&m| m).count();
+    let targets: Vec<serde_json::Value> = id
+        .targets
+        .iter()
+        .zip(base)
+        .map(|(m, b)| {
+            serde_json::json!({
+                "target": m.target,
+                "family": m.family,
+                "sensors": m.sensors.iter().map(|&s| id.input_names[s].clone()).collect::<Vec<_>>(),
+                "intercept": jnum(m.model.intercept),
+                "terms": serde_json::to_value(&m.model.terms).unwrap_or_default(),
+                "validation_rmse_um": jnum(m.cv_rmse),
+                "validation_folds_um": m.fold_rmse.iter().map(|v| jnum(*v)).collect::<Vec<_>>(),
+                "train_rmse_um": jnum(m.train_rmse),
+                "test_rmse_um": m.test_rmse.map_or(serde_json::Value::Null, jnum),
+                "plain_ls_all_inputs": {
+                    "train_rmse_um": jnum(b.0),
+                    "test_rmse_um": b.1.map_or(serde_json::Value::Null, jnum),
+                },
+                "comparison": m.comparison.iter().map(|c| serde_json::json!({
+                    "family": c.family,
+                    "sensors": c.sensors,
+                    "validation_rmse_um": jnum(c.cv_rmse),
+                    "validation_folds_um": c.fold_rmse.iter().map(|v| jnum(*v)).collect::<Vec<_>>(),
+                    "detail": c.detail,
+                })).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    Ok(serde_json::json!({
+        "data": data_name,
+        "rows": table.time_s.len(),
+        "training_rows": n_train,
+        "test_rows": table.time_s.len() - n_train,
+        "runs": table.run_names,
+        "inputs": id.input_names,
+        "notes": id.notes,
+        "method": id.method,
+        "targets": targets,
+        "model_file": serde_json::to_value(file)?,
+    }))
 }
 
 /// Runs `gearcomp fit`.
@@ -211,25 +367,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         targets: args.target.clone(),
         run: args.run_column.clone(),
     };
-    let (table, data_name) = load(&args.data, &sel, args.skip_bad_rows)?;
+    let (table, data_name) = load(&args.data, &sel, args.skip_bad_rows, args.sample_interval_s)?;
+    let mut split_note = None;
     let split = if args.no_test {
         Split::None
     } else if !args.test_runs.is_empty() {
         Split::TestRuns(args.test_runs.clone())
+    } else if args.train_before_h.is_none() && table.run_count() > 1 {
+        let last = table.run_names.last().cloned().unwrap_or_default();
+        split_note = Some(format!(
+            "test run: {last} (the last run; choose with --test-runs, or --no-test)"
+        ));
+        Split::TestRuns(vec![last])
+    } else if args.train_before_h.is_none()
+        && table.time_s.last().is_some_and(|&t| t <= 24.0 * 3600.0)
+    {
+        split_note = Some(
+            "the data ends before the default 24 h split: every row trains, no test error (give --train-before-h to hold out a test period)".into(),
+        );
+        Split::None
     } else {
-        if !(args.train_before_h.is_finite() && args.train_before_h > 0.0) {
-            anyhow::bail!(
-                "invalid --train-before-h = {}: expected hours > 0",
-                args.train_before_h
-            );
+        let h = args.train_before_h.unwrap_or(24.0);
+        if !(h.is_finite() && h > 0.0) {
+            anyhow::bail!("invalid --train-before-h = {h}: expected hours > 0");
         }
-        Split::TimeBefore(args.train_before_h * 3600.0)
+        Split::TimeBefore(h * 3600.0)
     };
     let opts = IdentifyOptions {
         model: match args.model {
             ModelArg::Dynamic => ModelKind::Dynamic,
             ModelArg::Static => ModelKind::Static,
             ModelArg::Ridge => ModelKind::Ridge,
+            ModelArg::Auto => ModelKind::Auto,
         },
         grouping: match args.grouping {
             GroupingArg::FuzzyEquivalence => Grouping::FuzzyEquivalence,
@@ -246,6 +415,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         folds: args.folds,
         ridge_alphas: args.ridge_alpha.clone(),
         split: split.clone(),
+        delays_s: args.delay_s.clone(),
+        families: args.family.iter().map(|&f| f.into()).collect(),
     };
     let id = identify(&table, &opts)?;
     let base = plain_least_squares(&table, &split)?;
@@ -267,7 +438,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             targets: vec![args.workpiece_target.clone().unwrap_or_default()],
             run: None,
         };
-        let (wt, _) = load(&Some(path.clone()), &wsel, args.skip_bad_rows)?;
+        let (wt, _) = load(
+            std::slice::from_ref(path),
+            &wsel,
+            args.skip_bad_rows,
+            args.sample_interval_s,
+        )?;
         let wid = identify(
             &wt,
             &IdentifyOptions {
@@ -354,6 +530,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         n_train,
         table.time_s.len() - n_train
     );
+    if let Some(n) = &split_note {
+        let _ = writeln!(out, "  note: {n}");
+    }
+    if table.runs.is_some() {
+        let _ = writeln!(
+            out,
+            "  runs: {} ({}); {} segment(s) (filters restart at each)",
+            table.run_names.len(),
+            table.run_names.join(", "),
+            table.segment_ranges().len()
+        );
+    }
+    for n in &id.notes {
+        let _ = writeln!(out, "  note: {n}");
+    }
     for i in table.issues.iter().take(20) {
         let _ = writeln!(out, "  note: {i}");
     }
@@ -361,18 +552,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let _ = writeln!(out, "  note: … {} more", table.issues.len() - 20);
     }
     let _ = writeln!(out, "method: {}", id.method);
+    let names = &id.input_names;
+    let fmt_opt = |v: Option<f64>| v.map_or("-".to_string(), |v| num(v, 3));
     let mut rows = Vec::new();
     for (m, b) in id.targets.iter().zip(&base) {
-        let sensors: Vec<&str> = m
-            .sensors
-            .iter()
-            .map(|&s| table.input_names[s].as_str())
-            .collect();
+        let sensors: Vec<&str> = m.sensors.iter().map(|&s| names[s].as_str()).collect();
         let _ = writeln!(
             out,
-            "\n{}: {} classes, {} sensor(s): {}{}{}",
+            "\n{}: {}; {} sensor(s): {}{}{}",
             m.target,
-            m.classes.len(),
+            if m.classes.is_empty() {
+                m.family.clone()
+            } else {
+                format!("{} classes", m.classes.len())
+            },
             sensors.len(),
             sensors.join(", "),
             m.tau_s
@@ -380,25 +573,51 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             m.ridge_alpha
                 .map_or(String::new(), |a| format!("; ridge α = {a}"))
         );
-        let fmt_opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
+        if !m.comparison.is_empty() {
+            let _ = writeln!(
+                out,
+                "  {:<40} {:>8} {:>12}  folds µm; choice",
+                "family (validation on training rows)", "sensors", "RMSE µm"
+            );
+            for c in &m.comparison {
+                let _ = writeln!(
+                    out,
+                    "  {:<40} {:>8} {:>12}  {}; {}{}",
+                    c.family,
+                    c.sensors,
+                    num(c.cv_rmse, 3),
+                    c.fold_rmse
+                        .iter()
+                        .map(|v| num(*v, 3))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    c.detail,
+                    if c.family == m.family {
+                        "  ← kept"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
         let _ = writeln!(
             out,
-            "  RMSE µm: train {:.3}, test {}, cross-validation {:.3} (folds: {}); R² = {:.4}",
-            m.train_rmse,
+            "  RMSE µm: train {}, test {}, validation {} (folds: {}); R² = {}",
+            num(m.train_rmse, 3),
             fmt_opt(m.test_rmse),
-            m.cv_rmse,
+            num(m.cv_rmse, 3),
             m.fold_rmse
                 .iter()
-                .map(|v| format!("{v:.3}"))
+                .map(|v| num(*v, 3))
                 .collect::<Vec<_>>()
                 .join(", "),
-            m.fit.r2
+            num(m.fit.r2, 4)
         );
         let _ = writeln!(
             out,
-            "  plain least squares on all {} inputs: train {:.3}, test {} µm",
-            table.inputs.len(),
-            b.0,
+            "  plain least squares on all {} inputs: train {}, test {} µm",
+            names.len(),
+            num(b.0, 3),
             fmt_opt(b.1)
         );
         let _ = writeln!(
@@ -408,27 +627,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         let _ = writeln!(
             out,
-            "  {:<34} {:>16.6} {:>14.6}",
+            "  {:<34} {:>16} {:>14}",
             "intercept",
-            m.fit.coefficients[0],
-            m.fit.std_errors.first().copied().unwrap_or(f64::NAN)
+            num(m.fit.coefficients[0], 6),
+            num(m.fit.std_errors.first().copied().unwrap_or(f64::NAN), 6)
         );
         for (k, name) in m.regressors.iter().enumerate() {
             let _ = writeln!(
                 out,
-                "  {:<34} {:>16.6e} {:>14.4e}",
+                "  {:<34} {:>16} {:>14}",
                 name,
-                m.fit.coefficients[k + 1],
-                m.fit.std_errors.get(k + 1).copied().unwrap_or(f64::NAN)
+                num_e(m.fit.coefficients[k + 1], 6),
+                num_e(m.fit.std_errors.get(k + 1).copied().unwrap_or(f64::NAN), 4)
             );
         }
         rows.push(vec![
             m.target.clone(),
+            m.family.clone(),
             sensors.join(" "),
             m.tau_s.map_or("-".into(), |t| format!("{t}")),
-            format!("{:.3}", m.train_rmse),
+            num(m.train_rmse, 3),
             fmt_opt(m.test_rmse),
-            format!("{:.3}", m.cv_rmse),
+            num(m.cv_rmse, 3),
             fmt_opt(b.1),
         ]);
     }
@@ -443,7 +663,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             w.temperature.intercept, chans.join(", "), wm.train_rmse, shrink_offset_um(w, w.design_temp_c + 30.0)?);
     }
     let mut stdout = std::io::stdout().lock();
-    {
+    if args.json {
+        let v = fit_json(&id, &base, &data_name, &table, &file)?;
+        let mut text = serde_json::to_string_pretty(&v)?;
+        text.push('\n');
+        std::io::Write::write_all(&mut stdout, text.as_bytes())?;
+    } else {
         use std::io::Write as _;
         stdout.write_all(out.as_bytes())?;
     }
@@ -451,10 +676,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(p) = &args.out {
         file.save(p)
             .with_context(|| format!("write model file {}", p.display()))?;
-        std::io::Write::write_all(
-            &mut stdout,
-            format!("\nmodel file: {}\n", p.display()).as_bytes(),
-        )?;
+        if !args.json {
+            std::io::Write::write_all(
+                &mut stdout,
+                format!("\nmodel file: {}\n", p.display()).as_bytes(),
+            )?;
+        }
     }
     if let Some(p) = &args.report {
         let mut r = HtmlReport::new(format!("gearcomp fit: {}", args.name));
@@ -463,6 +690,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         r.table(
             &[
                 "target",
+                "family",
                 "chosen sensors",
                 "rate τ / s",
                 "train",
@@ -485,10 +713,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         r.heading("Sensor classes (fuzzy equivalence dendrogram, training rows)");
         let first = &id.targets[0];
-        let cut = {
+        let cut = if first.classes.is_empty() {
+            None
+        } else {
             let merges = &id.dendrogram.merges;
             let k = first.classes.len();
-            let done = table.inputs.len().saturating_sub(k);
+            let done = id.input_names.len().saturating_sub(k);
             merges
                 .get(done)
                 .map(|m| m.level)
@@ -496,17 +726,53 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         r.raw_svg(&dendrogram_svg(
             &id.dendrogram,
-            &table.input_names,
+            &id.input_names,
             cut,
             &first.sensors,
         ));
-        r.paragraph(&format!(
-            "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
-            first.classes.len(),
-            first.target
-        ));
+        if cut.is_some() {
+            r.paragraph(&format!(
+                "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
+                first.classes.len(),
+                first.target
+            ));
+        } else {
+            r.paragraph(&format!("Red: the sensors chosen for {}.", first.target));
+        }
         for (j, m) in id.targets.iter().enumerate() {
             r.heading(&m.target);
+            if !m.comparison.is_empty() {
+                r.paragraph(&format!("Family comparison ({}), validation RMSE on the training rows in µm; the lowest eligible is kept: {}.", id.method, m.family));
+                let crow: Vec<Vec<String>> = m
+                    .comparison
+                    .iter()
+                    .map(|c| {
+                        vec![
+                            c.family.clone(),
+                            c.sensors.to_string(),
+                            num(c.cv_rmse, 3),
+                            c.fold_rmse
+                                .iter()
+                                .map(|v| num(*v, 3))
+                                .collect::<Vec<_>>()
+                                .join(", "),
+                            c.detail.clone(),
+                            if c.kept { "kept".into() } else { String::new() },
+                        ]
+                    })
+                    .collect();
+                r.table(
+                    &[
+                        "family",
+                        "sensors",
+                        "validation RMSE",
+                        "folds",
+                        "choice",
+                        "",
+                    ],
+                    &crow,
+                );
+            }
             let cls: Vec<String> = m
                 .classes
                 .iter()
@@ -514,7 +780,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     format!(
                         "{{{}}}",
                         c.iter()
-                            .map(|&i| table.input_names[i].as_str())
+                            .map(|&i| id.input_names[i].as_str())
                             .collect::<Vec<_>>()
                             .join(", ")
                     )
@@ -525,7 +791,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 cls.join(" "),
                 m.sensors
                     .iter()
-                    .map(|&s| table.input_names[s].as_str())
+                    .map(|&s| id.input_names[s].as_str())
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
@@ -593,7 +859,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         r.preformatted(&file.to_toml_string()?);
         r.write(p)
             .with_context(|| format!("write report {}", p.display()))?;
-        std::io::Write::write_all(&mut stdout, format!("report: {}\n", p.display()).as_bytes())?;
+        if !args.json {
+            std::io::Write::write_all(
+                &mut stdout,
+                format!("report: {}\n", p.display()).as_bytes(),
+            )?;
+        }
     }
     Ok(())
 }

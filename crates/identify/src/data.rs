@@ -1,7 +1,12 @@
-//! Reading thermal-test logs: a time column, input (temperature) columns and target columns,
-//! selected by name or glob pattern. Bad rows and time gaps are reported with their line
-//! numbers; bad rows are an error unless the caller asks to skip them, and skipped rows are
-//! still listed in [`Table::issues`].
+//! Reading thermal-test logs: a time column (or a fixed sample interval), input
+//! (temperature) columns, target columns and optionally a run column, selected by name or
+//! glob pattern; several files (one run each) are read by [`read_runs`]. Bad rows and time
+//! gaps are reported with their line numbers; bad rows are an error unless the caller asks
+//! to skip them, and skipped rows are still listed in [`Table::issues`].
+//!
+//! A table is cut into **segments**: a new run (run column value changes, next file) or a
+//! time gap inside a run starts a new segment, and every filter, lag, delay and rate state
+//! of the model restarts at a segment's first sample ([`Table::segments`]).
 
 use crate::error::{invalid, IdentifyError, Result};
 use globset::Glob;
@@ -9,13 +14,14 @@ use globset::Glob;
 /// Which columns to read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Selection {
-    /// Name of the time column (seconds).
+    /// Name of the time column (seconds; increasing within each run).
     pub time: String,
     /// Input columns: names or glob patterns (`t*_c`), in order; repeats are dropped.
     pub inputs: Vec<String>,
     /// Target columns: names or glob patterns.
     pub targets: Vec<String>,
-    /// Optional column holding a run number (for validation by run).
+    /// Optional column naming the run of each row (any text or number; time restarts in
+    /// each run).
     pub run: Option<String>,
 }
 
@@ -36,8 +42,11 @@ impl Default for Selection {
 pub struct ReadOptions {
     /// Drop bad rows (still reported in [`Table::issues`]) instead of failing.
     pub skip_bad_rows: bool,
-    /// A time step larger than this multiple of the median step is reported as a gap.
+    /// A time step larger than this multiple of the median step (within runs) is a gap:
+    /// it is reported and splits the run into segments.
     pub gap_factor: f64,
+    /// The log has no time column: row k of a run (bad rows counted) is at k·Δt seconds.
+    pub sample_interval_s: Option<f64>,
 }
 
 impl Default for ReadOptions {
@@ -45,6 +54,7 @@ impl Default for ReadOptions {
         Self {
             skip_bad_rows: false,
             gap_factor: 3.0,
+            sample_interval_s: None,
         }
     }
 }
@@ -59,7 +69,8 @@ pub enum DataIssue {
         /// Why.
         reason: String,
     },
-    /// A time step much larger than the median step (kept: the filters handle any step).
+    /// A time step much larger than the median step: the run is split there (every model
+    /// state restarts after it).
     Gap {
         /// Line of the row after the gap.
         line: u64,
@@ -76,7 +87,7 @@ impl std::fmt::Display for DataIssue {
             DataIssue::BadRow { line, reason } => write!(f, "line {line}: bad row: {reason}"),
             DataIssue::Gap { line, from_s, to_s } => write!(
                 f,
-                "line {line}: time gap of {:.0} s ({from_s} s → {to_s} s)",
+                "line {line}: time gap of {:.0} s ({from_s} s → {to_s} s): the run is split, filters restart",
                 to_s - from_s
             ),
         }
@@ -86,7 +97,7 @@ impl std::fmt::Display for DataIssue {
 /// A column-major table of the selected columns.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Table {
-    /// Time stamps in s, strictly increasing.
+    /// Time stamps in s, strictly increasing within each segment.
     pub time_s: Vec<f64>,
     /// Names of the input columns.
     pub input_names: Vec<String>,
@@ -96,12 +107,53 @@ pub struct Table {
     pub target_names: Vec<String>,
     /// Target columns.
     pub targets: Vec<Vec<f64>>,
-    /// Run number of each row, when a run column was selected.
-    pub runs: Option<Vec<f64>>,
+    /// Run of each row (index into `run_names`), when the data has runs (a run column or
+    /// several files).
+    pub runs: Option<Vec<usize>>,
+    /// Name of each run, in order of first appearance.
+    pub run_names: Vec<String>,
+    /// First row of each segment (ascending, starts with 0 when there are rows): every
+    /// model state restarts there (new run, or a gap inside a run).
+    pub segments: Vec<usize>,
     /// Source line of each kept row.
     pub lines: Vec<u64>,
-    /// Bad rows and gaps, in file order.
+    /// File of each kept row's line (index into `files`).
+    pub file_of_row: Vec<usize>,
+    /// Names of the files read.
+    pub files: Vec<String>,
+    /// Bad rows and gaps, in file order (prefixed by the file name when several).
     pub issues: Vec<DataIssue>,
+}
+
+impl Table {
+    /// The rows `[start, end)` of each segment.
+    pub fn segment_ranges(&self) -> Vec<(usize, usize)> {
+        let n = self.time_s.len();
+        let mut out = Vec::with_capacity(self.segments.len());
+        for (k, &s) in self.segments.iter().enumerate() {
+            let e = self.segments.get(k + 1).copied().unwrap_or(n);
+            if e > s {
+                out.push((s, e));
+            }
+        }
+        out
+    }
+
+    /// Number of runs (1 without run information).
+    pub fn run_count(&self) -> usize {
+        self.runs.as_ref().map_or(1, |_| self.run_names.len())
+    }
+
+    /// Index of the run named `name`: the same text, or the same number ("3" = "3.0").
+    pub fn run_index(&self, name: &str) -> Option<usize> {
+        let name = name.trim();
+        self.run_names.iter().position(|r| r == name).or_else(|| {
+            let v: f64 = name.parse().ok()?;
+            self.run_names
+                .iter()
+                .position(|r| r.parse::<f64>().is_ok_and(|w| w == v))
+        })
+    }
 }
 
 fn resolve(patterns: &[String], header: &[String], exclude: &[usize]) -> Result<Vec<usize>> {
@@ -144,174 +196,373 @@ fn resolve(patterns: &[String], header: &[String], exclude: &[usize]) -> Result<
 /// Reads CSV text (header row, comma separated) into a [`Table`].
 ///
 /// `name` is used in messages. Every selected cell must be a finite number and time must
-/// increase strictly; rows breaking that are listed by line and, unless
-/// [`ReadOptions::skip_bad_rows`], make the read fail.
+/// increase strictly within a run; rows breaking that are listed by line and, unless
+/// [`ReadOptions::skip_bad_rows`], make the read fail. With a run column, each change of
+/// its value starts a new run (time may restart); without one the file is one run.
 pub fn read_csv(text: &str, name: &str, sel: &Selection, opts: ReadOptions) -> Result<Table> {
+    read_runs(&[(text, name)], sel, opts)
+}
+
+struct Reader<'a> {
+    sel: &'a Selection,
+    opts: ReadOptions,
+    t: Table,
+    bad: Vec<(usize, u64, String)>,
+    run_label: Vec<String>,
+}
+
+/// Reads one or several CSV files (`(text, name)` pairs) into one [`Table`]; with several
+/// files, each file is a run named after the file (or `file:run` with a run column).
+///
+/// Every file must hold the same selected columns (by name; column order may differ).
+pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> Result<Table> {
     if !(opts.gap_factor.is_finite() && opts.gap_factor > 1.0) {
         return Err(invalid("gap_factor", opts.gap_factor, "a factor > 1"));
     }
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header: Vec<String> = rdr
-        .headers()
-        .map_err(|e| invalid("CSV header", name, &format!("a header row ({e})")))?
-        .iter()
-        .map(str::to_string)
-        .collect();
-    let time_idx = resolve(std::slice::from_ref(&sel.time), &header, &[])?[0];
-    let target_idx = resolve(&sel.targets, &header, &[time_idx])?;
-    let run_idx = match &sel.run {
-        Some(r) => Some(resolve(std::slice::from_ref(r), &header, &[])?[0]),
-        None => None,
-    };
-    let mut excl = target_idx.clone();
-    excl.push(time_idx);
-    excl.extend(run_idx);
-    let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)?
-        .into_iter()
-        .filter(|i| !excl.contains(i))
-        .collect();
-    if input_idx.is_empty() {
-        return Err(invalid(
-            "inputs",
-            sel.inputs.join(","),
-            "at least one input column that is not the time or a target",
-        ));
-    }
-    let mut t = Table {
-        input_names: input_idx.iter().map(|&i| header[i].clone()).collect(),
-        inputs: vec![Vec::new(); input_idx.len()],
-        target_names: target_idx.iter().map(|&i| header[i].clone()).collect(),
-        targets: vec![Vec::new(); target_idx.len()],
-        ..Table::default()
-    };
-    let mut bad: Vec<(u64, String)> = Vec::new();
-    let mut rec = csv::StringRecord::new();
-    // csv's own line count is one short on CRLF files (FL_THERMAL is one).
-    let mut lines = gearcomp_core::textline::LineCounter::new(text);
-    let mut last_line = 1u64;
-    loop {
-        match rdr.read_record(&mut rec) {
-            Ok(false) => break,
-            Ok(true) => {}
-            Err(e) => {
-                let line = e
-                    .position()
-                    .map_or(last_line + 1, |p| lines.line_at(p.byte()));
-                bad.push((line, format!("unreadable CSV record ({e})")));
-                last_line = line;
-                continue;
-            }
-        }
-        let line = rec
-            .position()
-            .map_or(last_line + 1, |p| lines.line_at(p.byte()));
-        last_line = line;
-        if rec.iter().all(str::is_empty) {
-            continue;
-        }
-        if rec.len() != header.len() {
-            bad.push((
-                line,
-                format!("{} fields, header has {}", rec.len(), header.len()),
+    if let Some(dt) = opts.sample_interval_s {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(invalid(
+                "--sample-interval-s",
+                dt,
+                "a sample interval > 0 s",
             ));
-            continue;
         }
-        let cell = |i: usize| -> std::result::Result<f64, String> {
-            let s = rec.get(i).unwrap_or("");
-            match s.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(v),
-                Ok(v) => Err(format!("{} = {v} is not finite", header[i])),
-                Err(_) if s.is_empty() => Err(format!("{} is empty", header[i])),
-                Err(_) => Err(format!("{} = {s:?} is not a number", header[i])),
-            }
-        };
-        let parsed: std::result::Result<Vec<f64>, String> = std::iter::once(time_idx)
-            .chain(input_idx.iter().copied())
-            .chain(target_idx.iter().copied())
-            .chain(run_idx)
-            .map(cell)
-            .collect();
-        let vals = match parsed {
-            Ok(v) => v,
-            Err(reason) => {
-                bad.push((line, reason));
-                continue;
-            }
-        };
-        if let Some(&prev) = t.time_s.last() {
-            if vals[0] <= prev {
-                bad.push((
-                    line,
-                    format!(
-                        "{} = {} does not increase (previous {prev})",
-                        sel.time, vals[0]
-                    ),
-                ));
-                continue;
-            }
-        }
-        t.time_s.push(vals[0]);
-        for (c, v) in t.inputs.iter_mut().zip(&vals[1..]) {
-            c.push(*v);
-        }
-        for (c, v) in t.targets.iter_mut().zip(&vals[1 + input_idx.len()..]) {
-            c.push(*v);
-        }
-        if run_idx.is_some() {
-            t.runs
-                .get_or_insert_with(Vec::new)
-                .push(vals[vals.len() - 1]);
-        }
-        t.lines.push(line);
     }
+    if files.is_empty() {
+        return Err(invalid("data", "no files", "at least one CSV file"));
+    }
+    let mut r = Reader {
+        sel,
+        opts,
+        t: Table::default(),
+        bad: Vec::new(),
+        run_label: Vec::new(),
+    };
+    for (fi, (text, name)) in files.iter().enumerate() {
+        r.t.files.push(name.to_string());
+        r.file(fi, text, name, files.len() > 1)?;
+    }
+    let Reader { mut t, bad, .. } = r;
+    let many = files.len() > 1;
+    let where_ = |fi: usize, line: u64| {
+        if many {
+            format!("{}: line {line}", files[fi].1)
+        } else {
+            format!("line {line}")
+        }
+    };
     if !bad.is_empty() && !opts.skip_bad_rows {
-        let lines: Vec<String> = bad.iter().take(20).map(|b| b.0.to_string()).collect();
+        let lines: Vec<String> = bad.iter().take(20).map(|b| b.1.to_string()).collect();
+        let files_with: Vec<&str> = {
+            let mut v: Vec<&str> = Vec::new();
+            for b in &bad {
+                if !v.contains(&files[b.0].1) {
+                    v.push(files[b.0].1);
+                }
+            }
+            v
+        };
         return Err(IdentifyError::BadRows {
-            path: name.to_string(),
+            path: files_with.join(", "),
             count: bad.len(),
             lines: if bad.len() > 20 {
                 format!("{}, …", lines.join(", "))
             } else {
                 lines.join(", ")
             },
-            first_reason: bad[0].1.clone(),
+            first_reason: if many {
+                format!("{} ({})", bad[0].2, where_(bad[0].0, bad[0].1))
+            } else {
+                bad[0].2.clone()
+            },
         });
     }
-    let mut issues: Vec<(u64, DataIssue)> = bad
+    let mut issues: Vec<(usize, u64, DataIssue)> = bad
         .into_iter()
-        .map(|(line, reason)| (line, DataIssue::BadRow { line, reason }))
+        .map(|(fi, line, reason)| {
+            let reason = if many {
+                format!("{}: {reason}", files[fi].1)
+            } else {
+                reason
+            };
+            (fi, line, DataIssue::BadRow { line, reason })
+        })
         .collect();
-    let mut steps: Vec<f64> = t.time_s.windows(2).map(|w| w[1] - w[0]).collect();
-    if !steps.is_empty() {
+    // Segments: a new run starts one; a gap (step > gap_factor × the median step within
+    // runs) inside a run starts another.
+    let n = t.time_s.len();
+    let run_of = |i: usize| t.runs.as_ref().map_or(0, |r| r[i]);
+    let mut run_start = vec![false; n];
+    for (i, s) in run_start.iter_mut().enumerate() {
+        *s = i == 0 || run_of(i) != run_of(i - 1) || t.file_of_row[i] != t.file_of_row[i - 1];
+    }
+    let mut steps: Vec<f64> = (1..n)
+        .filter(|&i| !run_start[i])
+        .map(|i| t.time_s[i] - t.time_s[i - 1])
+        .collect();
+    let median = if steps.is_empty() {
+        f64::INFINITY
+    } else {
         steps.sort_by(f64::total_cmp);
-        let median = steps[steps.len() / 2];
-        for k in 1..t.time_s.len() {
-            if t.time_s[k] - t.time_s[k - 1] > opts.gap_factor * median {
-                issues.push((
-                    t.lines[k],
-                    DataIssue::Gap {
-                        line: t.lines[k],
-                        from_s: t.time_s[k - 1],
-                        to_s: t.time_s[k],
-                    },
-                ));
-            }
+        steps[steps.len() / 2]
+    };
+    t.segments.clear();
+    for (i, &starts) in run_start.iter().enumerate() {
+        if starts {
+            t.segments.push(i);
+        } else if t.time_s[i] - t.time_s[i - 1] > opts.gap_factor * median {
+            t.segments.push(i);
+            issues.push((
+                t.file_of_row[i],
+                t.lines[i],
+                DataIssue::Gap {
+                    line: t.lines[i],
+                    from_s: t.time_s[i - 1],
+                    to_s: t.time_s[i],
+                },
+            ));
         }
     }
-    issues.sort_by_key(|i| i.0);
-    t.issues = issues.into_iter().map(|i| i.1).collect();
+    issues.sort_by_key(|i| (i.0, i.1));
+    t.issues = issues.into_iter().map(|i| i.2).collect();
     if t.time_s.len() < 3 {
         return Err(IdentifyError::TooFewRows {
-            what: format!("{name}: valid rows"),
+            what: format!(
+                "{}: valid rows",
+                files.iter().map(|f| f.1).collect::<Vec<_>>().join(", ")
+            ),
             rows: t.time_s.len(),
             needed: 3,
         });
     }
+    if t.runs.is_none() && files.len() > 1 {
+        return Err(invalid("data", "several files", "one run per file"));
+    }
     Ok(t)
+}
+
+impl Reader<'_> {
+    fn file(&mut self, fi: usize, text: &str, name: &str, many: bool) -> Result<()> {
+        let sel = self.sel;
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let header: Vec<String> = rdr
+            .headers()
+            .map_err(|e| invalid("CSV header", name, &format!("a header row ({e})")))?
+            .iter()
+            .map(str::to_string)
+            .collect();
+        let time_idx = match self.opts.sample_interval_s {
+            Some(dt) => {
+                if header.contains(&sel.time) {
+                    return Err(invalid(
+                        "--sample-interval-s",
+                        dt,
+                        &format!(
+                            "no sample interval: {name} has a time column {:?} (use it, or name another with --time-column)",
+                            sel.time
+                        ),
+                    ));
+                }
+                None
+            }
+            None => {
+                if !header.contains(&sel.time) {
+                    return Err(invalid(
+                        "--time-column",
+                        &sel.time,
+                        &format!(
+                            "a column of {name} (columns: {}); a log without a time column needs --sample-interval-s",
+                            header.join(", ")
+                        ),
+                    ));
+                }
+                Some(resolve(std::slice::from_ref(&sel.time), &header, &[])?[0])
+            }
+        };
+        let run_idx = match &sel.run {
+            Some(r) => Some(resolve(std::slice::from_ref(r), &header, &[])?[0]),
+            None => None,
+        };
+        let mut excl: Vec<usize> = time_idx.into_iter().chain(run_idx).collect();
+        let target_idx = resolve(&sel.targets, &header, &excl)?;
+        excl.extend(target_idx.iter().copied());
+        let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)?
+            .into_iter()
+            .filter(|i| !excl.contains(i))
+            .collect();
+        if input_idx.is_empty() {
+            return Err(invalid(
+                "inputs",
+                sel.inputs.join(","),
+                "at least one input column that is not the time, the run or a target",
+            ));
+        }
+        let in_names: Vec<String> = input_idx.iter().map(|&i| header[i].clone()).collect();
+        let tg_names: Vec<String> = target_idx.iter().map(|&i| header[i].clone()).collect();
+        if fi == 0 {
+            self.t.input_names = in_names;
+            self.t.target_names = tg_names;
+            self.t.inputs = vec![Vec::new(); input_idx.len()];
+            self.t.targets = vec![Vec::new(); target_idx.len()];
+        } else if in_names != self.t.input_names || tg_names != self.t.target_names {
+            return Err(invalid(
+                &format!("columns of {name}"),
+                format!(
+                    "inputs {} / targets {}",
+                    in_names.join(" "),
+                    tg_names.join(" ")
+                ),
+                &format!(
+                    "the columns of {}: inputs {} / targets {}",
+                    self.t.files[0],
+                    self.t.input_names.join(" "),
+                    self.t.target_names.join(" ")
+                ),
+            ));
+        }
+        if many || run_idx.is_some() {
+            self.t.runs.get_or_insert_with(Vec::new);
+        }
+        let stem = std::path::Path::new(name)
+            .file_stem()
+            .map_or(name.to_string(), |s| s.to_string_lossy().into_owned());
+        let mut rec = csv::StringRecord::new();
+        // csv's own line count is one short on CRLF files (FL_THERMAL is one).
+        let mut lines = gearcomp_core::textline::LineCounter::new(text);
+        let mut last_line = 1u64;
+        let mut cur_run: Option<String> = None;
+        let mut ordinal = 0u64;
+        let mut prev_t: Option<f64> = None;
+        loop {
+            match rdr.read_record(&mut rec) {
+                Ok(false) => break,
+                Ok(true) => {}
+                Err(e) => {
+                    let line = e
+                        .position()
+                        .map_or(last_line + 1, |p| lines.line_at(p.byte()));
+                    self.bad
+                        .push((fi, line, format!("unreadable CSV record ({e})")));
+                    last_line = line;
+                    ordinal += 1;
+                    continue;
+                }
+            }
+            let line = rec
+                .position()
+                .map_or(last_line + 1, |p| lines.line_at(p.byte()));
+            last_line = line;
+            if rec.iter().all(str::is_empty) {
+                continue;
+            }
+            if rec.len() != header.len() {
+                self.bad.push((
+                    fi,
+                    line,
+                    format!("{} fields, header has {}", rec.len(), header.len()),
+                ));
+                ordinal += 1;
+                continue;
+            }
+            // Run of this row.
+            let run = match run_idx {
+                Some(ri) => {
+                    let v = rec.get(ri).unwrap_or("").to_string();
+                    if v.is_empty() {
+                        self.bad
+                            .push((fi, line, format!("{} (run) is empty", header[ri])));
+                        ordinal += 1;
+                        continue;
+                    }
+                    v
+                }
+                None => String::new(),
+            };
+            if cur_run.as_deref() != Some(run.as_str()) {
+                cur_run = Some(run.clone());
+                ordinal = 0;
+                prev_t = None;
+            }
+            let this_ordinal = ordinal;
+            ordinal += 1;
+            let cell = |i: usize| -> std::result::Result<f64, String> {
+                let s = rec.get(i).unwrap_or("");
+                match s.parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    Ok(v) => Err(format!("{} = {v} is not finite", header[i])),
+                    Err(_) if s.is_empty() => Err(format!("{} is empty", header[i])),
+                    Err(_) => Err(format!("{} = {s:?} is not a number", header[i])),
+                }
+            };
+            let parsed: std::result::Result<Vec<f64>, String> = input_idx
+                .iter()
+                .copied()
+                .chain(target_idx.iter().copied())
+                .map(cell)
+                .collect();
+            let time = match (time_idx, self.opts.sample_interval_s) {
+                (Some(ti), _) => cell(ti),
+                (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
+                (None, None) => Err("no time".to_string()),
+            };
+            let (vals, time) = match (parsed, time) {
+                (Ok(v), Ok(t)) => (v, t),
+                (Err(reason), _) | (_, Err(reason)) => {
+                    self.bad.push((fi, line, reason));
+                    continue;
+                }
+            };
+            if let Some(prev) = prev_t {
+                if time <= prev {
+                    self.bad.push((
+                        fi,
+                        line,
+                        format!(
+                            "{} = {time} does not increase (previous {prev}){}",
+                            sel.time,
+                            if run_idx.is_some() {
+                                " within the run"
+                            } else {
+                                ""
+                            }
+                        ),
+                    ));
+                    continue;
+                }
+            }
+            prev_t = Some(time);
+            self.t.time_s.push(time);
+            for (c, v) in self.t.inputs.iter_mut().zip(&vals) {
+                c.push(*v);
+            }
+            for (c, v) in self.t.targets.iter_mut().zip(&vals[input_idx.len()..]) {
+                c.push(*v);
+            }
+            if let Some(runs) = self.t.runs.as_mut() {
+                let label = match (many, run_idx.is_some()) {
+                    (true, true) => format!("{stem}:{run}"),
+                    (true, false) => stem.clone(),
+                    _ => run.clone(),
+                };
+                let k = match self.run_label.iter().position(|l| *l == label) {
+                    Some(k) => k,
+                    None => {
+                        self.run_label.push(label.clone());
+                        self.t.run_names.push(label);
+                        self.run_label.len() - 1
+                    }
+                };
+                runs.push(k);
+            }
+            self.t.lines.push(line);
+            self.t.file_of_row.push(fi);
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
 use crate::regress::{self, LinearFit};
-use crate::transform::transform_series;
+use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
 
@@ -15,12 +15,15 @@ use nalgebra::{DMatrix, DVector};
 pub enum ModelKind {
     /// Value + filtered rate (lead–lag) per sensor, sensors chosen by forward selection
     /// among the class representatives, τ and class count by cross-validation.
-    #[default]
     Dynamic,
     /// Seed 003 as written: every class representative, current values, OLS.
     Static,
     /// As `Static`, fitted by ridge regression with α chosen by cross-validation.
     Ridge,
+    /// Every family of [`crate::select::Family`] compared by the deployment validation
+    /// (leave-one-run-out, or rolling origin on one run); the best is kept.
+    #[default]
+    Auto,
 }
 
 /// How the inputs are grouped into classes.
@@ -48,8 +51,9 @@ pub enum RepresentativeBy {
 pub enum Split {
     /// Rows with time < the given seconds train.
     TimeBefore(f64),
-    /// Rows whose run number is in the list test; the others train.
-    TestRuns(Vec<f64>),
+    /// Rows of the named runs test (names as in `Table::run_names`, or the same number);
+    /// the others train.
+    TestRuns(Vec<String>),
     /// All rows train; no test error.
     None,
 }
@@ -77,12 +81,16 @@ pub struct IdentifyOptions {
     pub ridge_alphas: Vec<f64>,
     /// Train/test split.
     pub split: Split,
+    /// Candidate pure delays in s (delay family of [`ModelKind::Auto`]).
+    pub delays_s: Vec<f64>,
+    /// Families compared by [`ModelKind::Auto`] (empty: all).
+    pub families: Vec<crate::select::Family>,
 }
 
 impl Default for IdentifyOptions {
     fn default() -> Self {
         Self {
-            model: ModelKind::Dynamic,
+            model: ModelKind::Auto,
             grouping: Grouping::FuzzyEquivalence,
             representative: RepresentativeBy::Pearson,
             classes: None,
@@ -92,6 +100,8 @@ impl Default for IdentifyOptions {
             folds: 3,
             ridge_alphas: vec![1e-4, 1e-3, 1e-2, 1e-1],
             split: Split::TimeBefore(86_400.0),
+            delays_s: vec![300.0, 900.0, 1800.0, 3600.0],
+            families: Vec::new(),
         }
     }
 }
@@ -125,6 +135,10 @@ pub struct TargetModel {
     pub model: LinearModel,
     /// Model prediction at every row (evaluated from `model` with the engine's semantics).
     pub predicted: Vec<f64>,
+    /// Model family (e.g. "static least squares"), for reports.
+    pub family: String,
+    /// Every family compared by the deployment validation (empty for a fixed kind).
+    pub comparison: Vec<crate::select::FamilyScore>,
     /// RMSE on the training rows.
     pub train_rmse: f64,
     /// RMSE on the test rows (None without a test set).
@@ -146,9 +160,14 @@ pub struct Identification {
     pub targets: Vec<TargetModel>,
     /// One-line description of the method, for reports and provenance.
     pub method: String,
+    /// The inputs used (after dropping constant or duplicated ones); `sensors` and
+    /// `classes` index this list.
+    pub input_names: Vec<String>,
+    /// Notes about the inputs (dropped sensors, with the reason).
+    pub notes: Vec<String>,
 }
 
-fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {
+pub(crate) fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {
     let (s, n) = e
         .iter()
         .zip(mask)
@@ -160,16 +179,53 @@ fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {
 /// Train mask of a split.
 pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     let mask: Vec<bool> = match split {
-        Split::TimeBefore(s) => table.time_s.iter().map(|t| t < s).collect(),
+        Split::TimeBefore(s) => {
+            if table.run_count() > 1 {
+                return Err(invalid(
+                    "--train-before-h",
+                    s / 3600.0,
+                    &format!(
+                        "no time split on data of {} runs (time restarts in each run): name the test runs with --test-runs (runs: {})",
+                        table.run_count(),
+                        table.run_names.join(", ")
+                    ),
+                ));
+            }
+            let t0 = table.time_s.first().copied().unwrap_or(0.0);
+            let t1 = table.time_s.last().copied().unwrap_or(0.0);
+            if !(s.is_finite() && *s > t0 && *s <= t1) {
+                return Err(invalid(
+                    "--train-before-h",
+                    format!("{} h", s / 3600.0),
+                    &format!(
+                        "a time inside the data, {} h < t ≤ {} h (leave test rows after it, or use --no-test)",
+                        t0 / 3600.0,
+                        t1 / 3600.0
+                    ),
+                ));
+            }
+            table.time_s.iter().map(|t| t < s).collect()
+        }
         Split::TestRuns(runs) => {
             let r = table.runs.as_ref().ok_or_else(|| {
                 invalid(
-                    "split",
-                    "test runs",
-                    "a run column in the data (--run-column)",
+                    "--test-runs",
+                    runs.join(","),
+                    "data with runs (--run-column, or several --data files)",
                 )
             })?;
-            r.iter().map(|v| !runs.contains(v)).collect()
+            let mut test = vec![false; table.run_names.len()];
+            for name in runs {
+                let k = table.run_index(name).ok_or_else(|| {
+                    invalid(
+                        "--test-runs",
+                        name,
+                        &format!("one of the runs {}", table.run_names.join(", ")),
+                    )
+                })?;
+                test[k] = true;
+            }
+            r.iter().map(|&k| !test[k]).collect()
         }
         Split::None => vec![true; table.time_s.len()],
     };
@@ -195,7 +251,7 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
         return Err(invalid("folds", k, "at least 2 folds"));
     }
     if let Some(runs) = &table.runs {
-        let mut seen: Vec<f64> = Vec::new();
+        let mut seen: Vec<usize> = Vec::new();
         for (r, &m) in runs.iter().zip(train) {
             if m && !seen.contains(r) {
                 seen.push(*r);
@@ -345,7 +401,7 @@ fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
     }
 }
 
-fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
+pub(crate) fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
     x.iter()
         .zip(mask)
         .filter(|(_, &m)| m)
@@ -360,9 +416,22 @@ fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
 /// dynamic Value + Rate model and its cross-validated selection are this project's
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
-    let c = table.inputs.len();
     if table.targets.is_empty() {
         return Err(invalid("targets", "none", "at least one target column"));
+    }
+    let train = train_mask(table, &opts.split)?;
+    let (reduced, notes) = drop_degenerate_inputs(table, &train);
+    let table = &reduced;
+    let c = table.inputs.len();
+    if c == 0 {
+        return Err(invalid(
+            "inputs",
+            "every input constant or duplicated on the training rows",
+            "at least one input that varies",
+        ));
+    }
+    if opts.model == ModelKind::Auto {
+        return crate::select::identify_auto(table, train, notes, opts);
     }
     if c < 2 {
         return Err(invalid("inputs", c, "at least 2 input columns"));
@@ -383,7 +452,6 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
             return Err(invalid("classes", k, &format!("1 ≤ classes ≤ {c} inputs")));
         }
     }
-    let train = train_mask(table, &opts.split)?;
     let fold = folds(table, &train, opts.folds)?;
     let k_folds = opts.folds;
     let tr_inputs: Vec<Vec<f64>> = table
@@ -430,15 +498,17 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
         _ => vec![None],
     };
     let mut features: Vec<Vec<Vec<f64>>> = Vec::with_capacity(taus.len());
+    let segs = table.segment_ranges();
     for tau in &taus {
         let mut f = Vec::with_capacity(2 * c);
         for x in &table.inputs {
             f.push(x.clone());
             if let Some(tau_s) = tau {
-                f.push(transform_series(
+                f.push(transform_segments(
                     &table.time_s,
                     x,
                     Transform::Rate { tau_s: *tau_s },
+                    &segs,
                 )?);
             }
         }
@@ -533,6 +603,7 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
                         }
                     }
                 }
+                ModelKind::Auto => {}
                 ModelKind::Ridge => {
                     for &alpha in &opts.ridge_alphas {
                         let v = ridge_cv(&in_refs, &reps, y, &fold, k_folds, alpha)?;
@@ -565,6 +636,7 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
             ModelKind::Dynamic => "dynamic (value + filtered rate per sensor, forward selection)",
             ModelKind::Static => "static (seed 003: all class representatives, OLS)",
             ModelKind::Ridge => "static ridge (all class representatives)",
+            ModelKind::Auto => "every family compared",
         },
         match opts.grouping {
             Grouping::FuzzyEquivalence => "fuzzy equivalence (max–min closure, λ-cut)",
@@ -588,7 +660,65 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
         fold,
         targets: out,
         method,
+        input_names: table.input_names.clone(),
+        notes,
     })
+}
+
+/// Drops inputs that are constant on the training rows or duplicate an earlier input
+/// (|r| = 1 within 1e-12: the same signal, possibly scaled or offset); returns the reduced
+/// table and one note per dropped input naming it and why.
+pub fn drop_degenerate_inputs(table: &Table, train: &[bool]) -> (Table, Vec<String>) {
+    let mut keep: Vec<usize> = Vec::new();
+    let mut notes = Vec::new();
+    let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, train)).collect();
+    let stats: Vec<(f64, f64)> = cols
+        .iter()
+        .map(|x| {
+            let n = x.len().max(1) as f64;
+            let m = x.iter().sum::<f64>() / n;
+            let sd = (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n).sqrt();
+            (m, sd)
+        })
+        .collect();
+    for (i, x) in cols.iter().enumerate() {
+        let (m, sd) = stats[i];
+        let (lo, hi) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
+            (a.0.min(v), a.1.max(v))
+        });
+        if !crate::regress::exceeds(hi - lo, 1e-12 * (1.0 + m.abs())) {
+            notes.push(format!(
+                "input {} dropped: constant ({lo}) on the training rows",
+                table.input_names[i]
+            ));
+            continue;
+        }
+        let dup = keep.iter().copied().find(|&k| {
+            let (mk, sk) = stats[k];
+            let r = x
+                .iter()
+                .zip(&cols[k])
+                .map(|(a, b)| (a - m) * (b - mk))
+                .sum::<f64>()
+                / (x.len() as f64 * sd * sk);
+            r.abs() >= 1.0 - 1e-12
+        });
+        if let Some(k) = dup {
+            notes.push(format!(
+                "input {} dropped: duplicates {} (|r| = 1 on the training rows)",
+                table.input_names[i], table.input_names[k]
+            ));
+            continue;
+        }
+        keep.push(i);
+    }
+    if keep.len() == table.inputs.len() {
+        return (table.clone(), notes);
+    }
+    let mut t = table.clone();
+    t.input_names = keep.iter().map(|&i| table.input_names[i].clone()).collect();
+    t.inputs = keep.iter().map(|&i| table.inputs[i].clone()).collect();
+    (t, notes)
 }
 
 fn ridge_cv(
@@ -599,7 +729,26 @@ fn ridge_cv(
     k: usize,
     alpha: f64,
 ) -> Result<f64> {
+    let per = ridge_fold_rmse(inputs, sensors, y, fold, k, alpha)?;
     let (mut sse, mut n) = (0.0, 0usize);
+    for (f, r) in per.iter().enumerate() {
+        let m = fold.iter().filter(|g| **g == Some(f)).count();
+        sse += r * r * m as f64;
+        n += m;
+    }
+    Ok((sse / n.max(1) as f64).sqrt())
+}
+
+/// Held-out RMSE of each fold of a ridge model (folds without rows give 0).
+fn ridge_fold_rmse(
+    inputs: &[&[f64]],
+    sensors: &[usize],
+    y: &[f64],
+    fold: &[Option<usize>],
+    k: usize,
+    alpha: f64,
+) -> Result<Vec<f64>> {
+    let mut out = Vec::with_capacity(k);
     let names: Vec<String> = sensors.iter().map(|s| format!("input {s}")).collect();
     for f in 0..k {
         let tr: Vec<bool> = fold.iter().map(|g| g.is_some_and(|g| g != f)).collect();
@@ -610,14 +759,15 @@ fn ridge_cv(
             .collect();
         let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
         let fit = regress::ridge(&refs, &select_rows(y, &tr), alpha, &names)?;
+        let mut sse = 0.0;
         for &i in &va {
             let row: Vec<f64> = sensors.iter().map(|&s| inputs[s][i]).collect();
             let e = y[i] - fit.predict(&row);
             sse += e * e;
-            n += 1;
         }
+        out.push((sse / va.len().max(1) as f64).sqrt());
     }
-    Ok((sse / n.max(1) as f64).sqrt())
+    Ok(out)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -690,7 +840,15 @@ fn finish(
             })
             .collect()
     } else {
-        vec![f64::NAN; k_folds]
+        let in_refs: Vec<&[f64]> = table.inputs.iter().map(|v| v.as_slice()).collect();
+        ridge_fold_rmse(
+            &in_refs,
+            &ch.sensors,
+            &table.targets[j],
+            fold,
+            k_folds,
+            ch.alpha.unwrap_or(0.0),
+        )?
     };
     Ok(TargetModel {
         target: table.target_names[j].clone(),
@@ -706,6 +864,12 @@ fn finish(
         fit,
         model,
         predicted,
+        family: match (ch.alpha, ch.tau) {
+            (Some(_), _) => "ridge".into(),
+            (None, Some(_)) => "lead-lag (value + rate, shared τ)".into(),
+            (None, None) => "static least squares".into(),
+        },
+        comparison: Vec::new(),
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
     })
@@ -714,6 +878,7 @@ fn finish(
 /// Evaluates a linear model over the whole table with the engine's transform semantics.
 pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
     let mut out = vec![model.intercept; table.time_s.len()];
+    let segs = table.segment_ranges();
     for t in &model.terms {
         let i = table
             .input_names
@@ -723,7 +888,7 @@ pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
                 pattern: t.channel.clone(),
                 available: table.input_names.join(", "),
             })?;
-        let x = transform_series(&table.time_s, &table.inputs[i], t.transform)?;
+        let x = transform_segments(&table.time_s, &table.inputs[i], t.transform, &segs)?;
         for (o, v) in out.iter_mut().zip(x) {
             *o += t.coefficient * v;
         }
@@ -734,6 +899,8 @@ pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
 /// Plain least squares on all inputs (the floor to beat): (train RMSE, test RMSE) per target.
 pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
     let train = train_mask(table, split)?;
+    let (table, _) = drop_degenerate_inputs(table, &train);
+    let table = &table;
     let cols: Vec<Vec<f64>> = table
         .inputs
         .iter()

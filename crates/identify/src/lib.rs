@@ -32,6 +32,7 @@ pub mod dendrogram;
 pub mod error;
 pub mod identify;
 pub mod regress;
+pub mod select;
 pub mod transform;
 pub mod workpiece;
 

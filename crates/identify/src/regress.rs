@@ -204,6 +204,84 @@ pub fn ridge(columns: &[&[f64]], y: &[f64], alpha: f64, names: &[String]) -> Res
     Ok(summarise(coefficients, vec![f64::NAN; p + 1], &a, y))
 }
 
+/// Principal-component regression on the first `k` components of the standardised columns.
+///
+/// # Formula
+/// z_j = (x_j − x̄_j)/s_j (population s_j); Z = U·S·Vᵀ (SVD); β = V_k·S_k⁻¹·U_kᵀ·(y − ȳ);
+/// b_j = β_j/s_j, b_0 = ȳ − Σ b_j·x̄_j
+/// # Domain
+/// 1 ≤ k ≤ number of columns; a constant column is an error.
+/// # Source
+/// Massy (1965), principal-components regression [STANDARD]; Jolliffe, *Principal
+/// Component Analysis* (2002), §8.1.
+pub fn pcr(columns: &[&[f64]], y: &[f64], k: usize, names: &[String]) -> Result<LinearFit> {
+    let a = design(columns, y, names)?;
+    let n = y.len();
+    let p = columns.len();
+    if k == 0 || k > p {
+        return Err(invalid(
+            "PCR components",
+            k,
+            &format!("1 ≤ k ≤ {p} columns"),
+        ));
+    }
+    let ym = y.iter().sum::<f64>() / n as f64;
+    let mut mean = vec![0.0; p];
+    let mut sd = vec![0.0; p];
+    for (j, c) in columns.iter().enumerate() {
+        mean[j] = c.iter().sum::<f64>() / n as f64;
+        sd[j] = (c.iter().map(|v| (v - mean[j]).powi(2)).sum::<f64>() / n as f64).sqrt();
+        if !exceeds(sd[j], 0.0) {
+            return Err(invalid(
+                &format!("column {}", names.get(j).map_or("?", |s| s)),
+                "a constant column",
+                "a column that varies",
+            ));
+        }
+    }
+    let z = DMatrix::from_fn(n, p, |i, j| (columns[j][i] - mean[j]) / sd[j]);
+    let yc = DVector::from_fn(n, |i, _| y[i] - ym);
+    let beta = pcr_solve(z, &yc, k, names)?;
+    let mut coefficients = vec![0.0; p + 1];
+    coefficients[0] = ym;
+    for j in 0..p {
+        coefficients[j + 1] = beta[j] / sd[j];
+        coefficients[0] -= coefficients[j + 1] * mean[j];
+    }
+    Ok(summarise(coefficients, vec![f64::NAN; p + 1], &a, y))
+}
+
+/// β = V_k·S_k⁻¹·U_kᵀ·y of the SVD of `z` (components by decreasing singular value).
+pub(crate) fn pcr_solve(
+    z: DMatrix<f64>,
+    y: &DVector<f64>,
+    k: usize,
+    names: &[String],
+) -> Result<DVector<f64>> {
+    let p = z.ncols();
+    let svd = z.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
+        return Err(invalid("PCR", "SVD", "a decomposable matrix"));
+    };
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    let mut beta = DVector::zeros(p);
+    for &c in order.iter().take(k) {
+        let s = svd.singular_values[c];
+        if !exceeds(s, RANK_TOL * smax) {
+            return Err(IdentifyError::RankDeficient {
+                columns: names.join(", "),
+                pivot: s,
+                tolerance: RANK_TOL * smax,
+            });
+        }
+        let g = u.column(c).dot(y) / s;
+        beta += vt.row(c).transpose() * g;
+    }
+    Ok(beta)
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {

@@ -109,6 +109,47 @@ pub fn transform_series(time_s: &[f64], u: &[f64], kind: Transform) -> Result<Ve
     Ok(time_s.iter().zip(u).map(|(&t, &v)| s.step(t, v)).collect())
 }
 
+/// The transform applied segment by segment: every state (lag, rate filter, delay history)
+/// restarts at each segment's first sample, as the engine's would after a restart.
+///
+/// `segments` are `[start, end)` row ranges covering the series in order (see
+/// `Table::segment_ranges`); time must increase strictly within each.
+pub fn transform_segments(
+    time_s: &[f64],
+    u: &[f64],
+    kind: Transform,
+    segments: &[(usize, usize)],
+) -> Result<Vec<f64>> {
+    if time_s.len() != u.len() {
+        return Err(invalid(
+            "series length",
+            u.len(),
+            &format!("{} samples, as the time column", time_s.len()),
+        ));
+    }
+    let mut out = Vec::with_capacity(u.len());
+    let mut next = 0usize;
+    for &(s, e) in segments {
+        if s != next || e > u.len() || e <= s {
+            return Err(invalid(
+                "segments",
+                format!("[{s}, {e})"),
+                &format!("consecutive row ranges starting at {next}"),
+            ));
+        }
+        out.extend(transform_series(&time_s[s..e], &u[s..e], kind)?);
+        next = e;
+    }
+    if next != u.len() {
+        return Err(invalid(
+            "segments",
+            format!("rows up to {next}"),
+            &format!("ranges covering all {} rows", u.len()),
+        ));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {

@@ -30,7 +30,7 @@ proptest! {
         let _ = read_csv(&text, "fuzz", &sel, ReadOptions::default());
         let _ = read_csv(&format!("time_s,a_c,b_um\n{text}"), "fuzz",
             &Selection { targets: vec!["b_um".into()], ..Selection::default() },
-            ReadOptions { skip_bad_rows: true, gap_factor: 3.0 });
+            ReadOptions { skip_bad_rows: true, ..ReadOptions::default() });
     }
 
     #[test]

@@ -1,0 +1,967 @@
+//! Model families compared by a validation that mirrors deployment (issue 12).
+//!
+//! **Validation.** With two or more training runs: leave-one-run-out (each fold holds one
+//! run out and trains on the others). With one run: forward chaining (rolling origin): the
+//! training period is cut into `folds + 1` blocks of equal time span and fold f trains on
+//! blocks 0..=f and validates on block f + 1, so no fold trains on the future. Every
+//! regressor is a causal filter of its sensor restarted at each segment, so computing it
+//! once over the whole series leaks nothing from the future.
+//!
+//! **Families** (all written as `gearcomp_core::model` terms the engine runs):
+//! static least squares, ridge, principal-component regression, lead–lag (value + lag with
+//! one shared τ), first-order transfer function per sensor (value + lag, τ per sensor:
+//! (b₁s + b₀)/(τs + 1) in partial fractions), second-order transfer function per sensor
+//! (value + two lags: (b₂s² + b₁s + b₀)/((τ₁s + 1)(τ₂s + 1)) in partial fractions, poles
+//! on the τ grid), pure delay per sensor, and sensor differences (A − B). Sensors enter by
+//! forward selection up to the sensor cap; the number of sensors, τ, delays, α and the
+//! number of components are chosen by the validation error. The family with the lowest
+//! pooled validation RMSE is kept.
+//!
+//! **Cost.** Per fold the R factor of [1 F Y] (every candidate regressor F, every target
+//! Y) is computed once; any sub-model's fit and held-out error follow exactly from these
+//! small matrices (‖Q·R·v‖ = ‖R·v‖), for least squares, ridge (augmented R) and PCR (SVD of
+//! the re-triangularised R).
+
+use crate::cluster::{self, Dendrogram};
+use crate::data::Table;
+use crate::error::{invalid, IdentifyError, Result};
+use crate::identify::{
+    predict, rmse_where, select_rows, Identification, IdentifyOptions, TargetModel,
+};
+use crate::regress::{self, exceeds, LinearFit};
+use crate::transform::transform_segments;
+use gearcomp_core::model::{LinearModel, Term, Transform};
+use nalgebra::{DMatrix, DVector};
+
+/// A model family of the automatic comparison.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Family {
+    /// Current values, ordinary least squares, sensors by forward selection.
+    Static,
+    /// Current values, ridge (α by validation), on the static family's sensor order.
+    Ridge,
+    /// Current values, principal-component regression (components by validation).
+    Pcr,
+    /// Value + first-order lag per sensor, one τ shared by all sensors.
+    LeadLag,
+    /// First-order transfer function per sensor: value + lag, τ chosen per sensor.
+    Tf1,
+    /// Second-order transfer function per sensor: value + two lags, τ pair per sensor.
+    Tf2,
+    /// Pure delay per sensor (delay chosen per sensor, 0 included).
+    Delay,
+    /// Static least squares on single sensors and sensor differences A − B.
+    Differences,
+}
+
+impl Family {
+    /// Every family, in order of simplicity (ties keep the earlier).
+    pub const ALL: [Family; 8] = [
+        Family::Static,
+        Family::Ridge,
+        Family::Pcr,
+        Family::Differences,
+        Family::Delay,
+        Family::LeadLag,
+        Family::Tf1,
+        Family::Tf2,
+    ];
+
+    /// Name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Static => "static least squares",
+            Family::Ridge => "ridge",
+            Family::Pcr => "principal-component regression",
+            Family::LeadLag => "lead-lag (value + lag, shared τ)",
+            Family::Tf1 => "1st-order transfer function",
+            Family::Tf2 => "2nd-order transfer function",
+            Family::Delay => "pure delay",
+            Family::Differences => "sensor differences (A − B)",
+        }
+    }
+}
+
+/// One family's result in the comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilyScore {
+    /// Family name.
+    pub family: String,
+    /// Number of sensors of the family's best model.
+    pub sensors: usize,
+    /// Pooled validation RMSE (target unit).
+    pub cv_rmse: f64,
+    /// Validation RMSE per fold.
+    pub fold_rmse: Vec<f64>,
+    /// Hyper-parameters chosen (τ, α, components, delays) or why the family is out.
+    pub detail: String,
+    /// Whether the family may be kept (false: e.g. over the sensor cap).
+    pub eligible: bool,
+    /// Whether this family's model was kept.
+    pub kept: bool,
+}
+
+/// A candidate regressor: a transform of one sensor, or the difference of two sensors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Feat {
+    sensor: usize,
+    /// Second sensor of a difference (value of `sensor` − value of `minus`).
+    minus: Option<usize>,
+    kind: Transform,
+}
+
+/// How a sub-model is fitted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Fitter {
+    Ols,
+    Ridge(f64),
+    Pcr(usize),
+}
+
+struct Fold {
+    train_r: DMatrix<f64>,
+    n_train: usize,
+    val: usize,
+}
+
+/// Per-block and per-fold R factors of [1 F Y].
+struct Engine {
+    block_r: Vec<DMatrix<f64>>,
+    block_n: Vec<usize>,
+    folds: Vec<Fold>,
+    n_feat: usize,
+}
+
+fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
+    if a.nrows() == 0 {
+        return DMatrix::zeros(0, a.ncols());
+    }
+    a.qr().r()
+}
+
+fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
+    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
+    let mut out = DMatrix::zeros(rows, cols);
+    let mut r0 = 0;
+    for p in parts {
+        out.rows_mut(r0, p.nrows()).copy_from(*p);
+        r0 += p.nrows();
+    }
+    out
+}
+
+/// Validation scheme: block of each training row and the folds (train blocks, val block).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scheme {
+    /// Block of each row (None: not a training row).
+    pub block: Vec<Option<usize>>,
+    /// Per fold: the blocks it trains on and the block it validates on.
+    pub folds: Vec<(Vec<usize>, usize)>,
+    /// Description for reports.
+    pub description: String,
+}
+
+/// The deployment validation of the training rows: leave-one-run-out with ≥ 2 training
+/// runs, otherwise `k` rolling-origin folds over `k + 1` blocks of equal time span.
+pub fn deployment_scheme(table: &Table, train: &[bool], k: usize) -> Result<Scheme> {
+    if let Some(runs) = &table.runs {
+        let mut seen: Vec<usize> = Vec::new();
+        for (r, &m) in runs.iter().zip(train) {
+            if m && !seen.contains(r) {
+                seen.push(*r);
+            }
+        }
+        if seen.len() >= 2 {
+            let block = runs
+                .iter()
+                .zip(train)
+                .map(|(r, &m)| m.then(|| seen.iter().position(|s| s == r).unwrap_or(0)))
+                .collect();
+            let n = seen.len();
+            return Ok(Scheme {
+                block,
+                folds: (0..n)
+                    .map(|f| ((0..n).filter(|&g| g != f).collect(), f))
+                    .collect(),
+                description: format!(
+                    "leave-one-run-out over {n} training runs ({})",
+                    seen.iter()
+                        .map(|&r| table.run_names[r].as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        }
+    }
+    if k < 2 {
+        return Err(invalid("folds", k, "at least 2 rolling-origin folds"));
+    }
+    // One run: time within it increases (segments of one run are in time order).
+    let times: Vec<f64> = select_rows(&table.time_s, train);
+    let t0 = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let t1 = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let nb = k + 1;
+    let span = (t1 - t0) / nb as f64;
+    if !exceeds(span, 0.0) {
+        return Err(invalid(
+            "training period",
+            format!("{t0} s … {t1} s"),
+            "a time span to cut into rolling-origin blocks",
+        ));
+    }
+    let block = table
+        .time_s
+        .iter()
+        .zip(train)
+        .map(|(t, &m)| m.then(|| (((t - t0) / span).floor().max(0.0) as usize).min(nb - 1)))
+        .collect();
+    Ok(Scheme {
+        block,
+        folds: (0..k).map(|f| ((0..=f).collect(), f + 1)).collect(),
+        description: format!(
+            "rolling origin: {k} folds over {nb} blocks of {:.2} h (each trains on the blocks before the one it validates)",
+            span / 3600.0
+        ),
+    })
+}
+
+impl Engine {
+    fn new(features: &[Vec<f64>], targets: &[Vec<f64>], scheme: &Scheme) -> Self {
+        let m = 1 + features.len() + targets.len();
+        let nb = scheme
+            .block
+            .iter()
+            .flatten()
+            .map(|b| b + 1)
+            .max()
+            .unwrap_or(0);
+        let mut block_r = Vec::with_capacity(nb);
+        let mut block_n = Vec::with_capacity(nb);
+        for b in 0..nb {
+            let rows: Vec<usize> = (0..scheme.block.len())
+                .filter(|&i| scheme.block[i] == Some(b))
+                .collect();
+            block_n.push(rows.len());
+            let a = DMatrix::from_fn(rows.len(), m, |r, c| {
+                let i = rows[r];
+                if c == 0 {
+                    1.0
+                } else if c <= features.len() {
+                    features[c - 1][i]
+                } else {
+                    targets[c - 1 - features.len()][i]
+                }
+            });
+            block_r.push(r_factor(a));
+        }
+        let folds = scheme
+            .folds
+            .iter()
+            .map(|(tr, va)| {
+                let parts: Vec<&DMatrix<f64>> = tr.iter().map(|&b| &block_r[b]).collect();
+                Fold {
+                    train_r: r_factor(stack(&parts, m)),
+                    n_train: tr.iter().map(|&b| block_n[b]).sum(),
+                    val: *va,
+                }
+            })
+            .collect();
+        Self {
+            block_r,
+            block_n,
+            folds,
+            n_feat: features.len(),
+        }
+    }
+
+    /// Per-fold held-out SSE of the sub-model on feature columns `cols` for `target`.
+    fn fold_sse(&self, cols: &[usize], target: usize, fitter: Fitter) -> Option<Vec<f64>> {
+        let p = cols.len();
+        let mut sel = Vec::with_capacity(p + 2);
+        sel.push(0usize);
+        sel.extend(cols.iter().map(|c| c + 1));
+        sel.push(1 + self.n_feat + target);
+        let mut out = Vec::with_capacity(self.folds.len());
+        for f in &self.folds {
+            let coef = solve_reduced(&f.train_r.select_columns(&sel), f.n_train, p, fitter)?;
+            // Residual on the held-out block: ‖R_val·w‖ with w = (−b, +1 for y).
+            let v = self.block_r[f.val].select_columns(&sel);
+            let mut w = DVector::zeros(p + 2);
+            for j in 0..=p {
+                w[j] = -coef[j];
+            }
+            w[p + 1] = 1.0;
+            out.push((v * w).norm_squared());
+        }
+        Some(out)
+    }
+
+    fn val_rows(&self) -> usize {
+        self.folds.iter().map(|f| self.block_n[f.val]).sum()
+    }
+
+    fn pooled(&self, sse: &[f64]) -> f64 {
+        (sse.iter().sum::<f64>() / self.val_rows().max(1) as f64).sqrt()
+    }
+
+    fn fold_rmse(&self, sse: &[f64]) -> Vec<f64> {
+        sse.iter()
+            .zip(&self.folds)
+            .map(|(s, f)| (s / self.block_n[f.val].max(1) as f64).sqrt())
+            .collect()
+    }
+}
+
+/// Coefficients (intercept first) of a sub-model from the R factor of its columns
+/// [1 X y] over `n` rows: OLS, ridge (α·n, standardised, unpenalised intercept) or PCR.
+pub(crate) fn solve_reduced(
+    a: &DMatrix<f64>,
+    n: usize,
+    p: usize,
+    fitter: Fitter,
+) -> Option<Vec<f64>> {
+    if a.nrows() < p + 2 || n < p + 2 {
+        return None;
+    }
+    let r = a.clone().qr().r();
+    let max_p = (0..=p).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
+    match fitter {
+        Fitter::Ols => {
+            if (0..=p).any(|j| !exceeds(r[(j, j)].abs(), 1e-11 * max_p)) {
+                return None;
+            }
+            let rr = r.view((0, 0), (p + 1, p + 1)).into_owned();
+            let rhs = r.view((0, p + 1), (p + 1, 1)).into_owned();
+            let b = rr.solve_upper_triangular(&rhs)?;
+            Some(b.iter().copied().collect())
+        }
+        Fitter::Ridge(_) | Fitter::Pcr(_) => {
+            // Row 0 of R is √n·(1, x̄, ȳ) up to sign; rows 1.. are the centred problem.
+            let r00 = r[(0, 0)];
+            if !exceeds(r00.abs(), 0.0) {
+                return None;
+            }
+            let mean: Vec<f64> = (0..=p + 1).map(|j| r[(0, j)] / r00).collect();
+            let rxx = r.view((1, 1), (p, p)).into_owned();
+            let ry = r.view((1, p + 1), (p, 1)).into_owned();
+            let sd: Vec<f64> = (0..p)
+                .map(|j| rxx.column(j).norm() / (n as f64).sqrt())
+                .collect();
+            if sd.iter().any(|s| !exceeds(*s, 0.0)) {
+                return None;
+            }
+            let b: DVector<f64> = match fitter {
+                Fitter::Ridge(alpha) => {
+                    let k = (alpha * n as f64).sqrt();
+                    let aug = DMatrix::from_fn(2 * p, p, |i, j| {
+                        if i < p {
+                            rxx[(i, j)]
+                        } else if i - p == j {
+                            k * sd[j]
+                        } else {
+                            0.0
+                        }
+                    });
+                    let rhs = DVector::from_fn(2 * p, |i, _| if i < p { ry[i] } else { 0.0 });
+                    let (b, _) = regress::lstsq_qr(aug, &rhs, &[]).ok()?;
+                    b
+                }
+                Fitter::Pcr(k) => {
+                    let z = DMatrix::from_fn(p, p, |i, j| rxx[(i, j)] / sd[j]);
+                    let beta =
+                        regress::pcr_solve(z, &DVector::from_column_slice(ry.as_slice()), k, &[])
+                            .ok()?;
+                    DVector::from_fn(p, |j, _| beta[j] / sd[j])
+                }
+                Fitter::Ols => return None,
+            };
+            let mut coef = vec![0.0; p + 1];
+            coef[0] = mean[p + 1] - (0..p).map(|j| b[j] * mean[j + 1]).sum::<f64>();
+            for j in 0..p {
+                coef[j + 1] = b[j];
+            }
+            Some(coef)
+        }
+    }
+}
+
+/// A family's best model: the feature columns per sensor, validation, and fitter.
+#[derive(Debug, Clone)]
+struct Best {
+    family: Family,
+    units: Vec<Vec<usize>>,
+    fitter: Fitter,
+    sse: Vec<f64>,
+    cv: f64,
+    detail: String,
+}
+
+struct Ctx<'a> {
+    eng: &'a Engine,
+    feats: &'a [Feat],
+    n_in: usize,
+    cap: usize,
+    /// Column of value(s), lag(s, τ_i), delay(s, d_i) per sensor; differences.
+    value: Vec<usize>,
+    lag: Vec<Vec<usize>>,
+    delay: Vec<Vec<usize>>,
+    diff: Vec<(usize, usize, usize)>,
+    taus: Vec<f64>,
+}
+
+/// A forward-selection result: units, per-fold SSE, pooled RMSE.
+type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64);
+
+/// Forward selection of units (one per sensor; a unit is a set of feature columns).
+/// Returns the best prefix (units, sse) and the whole path of sensors.
+fn forward(
+    ctx: &Ctx,
+    target: usize,
+    units: &dyn Fn(usize) -> Vec<Vec<usize>>,
+    candidates: &[usize],
+    fitter: Fitter,
+) -> (Option<Prefix>, Vec<usize>) {
+    let mut chosen: Vec<Vec<usize>> = Vec::new();
+    let mut path: Vec<usize> = Vec::new();
+    let mut best: Option<Prefix> = None;
+    let sensors_of = |u: &[Vec<usize>]| -> Vec<usize> {
+        let mut s: Vec<usize> = Vec::new();
+        for unit in u {
+            for &c in unit {
+                let f = ctx.feats[c];
+                for x in std::iter::once(f.sensor).chain(f.minus) {
+                    if !s.contains(&x) {
+                        s.push(x);
+                    }
+                }
+            }
+        }
+        s
+    };
+    loop {
+        let mut step: Option<(f64, Vec<f64>, Vec<usize>, usize)> = None;
+        for &cand in candidates.iter().filter(|c| !path.contains(c)) {
+            for unit in units(cand) {
+                let mut trial = chosen.clone();
+                trial.push(unit.clone());
+                if sensors_of(&trial).len() > ctx.cap {
+                    continue;
+                }
+                let cols: Vec<usize> = trial.iter().flatten().copied().collect();
+                if let Some(sse) = ctx.eng.fold_sse(&cols, target, fitter) {
+                    let v = ctx.eng.pooled(&sse);
+                    if v.is_finite() && step.as_ref().is_none_or(|s| v < s.0) {
+                        step = Some((v, sse, unit, cand));
+                    }
+                }
+            }
+        }
+        let Some((v, sse, unit, cand)) = step else {
+            break;
+        };
+        chosen.push(unit);
+        path.push(cand);
+        if best.as_ref().is_none_or(|b| v < b.2) {
+            best = Some((chosen.clone(), sse, v));
+        }
+        let now = sensors_of(&chosen).len();
+        if now >= ctx.cap || now >= ctx.n_in {
+            break;
+        }
+    }
+    (best, path)
+}
+
+fn family_best(
+    ctx: &Ctx,
+    fam: Family,
+    target: usize,
+    opts: &IdentifyOptions,
+    static_path: &[usize],
+) -> Option<Best> {
+    let all: Vec<usize> = (0..ctx.n_in).collect();
+    let mk = |units: Vec<Vec<usize>>, sse: Vec<f64>, cv: f64, fitter, detail: String| Best {
+        family: fam,
+        units,
+        fitter,
+        sse,
+        cv,
+        detail,
+    };
+    let describe = |units: &[Vec<usize>]| -> String {
+        units
+            .iter()
+            .map(|u| {
+                u.iter()
+                    .filter_map(|&c| match ctx.feats[c].kind {
+                        Transform::FirstOrderLag { tau_s } => Some(format!("τ {tau_s}")),
+                        Transform::Delay { delay_s } => Some(format!("d {delay_s}")),
+                        _ => None,
+                    })
+                    .collect::<Vec<_>>()
+                    .join("/")
+            })
+            .filter(|s| !s.is_empty())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match fam {
+        Family::Static => {
+            let (b, _) = forward(
+                ctx,
+                target,
+                &|s| vec![vec![ctx.value[s]]],
+                &all,
+                Fitter::Ols,
+            );
+            b.map(|(u, sse, cv)| mk(u, sse, cv, Fitter::Ols, String::new()))
+        }
+        Family::Ridge | Family::Pcr => {
+            // The static family's forward order, up to the cap: shrinkage needs the sensors.
+            let units: Vec<Vec<usize>> = static_path.iter().map(|&s| vec![ctx.value[s]]).collect();
+            if units.is_empty() {
+                return None;
+            }
+            let cols: Vec<usize> = units.iter().flatten().copied().collect();
+            let fitters: Vec<(Fitter, String)> = if fam == Family::Ridge {
+                opts.ridge_alphas
+                    .iter()
+                    .map(|&a| (Fitter::Ridge(a), format!("α = {a}")))
+                    .collect()
+            } else {
+                (1..=cols.len())
+                    .map(|k| (Fitter::Pcr(k), format!("{k} of {} components", cols.len())))
+                    .collect()
+            };
+            let mut best: Option<Best> = None;
+            for (f, d) in fitters {
+                if let Some(sse) = ctx.eng.fold_sse(&cols, target, f) {
+                    let v = ctx.eng.pooled(&sse);
+                    if v.is_finite() && best.as_ref().is_none_or(|b| v < b.cv) {
+                        best = Some(mk(units.clone(), sse, v, f, d));
+                    }
+                }
+            }
+            best
+        }
+        Family::LeadLag => {
+            let mut best: Option<Best> = None;
+            for (ti, tau) in ctx.taus.iter().enumerate() {
+                let (b, _) = forward(
+                    ctx,
+                    target,
+                    &|s| vec![vec![ctx.value[s], ctx.lag[s][ti]]],
+                    &all,
+                    Fitter::Ols,
+                );
+                if let Some((u, sse, cv)) = b {
+                    if best.as_ref().is_none_or(|b| cv < b.cv) {
+                        best = Some(mk(u, sse, cv, Fitter::Ols, format!("τ = {tau} s")));
+                    }
+                }
+            }
+            best
+        }
+        Family::Tf1 => {
+            let (b, _) = forward(
+                ctx,
+                target,
+                &|s| ctx.lag[s].iter().map(|&l| vec![ctx.value[s], l]).collect(),
+                &all,
+                Fitter::Ols,
+            );
+            b.map(|(u, sse, cv)| {
+                let d = describe(&u);
+                mk(u, sse, cv, Fitter::Ols, d)
+            })
+        }
+        Family::Tf2 => {
+            // Pole pairs from every other τ of the grid (coarse: the pair is two poles).
+            let coarse: Vec<usize> = (0..ctx.taus.len()).step_by(2).collect();
+            let (b, _) = forward(
+                ctx,
+                target,
+                &|s| {
+                    let mut v = Vec::new();
+                    for (i, &a) in coarse.iter().enumerate() {
+                        for &c in &coarse[i + 1..] {
+                            v.push(vec![ctx.value[s], ctx.lag[s][a], ctx.lag[s][c]]);
+                        }
+                    }
+                    v
+                },
+                &all,
+                Fitter::Ols,
+            );
+            b.map(|(u, sse, cv)| {
+                let d = describe(&u);
+                mk(u, sse, cv, Fitter::Ols, d)
+            })
+        }
+        Family::Delay => {
+            let (b, _) = forward(
+                ctx,
+                target,
+                &|s| {
+                    std::iter::once(vec![ctx.value[s]])
+                        .chain(ctx.delay[s].iter().map(|&d| vec![d]))
+                        .collect()
+                },
+                &all,
+                Fitter::Ols,
+            );
+            b.map(|(u, sse, cv)| {
+                let d = describe(&u);
+                mk(u, sse, cv, Fitter::Ols, d)
+            })
+        }
+        Family::Differences => {
+            // Candidates: each sensor alone, or its difference with another sensor.
+            let (b, _) = forward(
+                ctx,
+                target,
+                &|s| {
+                    std::iter::once(vec![ctx.value[s]])
+                        .chain(ctx.diff.iter().filter(|d| d.0 == s).map(|d| vec![d.2]))
+                        .collect()
+                },
+                &all,
+                Fitter::Ols,
+            );
+            b.map(|(u, sse, cv)| {
+                let pairs = u
+                    .iter()
+                    .flatten()
+                    .filter_map(|&c| ctx.feats[c].minus.map(|_| c))
+                    .count();
+                mk(u, sse, cv, Fitter::Ols, format!("{pairs} difference(s)"))
+            })
+        }
+    }
+}
+
+/// Identifies with every family and keeps the one with the lowest validation error.
+pub fn identify_auto(
+    table: &Table,
+    train: Vec<bool>,
+    notes: Vec<String>,
+    opts: &IdentifyOptions,
+) -> Result<Identification> {
+    let c = table.inputs.len();
+    if opts.max_sensors == 0 {
+        return Err(invalid("max_sensors", 0, "at least 1"));
+    }
+    for &d in &opts.delays_s {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(invalid("delay_s", d, "delays > 0 s"));
+        }
+    }
+    let families: Vec<Family> = if opts.families.is_empty() {
+        Family::ALL.to_vec()
+    } else {
+        opts.families.clone()
+    };
+    let scheme = deployment_scheme(table, &train, opts.folds)?;
+    let segs = table.segment_ranges();
+    // Candidate regressors.
+    let mut feats: Vec<Feat> = Vec::new();
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    let mut value = vec![0; c];
+    let mut lag = vec![Vec::new(); c];
+    let mut delay = vec![Vec::new(); c];
+    let want = |f: Family| families.contains(&f);
+    let need_lag = want(Family::LeadLag) || want(Family::Tf1) || want(Family::Tf2);
+    for s in 0..c {
+        value[s] = feats.len();
+        feats.push(Feat {
+            sensor: s,
+            minus: None,
+            kind: Transform::Value,
+        });
+        cols.push(table.inputs[s].clone());
+        if need_lag {
+            for &tau_s in &opts.taus_s {
+                let kind = Transform::FirstOrderLag { tau_s };
+                lag[s].push(feats.len());
+                feats.push(Feat {
+                    sensor: s,
+                    minus: None,
+                    kind,
+                });
+                cols.push(transform_segments(
+                    &table.time_s,
+                    &table.inputs[s],
+                    kind,
+                    &segs,
+                )?);
+            }
+        }
+        if want(Family::Delay) {
+            for &delay_s in &opts.delays_s {
+                let kind = Transform::Delay { delay_s };
+                delay[s].push(feats.len());
+                feats.push(Feat {
+                    sensor: s,
+                    minus: None,
+                    kind,
+                });
+                cols.push(transform_segments(
+                    &table.time_s,
+                    &table.inputs[s],
+                    kind,
+                    &segs,
+                )?);
+            }
+        }
+    }
+    let mut diff = Vec::new();
+    if want(Family::Differences) && c <= 24 {
+        for a in 0..c {
+            for b in a + 1..c {
+                diff.push((a, b, feats.len()));
+                feats.push(Feat {
+                    sensor: a,
+                    minus: Some(b),
+                    kind: Transform::Value,
+                });
+                cols.push(
+                    table.inputs[a]
+                        .iter()
+                        .zip(&table.inputs[b])
+                        .map(|(x, y)| x - y)
+                        .collect(),
+                );
+            }
+        }
+    }
+    let eng = Engine::new(&cols, &table.targets, &scheme);
+    let ctx = Ctx {
+        eng: &eng,
+        feats: &feats,
+        n_in: c,
+        cap: opts.max_sensors,
+        value,
+        lag,
+        delay,
+        diff,
+        taus: opts.taus_s.clone(),
+    };
+    let tr_inputs: Vec<Vec<f64>> = table
+        .inputs
+        .iter()
+        .map(|x| select_rows(x, &train))
+        .collect();
+    let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| v.as_slice()).collect();
+    let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
+    let dendrogram = Dendrogram::single_linkage(&corr.map(f64::abs));
+
+    let mut out = Vec::with_capacity(table.targets.len());
+    for j in 0..table.targets.len() {
+        let all: Vec<usize> = (0..c).collect();
+        let (_, static_path) = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all, Fitter::Ols);
+        let mut comparison = Vec::new();
+        // Plain least squares on every input: the floor, eligible within the cap.
+        let all_cols: Vec<usize> = (0..c).map(|s| ctx.value[s]).collect();
+        if let Some(sse) = eng.fold_sse(&all_cols, j, Fitter::Ols) {
+            comparison.push(FamilyScore {
+                family: "least squares, all inputs".into(),
+                sensors: c,
+                cv_rmse: eng.pooled(&sse),
+                fold_rmse: eng.fold_rmse(&sse),
+                detail: if c <= opts.max_sensors {
+                    String::new()
+                } else {
+                    format!(
+                        "over the sensor cap of {}: reference only",
+                        opts.max_sensors
+                    )
+                },
+                eligible: c <= opts.max_sensors,
+                kept: false,
+            });
+        }
+        let mut kept = (c <= opts.max_sensors && !comparison.is_empty()).then_some(0);
+        let mut best: Option<Best> = if c <= opts.max_sensors {
+            eng.fold_sse(&all_cols, j, Fitter::Ols).map(|sse| Best {
+                family: Family::Static,
+                units: all_cols.iter().map(|&k| vec![k]).collect(),
+                fitter: Fitter::Ols,
+                cv: eng.pooled(&sse),
+                sse,
+                detail: "all inputs".into(),
+            })
+        } else {
+            None
+        };
+        for &fam in &families {
+            match family_best(&ctx, fam, j, opts, &static_path) {
+                Some(b) => {
+                    comparison.push(FamilyScore {
+                        family: fam.name().into(),
+                        sensors: sensors_of_units(&feats, &b.units).len(),
+                        cv_rmse: b.cv,
+                        fold_rmse: eng.fold_rmse(&b.sse),
+                        detail: b.detail.clone(),
+                        eligible: true,
+                        kept: false,
+                    });
+                    if best.as_ref().is_none_or(|x| b.cv < x.cv) {
+                        best = Some(b);
+                        kept = Some(comparison.len() - 1);
+                    }
+                }
+                None => comparison.push(FamilyScore {
+                    family: fam.name().into(),
+                    sensors: 0,
+                    cv_rmse: f64::NAN,
+                    fold_rmse: Vec::new(),
+                    detail: "no model fits every fold (too few rows or collinear)".into(),
+                    eligible: false,
+                    kept: false,
+                }),
+            }
+        }
+        if let Some(k) = kept {
+            comparison[k].kept = true;
+        }
+        let b = best.ok_or_else(|| IdentifyError::RankDeficient {
+            columns: format!("every candidate model of {}", table.target_names[j]),
+            pivot: 0.0,
+            tolerance: 0.0,
+        })?;
+        out.push(finish(
+            table, &train, j, &feats, &cols, &eng, b, comparison,
+        )?);
+    }
+    let method = format!(
+        "every family compared ({}); validation: {}; at most {} sensor(s)",
+        families
+            .iter()
+            .map(|f| f.name())
+            .collect::<Vec<_>>()
+            .join(", "),
+        scheme.description,
+        opts.max_sensors
+    );
+    let fold: Vec<Option<usize>> = scheme.block.clone();
+    Ok(Identification {
+        correlation: corr,
+        dendrogram,
+        train,
+        fold,
+        targets: out,
+        method,
+        input_names: table.input_names.clone(),
+        notes,
+    })
+}
+
+fn sensors_of_units(feats: &[Feat], units: &[Vec<usize>]) -> Vec<usize> {
+    let mut s: Vec<usize> = Vec::new();
+    for &c in units.iter().flatten() {
+        let f = feats[c];
+        for x in std::iter::once(f.sensor).chain(f.minus) {
+            if !s.contains(&x) {
+                s.push(x);
+            }
+        }
+    }
+    s
+}
+
+fn feat_name(table: &Table, f: &Feat) -> String {
+    let n = &table.input_names[f.sensor];
+    match (f.minus, f.kind) {
+        (Some(b), _) => format!("{n} − {}", table.input_names[b]),
+        (None, Transform::Value) => n.clone(),
+        (None, Transform::FirstOrderLag { tau_s }) => format!("lag({n}, τ = {tau_s} s)"),
+        (None, Transform::Delay { delay_s }) => format!("{n} delayed {delay_s} s"),
+        (None, Transform::Rate { tau_s }) => format!("rate({n}, τ = {tau_s} s)"),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    table: &Table,
+    train: &[bool],
+    j: usize,
+    feats: &[Feat],
+    cols: &[Vec<f64>],
+    eng: &Engine,
+    b: Best,
+    comparison: Vec<FamilyScore>,
+) -> Result<TargetModel> {
+    let chosen: Vec<usize> = b.units.iter().flatten().copied().collect();
+    let names: Vec<String> = chosen
+        .iter()
+        .map(|&c| feat_name(table, &feats[c]))
+        .collect();
+    let tr_cols: Vec<Vec<f64>> = chosen
+        .iter()
+        .map(|&c| select_rows(&cols[c], train))
+        .collect();
+    let refs: Vec<&[f64]> = tr_cols.iter().map(|v| v.as_slice()).collect();
+    let ytr = select_rows(&table.targets[j], train);
+    let fit: LinearFit = match b.fitter {
+        Fitter::Ols => regress::ols(&refs, &ytr, &names)?,
+        Fitter::Ridge(a) => regress::ridge(&refs, &ytr, a, &names)?,
+        Fitter::Pcr(k) => regress::pcr(&refs, &ytr, k, &names)?,
+    };
+    let mut terms = Vec::new();
+    for (&c, &coefficient) in chosen.iter().zip(&fit.coefficients[1..]) {
+        let f = feats[c];
+        terms.push(Term {
+            channel: table.input_names[f.sensor].clone(),
+            coefficient,
+            transform: f.kind,
+        });
+        if let Some(m) = f.minus {
+            terms.push(Term {
+                channel: table.input_names[m].clone(),
+                coefficient: -coefficient,
+                transform: f.kind,
+            });
+        }
+    }
+    let model = LinearModel {
+        intercept: fit.coefficients[0],
+        terms,
+    };
+    model.validate(&format!("model of {}", table.target_names[j]))?;
+    let predicted = predict(table, &model)?;
+    let e: Vec<f64> = table.targets[j]
+        .iter()
+        .zip(&predicted)
+        .map(|(y, p)| y - p)
+        .collect();
+    let tau = chosen.iter().find_map(|&c| match feats[c].kind {
+        Transform::FirstOrderLag { tau_s } if b.family == Family::LeadLag => Some(tau_s),
+        _ => None,
+    });
+    Ok(TargetModel {
+        target: table.target_names[j].clone(),
+        classes: Vec::new(),
+        representatives: Vec::new(),
+        target_score: Vec::new(),
+        sensors: sensors_of_units(feats, &b.units),
+        tau_s: tau,
+        ridge_alpha: match b.fitter {
+            Fitter::Ridge(a) => Some(a),
+            _ => None,
+        },
+        cv_rmse: b.cv,
+        fold_rmse: eng.fold_rmse(&b.sse),
+        regressors: names,
+        fit,
+        model,
+        predicted,
+        family: if b.detail.is_empty() {
+            b.family.name().to_string()
+        } else {
+            format!("{} ({})", b.family.name(), b.detail)
+        },
+        comparison,
+        train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
+        test_rmse: rmse_where(&e, train, false),
+    })
+}

@@ -1,0 +1,258 @@
+//! Real test data as it comes: runs in one file (time restarting), one file per run, logs
+//! without a time column, gaps; every model state restarts at a run's first sample;
+//! constant or duplicated sensors are dropped with a note; bad splits are refused.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use gearcomp_core::model::{LinearModel, Term, Transform};
+use gearcomp_identify::data::{read_csv, read_runs, ReadOptions, Selection};
+use gearcomp_identify::identify::{identify, predict, IdentifyOptions, ModelKind, Split};
+
+fn sel(run: Option<&str>) -> Selection {
+    Selection {
+        targets: vec!["y_um".into()],
+        run: run.map(str::to_string),
+        ..Selection::default()
+    }
+}
+
+/// One run's rows: time from 0, two temperatures, a target with a lagged term.
+fn run_rows(k: usize, n: usize, dt: f64) -> Vec<(f64, f64, f64, f64)> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 * dt;
+            let a = 20.0 + (k as f64) + 3.0 * (t / (900.0 + 100.0 * k as f64)).sin();
+            let b = 22.0 + 2.0 * (t / 1700.0 + k as f64).cos();
+            (t, a, b, 1.5 * a - 0.5 * b)
+        })
+        .collect()
+}
+
+fn csv(rows: &[(f64, f64, f64, f64)], run: Option<&str>) -> String {
+    let mut s = String::from(if run.is_some() {
+        "run,time_s,a_c,b_c,y_um\n"
+    } else {
+        "time_s,a_c,b_c,y_um\n"
+    });
+    for r in rows {
+        if let Some(run) = run {
+            s += &format!("{run},");
+        }
+        s += &format!("{},{},{},{}\n", r.0, r.1, r.2, r.3);
+    }
+    s
+}
+
+fn lag_model() -> LinearModel {
+    LinearModel {
+        intercept: 0.5,
+        terms: vec![
+            Term {
+                channel: "a_c".into(),
+                coefficient: 2.0,
+                transform: Transform::FirstOrderLag { tau_s: 600.0 },
+            },
+            Term {
+                channel: "b_c".into(),
+                coefficient: -1.0,
+                transform: Transform::Rate { tau_s: 300.0 },
+            },
+            Term {
+                channel: "b_c".into(),
+                coefficient: 0.25,
+                transform: Transform::Delay { delay_s: 120.0 },
+            },
+        ],
+    }
+}
+
+#[test]
+fn every_state_restarts_at_each_run_in_one_file_and_in_several_files() {
+    let runs: Vec<Vec<(f64, f64, f64, f64)>> = (0..3).map(|k| run_rows(k, 80, 30.0)).collect();
+    // One file, run column, time restarting at 0 in each run.
+    let mut one = String::from("run,time_s,a_c,b_c,y_um\n");
+    for (k, r) in runs.iter().enumerate() {
+        one += csv(r, Some(&format!("{}", k + 1)))
+            .lines()
+            .skip(1)
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()
+            .as_str();
+    }
+    let t1 = read_csv(&one, "runs.csv", &sel(Some("run")), ReadOptions::default()).unwrap();
+    assert_eq!(t1.run_names, vec!["1", "2", "3"]);
+    assert_eq!(t1.segments, vec![0, 80, 160]);
+    // Several files, one run each.
+    let texts: Vec<String> = runs.iter().map(|r| csv(r, None)).collect();
+    let names = ["a.csv", "b.csv", "c.csv"];
+    let files: Vec<(&str, &str)> = texts
+        .iter()
+        .zip(names)
+        .map(|(t, n)| (t.as_str(), n))
+        .collect();
+    let t2 = read_runs(&files, &sel(None), ReadOptions::default()).unwrap();
+    assert_eq!(t2.run_names, vec!["a", "b", "c"]);
+    assert_eq!(t2.segments, vec![0, 80, 160]);
+    // Independent construction: each run read and evaluated on its own.
+    let m = lag_model();
+    let mut expect = Vec::new();
+    for t in &texts {
+        let ti = read_csv(t, "one", &sel(None), ReadOptions::default()).unwrap();
+        expect.extend(predict(&ti, &m).unwrap());
+    }
+    for t in [&t1, &t2] {
+        let p = predict(t, &m).unwrap();
+        assert_eq!(p.len(), expect.len());
+        for (a, b) in p.iter().zip(&expect) {
+            assert_eq!(a, b, "state leaked across runs");
+        }
+    }
+}
+
+#[test]
+fn sample_interval_and_gaps() {
+    let rows = run_rows(0, 40, 60.0);
+    let mut text = String::from("a_c,b_c,y_um\n");
+    for (i, r) in rows.iter().enumerate() {
+        if i == 5 {
+            text += "oops,1,2\n";
+        } else {
+            text += &format!("{},{},{}\n", r.1, r.2, r.3);
+        }
+    }
+    let opts = ReadOptions {
+        sample_interval_s: Some(60.0),
+        skip_bad_rows: true,
+        ..ReadOptions::default()
+    };
+    let t = read_csv(&text, "log", &sel(None), opts).unwrap();
+    // The bad row still occupies its sample instant.
+    assert_eq!(t.time_s[4], 240.0);
+    assert_eq!(t.time_s[5], 360.0);
+    assert_eq!(t.time_s.len(), 39);
+    // A file with a time column and a sample interval is ambiguous: refused.
+    let e = read_csv(&csv(&rows, None), "log", &sel(None), opts).unwrap_err();
+    assert!(e.to_string().contains("--sample-interval-s"), "{e}");
+    // No time column and no interval: the message says what to do.
+    let e = read_csv(&text, "log", &sel(None), ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("--sample-interval-s"), "{e}");
+    let e = read_csv(
+        &text,
+        "log",
+        &sel(None),
+        ReadOptions {
+            sample_interval_s: Some(0.0),
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("> 0 s"), "{e}");
+    // A gap inside a run splits it: the lag restarts after it.
+    let mut g = rows.clone();
+    for r in g.iter_mut().skip(20) {
+        r.0 += 3600.0;
+    }
+    let t = read_csv(&csv(&g, None), "gap", &sel(None), ReadOptions::default()).unwrap();
+    assert_eq!(t.segments, vec![0, 20]);
+    let m = lag_model();
+    let p = predict(&t, &m).unwrap();
+    let tail = read_csv(
+        &csv(&g[20..], None),
+        "tail",
+        &sel(None),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(p[20..], predict(&tail, &m).unwrap()[..]);
+}
+
+#[test]
+fn bad_splits_are_refused_with_the_runs_named() {
+    let mut text = String::from("run,time_s,a_c,b_c,y_um\n");
+    for k in 0..3 {
+        text += csv(&run_rows(k, 60, 30.0), Some(&format!("r{k}")))
+            .lines()
+            .skip(1)
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()
+            .as_str();
+    }
+    let t = read_csv(&text, "runs", &sel(Some("run")), ReadOptions::default()).unwrap();
+    let opts = |split| IdentifyOptions {
+        split,
+        model: ModelKind::Static,
+        classes: Some(2),
+        ..IdentifyOptions::default()
+    };
+    let e = identify(&t, &opts(Split::TestRuns(vec!["r7".into()]))).unwrap_err();
+    assert!(
+        e.to_string().contains("--test-runs = r7") && e.to_string().contains("r0, r1, r2"),
+        "{e}"
+    );
+    let e = identify(&t, &opts(Split::TimeBefore(3600.0))).unwrap_err();
+    assert!(e.to_string().contains("--test-runs"), "{e}");
+    identify(&t, &opts(Split::TestRuns(vec!["r2".into()]))).unwrap();
+    let one = read_csv(
+        &csv(&run_rows(0, 60, 30.0), None),
+        "one",
+        &sel(None),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    let e = identify(&one, &opts(Split::TimeBefore(1800.0 * 3600.0))).unwrap_err();
+    assert!(e.to_string().contains("--train-before-h = 1800 h"), "{e}");
+    let e = identify(&one, &opts(Split::TestRuns(vec!["1".into()]))).unwrap_err();
+    assert!(e.to_string().contains("--run-column"), "{e}");
+}
+
+#[test]
+fn constant_and_duplicated_sensors_are_dropped_with_a_note() {
+    let rows = run_rows(0, 120, 30.0);
+    let mut text = String::from("time_s,a_c,b_c,k_c,a2_c,y_um\n");
+    for r in &rows {
+        text += &format!(
+            "{},{},{},21.5,{},{}\n",
+            r.0,
+            r.1,
+            r.2,
+            1.8 * r.1 + 32.0,
+            r.3
+        );
+    }
+    let t = read_csv(&text, "d", &sel(None), ReadOptions::default()).unwrap();
+    for model in [
+        ModelKind::Static,
+        ModelKind::Ridge,
+        ModelKind::Dynamic,
+        ModelKind::Auto,
+    ] {
+        let id = identify(
+            &t,
+            &IdentifyOptions {
+                model,
+                split: Split::None,
+                classes: if model == ModelKind::Auto {
+                    None
+                } else {
+                    Some(2)
+                },
+                ..IdentifyOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(id.input_names, vec!["a_c", "b_c"], "{model:?}");
+        assert!(
+            id.notes[0].contains("k_c dropped: constant"),
+            "{:?}",
+            id.notes
+        );
+        assert!(
+            id.notes[1].contains("a2_c dropped: duplicates a_c"),
+            "{:?}",
+            id.notes
+        );
+        let m = &id.targets[0];
+        assert!(m.fold_rmse.iter().all(|v| v.is_finite()), "{model:?}");
+        let tol = if model == ModelKind::Ridge { 0.1 } else { 1e-6 };
+        assert!(m.cv_rmse.is_finite() && m.train_rmse < tol, "{model:?}");
+    }
+}
