@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use gearcomp_geometry::{
     shift_sum_for_centre_distance, BallMeasurement, BasicRack, Gear, GearDimensions, GearPair,
-    GearSpec, Hand, Mesh, PairGeometry, Span,
+    GearSpec, GeometryError, Hand, Mesh, PairGeometry, Span,
 };
 use serde::{Deserialize, Serialize};
 
@@ -323,6 +323,46 @@ struct Output {
     warnings: Vec<String>,
 }
 
+/// The command-line option (and TOML key) a library parameter name comes from.
+fn flag_of(name: &str) -> Option<&'static str> {
+    let table: [(&str, &str); 13] = [
+        ("normal_module_mm", "--module"),
+        ("normal_pressure_angle", "--pressure-angle"),
+        ("helix_angle", "--helix"),
+        ("teeth", "--teeth"),
+        ("profile_shift", "--shift"),
+        ("face_width_mm", "--width"),
+        ("addendum_coeff", "--addendum-coeff"),
+        ("dedendum_coeff", "--dedendum-coeff"),
+        ("root_radius_coeff", "--root-radius-coeff"),
+        ("span_k", "--span-k"),
+        ("ball_mm", "--ball"),
+        ("diameter_mm", "--at-diameter"),
+        ("thickness_allowance_mm", "--allowances"),
+    ];
+    table
+        .iter()
+        .find(|(lib, _)| name.starts_with(lib))
+        .map(|(_, flag)| *flag)
+}
+
+/// A geometry error prefixed with the option the user wrote (the library names its own
+/// parameters), then with what was being computed.
+fn flagged(e: GeometryError, what: &str) -> anyhow::Error {
+    let name = match e {
+        GeometryError::OutOfRange { name, .. }
+        | GeometryError::OffFlank { name, .. }
+        | GeometryError::SpanTooWide { name, .. }
+        | GeometryError::BallOffFlank { name, .. }
+        | GeometryError::PointedTooth { name, .. } => Some(name),
+        _ => None,
+    };
+    match name.and_then(flag_of) {
+        Some(flag) => anyhow::anyhow!("{what}: {flag}: {e}"),
+        None => anyhow::anyhow!("{what}: {e}"),
+    }
+}
+
 /// Splits "lower,upper" (or one value) into (lower, upper) pairs labelled for the output.
 fn allowance_cases(a: Option<&[f64]>, what: &str) -> anyhow::Result<Vec<(&'static str, f64)>> {
     match a {
@@ -393,30 +433,54 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
         face_width_mm: args.width,
         rack,
     };
-    let gear = Gear::new(spec).context("the gear")?;
+    let gear = Gear::new(spec).map_err(|e| flagged(e, "the gear"))?;
     let x = spec.profile_shift;
     let m_n = spec.normal_module_mm;
     let mut warnings = Vec::new();
+    if let Some(u) = gear.undercut("--shift", x) {
+        warnings.push(u.to_string());
+    }
 
-    let rec_k = gear.recommended_span_k(x).context("recommended span k")?;
-    let rec_ball = gear.recommended_ball_mm(x).context("recommended ball")?;
+    let mut cases = vec![("nominal", 0.0, x)];
+    for (case, allowance) in allowance_cases(args.allowances.as_deref(), "--allowances")? {
+        let x_e = gear
+            .generating_shift(allowance)
+            .map_err(|e| flagged(e, &format!("{case} thickness allowance")))?;
+        cases.push((case, allowance, x_e));
+    }
+    let shifts: Vec<f64> = cases.iter().map(|c| c.2).collect();
+    // A k the user gave is checked first, so its own error is the one reported.
+    if let Some(k) = args.span_k {
+        for (case, _, x_e) in &cases {
+            gear.span(k, *x_e)
+                .map_err(|e| flagged(e, &format!("span W_k, {case} thickness")))?;
+        }
+    }
+    let rec_k = gear
+        .recommended_span_k_for(x, &shifts)
+        .map_err(|e| anyhow::anyhow!("no span measurement W_k fits this gear: {e}"))?;
+    let rec_ball = gear
+        .recommended_ball_mm(x)
+        .map_err(|e| flagged(e, "recommended ball"))?;
     let k = args.span_k.unwrap_or(rec_k);
     let ball = args.ball.unwrap_or(rec_ball);
 
-    let mut cases = vec![("nominal", 0.0)];
-    cases.extend(allowance_cases(args.allowances.as_deref(), "--allowances")?);
     let mut tooth = Vec::new();
-    for (case, allowance) in cases {
-        let x_e = gear
-            .generating_shift(allowance)
-            .with_context(|| format!("{case} thickness allowance"))?;
+    for (case, allowance, x_e) in cases {
+        if case != "nominal" {
+            if let Some(u) = gear.undercut("generating shift x_E", x_e) {
+                if gear.undercut("--shift", x).is_none() {
+                    warnings.push(format!("{case}: {u}"));
+                }
+            }
+        }
         let d = gear.dims().reference_diameter_mm;
         let span = gear
             .span(k, x_e)
-            .with_context(|| format!("span W_k, {case} thickness"))?;
+            .map_err(|e| flagged(e, &format!("span W_k, {case} thickness")))?;
         let ball_m = gear
             .ball_dimension(ball, x_e)
-            .with_context(|| format!("dimension over balls, {case} thickness"))?;
+            .map_err(|e| flagged(e, &format!("dimension over balls, {case} thickness")))?;
         if !ball_m.protrudes_beyond_tip {
             warnings.push(format!(
                 "{case}: the {ball} mm ball does not stand out beyond the tip circle; M_dK cannot be taken with flat anvils"
@@ -448,9 +512,15 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
     for &d_y in args.at_diameter.as_deref().unwrap_or(&[]) {
         at_diameter.push(AtDiameterOut {
             diameter_mm: d_y,
-            transverse_thickness_mm: gear.transverse_thickness_at_mm(d_y, x)?,
-            normal_thickness_mm: gear.normal_thickness_at_mm(d_y, x)?,
-            transverse_space_width_mm: gear.space_width_at_mm(d_y, x)?,
+            transverse_thickness_mm: gear
+                .transverse_thickness_at_mm(d_y, x)
+                .map_err(|e| flagged(e, "thickness at diameter"))?,
+            normal_thickness_mm: gear
+                .normal_thickness_at_mm(d_y, x)
+                .map_err(|e| flagged(e, "thickness at diameter"))?,
+            transverse_space_width_mm: gear
+                .space_width_at_mm(d_y, x)
+                .map_err(|e| flagged(e, "thickness at diameter"))?,
         });
     }
 

@@ -45,9 +45,11 @@ impl Gear {
         }
     }
 
-    /// Ball centre diameter d_K and contact diameter for D_M and x, without range checks
-    /// (NaN where the ball cannot sit in the gap).
-    fn ball_geometry(&self, ball_mm: f64, shift: f64) -> (f64, f64) {
+    /// Ball centre diameter d_K, contact diameter and the contact's roll length ℓ_c (signed
+    /// distance from the base-circle tangent point, in the transverse plane) for D_M and x,
+    /// without range checks (d_c NaN where the contact would lie inside the base circle, all
+    /// NaN where the ball cannot sit in the gap).
+    fn ball_geometry(&self, ball_mm: f64, shift: f64) -> (f64, f64, f64) {
         let v = self.ball_centre_inv(ball_mm, shift);
         let alpha_k = inv_inverse(v);
         let r_b = self.r_b();
@@ -61,7 +63,110 @@ impl Gear {
         } else {
             f64::NAN
         };
-        (d_k, d_c)
+        (d_k, d_c, l_c)
+    }
+
+    /// The ball diameter D_M (0 < D_M ≤ 5·m_n) whose contact lies on the circle of diameter
+    /// `contact_mm`, or None. Solved on the roll length ℓ_c, which is continuous and monotone
+    /// in D_M where the ball fits the gap (rises for external, falls for internal gears).
+    fn ball_for_contact_mm(&self, shift: f64, contact_mm: f64) -> Option<f64> {
+        let m_n = self.spec().normal_module_mm;
+        let r_b = self.r_b();
+        let r_t = 0.5 * contact_mm;
+        let l_t = (r_t * r_t - r_b * r_b).max(0.0).sqrt();
+        let f = |ball: f64| self.ball_geometry(ball, shift).2 - l_t;
+        // Scan for a sign change, then bisect.
+        let n = 400;
+        let d_max = 5.0 * m_n;
+        let mut prev: Option<(f64, f64)> = None;
+        for i in 1..=n {
+            let ball = d_max * f64::from(i) / f64::from(n);
+            let v = f(ball);
+            if !v.is_finite() {
+                prev = None;
+                continue;
+            }
+            if v == 0.0 {
+                return Some(ball);
+            }
+            if let Some((b0, v0)) = prev {
+                if v0.signum() != v.signum() {
+                    let (mut a, mut fa, mut b) = (b0, v0, ball);
+                    for _ in 0..200 {
+                        let mid = 0.5 * (a + b);
+                        let fm = f(mid);
+                        if fm.signum() == fa.signum() {
+                            a = mid;
+                            fa = fm;
+                        } else {
+                            b = mid;
+                        }
+                        if b - a < 1e-13 * m_n {
+                            break;
+                        }
+                    }
+                    return Some(0.5 * (a + b));
+                }
+            }
+            prev = Some((ball, v));
+        }
+        None
+    }
+
+    /// The range of ball diameters (within 0 < D_M ≤ 5·m_n) whose contact lies on the usable
+    /// flank at shift x, in mm; (NaN, NaN) if none does.
+    pub fn ball_range_mm(&self, shift: f64) -> (f64, f64) {
+        let m_n = self.spec().normal_module_mm;
+        let (lo, hi) = self.flank_range_mm(shift);
+        let on_flank = |ball: f64| {
+            let (d_k, d_c, _) = self.ball_geometry(ball, shift);
+            d_k.is_finite() && d_c >= lo && d_c <= hi
+        };
+        // Scan (0, 5·m_n] for the run of balls on the flank (one run: d_c is monotone where
+        // the ball fits), then refine both edges by bisection on the predicate.
+        let n = 1000;
+        let d_max = 5.0 * m_n;
+        let at = |i: u32| d_max * f64::from(i) / f64::from(n);
+        let mut first = None;
+        let mut last = None;
+        for i in 1..=n {
+            if on_flank(at(i)) {
+                first.get_or_insert(i);
+                last = Some(i);
+            }
+        }
+        let (Some(first), Some(last)) = (first, last) else {
+            return (f64::NAN, f64::NAN);
+        };
+        let refine = |mut inside: f64, mut outside: f64| {
+            for _ in 0..80 {
+                let mid = 0.5 * (inside + outside);
+                if on_flank(mid) {
+                    inside = mid;
+                } else {
+                    outside = mid;
+                }
+            }
+            inside
+        };
+        let mut a = if first == 1 {
+            refine(at(1), 0.0)
+        } else {
+            refine(at(first), at(first - 1))
+        };
+        let mut b = if last == n {
+            d_max
+        } else {
+            refine(at(last), at(last + 1))
+        };
+        // Round inwards to 1e-6 mm so every ball inside the printed range is accepted.
+        if a.is_finite() {
+            a = (a * 1e6).ceil() / 1e6;
+        }
+        if b.is_finite() {
+            b = (b * 1e6).floor() / 1e6;
+        }
+        (a, b)
     }
 
     /// Dimension over two balls (external) or between two balls (internal) M_dK for ball
@@ -90,15 +195,17 @@ impl Gear {
             });
         }
         check_range("profile_shift", shift, -MAX_SHIFT, MAX_SHIFT, "", false)?;
-        let (d_k, d_c) = self.ball_geometry(ball_mm, shift);
+        let (d_k, d_c, _) = self.ball_geometry(ball_mm, shift);
         let (lo, hi) = self.flank_range_mm(shift);
         if !(d_k.is_finite() && d_c >= lo && d_c <= hi) {
-            return Err(GeometryError::OffFlank {
+            let (min_ball_mm, max_ball_mm) = self.ball_range_mm(shift);
+            return Err(GeometryError::BallOffFlank {
                 name: "ball_mm",
-                value: ball_mm,
-                contact_diameter_mm: d_c,
-                min_mm: lo,
-                max_mm: hi,
+                ball_mm,
+                min_ball_mm,
+                max_ball_mm,
+                flank_min_mm: lo,
+                flank_max_mm: hi,
             });
         }
         let sigma = self.sigma();
@@ -165,49 +272,23 @@ impl Gear {
         let (lo, hi) = self.flank_range_mm(shift);
         let target =
             (self.dims().reference_diameter_mm + 2.0 * self.sigma() * shift * m_n).clamp(lo, hi);
-        let f = |ball: f64| self.ball_geometry(ball, shift).1 - target;
-        // Scan for a sign change; d_c(D_M) is monotone where it exists (rises for external,
-        // falls for internal gears).
-        let n = 400;
-        let d_max = 5.0 * m_n;
-        let mut prev: Option<(f64, f64)> = None;
-        for i in 1..=n {
-            let ball = d_max * f64::from(i) / f64::from(n);
-            let v = f(ball);
-            if !v.is_finite() {
-                prev = None;
-                continue;
-            }
-            if let Some((b0, v0)) = prev {
-                if v0 == 0.0 {
-                    return Ok(b0);
+        // A target clamped to an end of the flank is met to 1e-13·m_n, on either side:
+        // keep the ball inside the accepted range so it is always measurable.
+        let (b_lo, b_hi) = self.ball_range_mm(shift);
+        self.ball_for_contact_mm(shift, target)
+            .map(|b| {
+                if b_lo.is_finite() && b_hi >= b_lo {
+                    b.clamp(b_lo, b_hi)
+                } else {
+                    b
                 }
-                if v0.signum() != v.signum() {
-                    let (mut a, mut fa, mut b) = (b0, v0, ball);
-                    for _ in 0..200 {
-                        let mid = 0.5 * (a + b);
-                        let fm = f(mid);
-                        if fm.signum() == fa.signum() {
-                            a = mid;
-                            fa = fm;
-                        } else {
-                            b = mid;
-                        }
-                        if b - a < 1e-13 * m_n {
-                            break;
-                        }
-                    }
-                    return Ok(0.5 * (a + b));
-                }
-            }
-            prev = Some((ball, v));
-        }
-        Err(GeometryError::OffFlank {
-            name: "recommended ball_mm (no ball up to 5·m_n touches at the target circle)",
-            value: d_max,
-            contact_diameter_mm: target,
-            min_mm: lo,
-            max_mm: hi,
-        })
+            })
+            .ok_or(GeometryError::OffFlank {
+                name: "recommended ball_mm (no ball up to 5·m_n touches at the target circle)",
+                value: 5.0 * m_n,
+                contact_diameter_mm: target,
+                min_mm: lo,
+                max_mm: hi,
+            })
     }
 }

@@ -25,10 +25,12 @@ pub enum GeometryError {
         /// Unit of value, min and max ("mm", "°", "" for coefficients).
         unit: &'static str,
     },
-    /// The generating rack cuts below the base circle.
+    /// The generating rack undercuts the tooth (a warning: see `Gear::undercut`).
     #[error(
         "undercut: {name} = {value:.4} is below x_min = {min:.4} for z = {teeth} with this tool \
-         (allowed: {name} ≥ {min:.4}, or z ≥ {min_teeth:.1} at this shift)"
+         (no undercut for {name} ≥ {min:.4}, or z ≥ {min_teeth:.1} at this shift); the rack tip \
+         cuts away the involute above the base circle and weakens the root; the usable flank is \
+         taken from the base circle, so check that measurement contacts lie above the undercut"
     )]
     Undercut {
         /// The profile shift that was checked ("profile_shift" or the generating shift).
@@ -74,6 +76,49 @@ pub enum GeometryError {
         /// Highest diameter of the usable flank in mm.
         max_mm: f64,
     },
+    /// A helical span whose anvils touch the flanks further apart axially than the face is
+    /// wide (the span cannot be placed on the gear).
+    #[error(
+        "{name} = {k}: the anvils touch the helical flanks W_k·sin β_b = {axial_mm:.4} mm apart \
+         axially (W_k = {span_mm:.4} mm, β_b = {base_helix_deg:.4}°), which does not fit in the \
+         face width b = {face_width_mm} mm; a span over k needs b > W_k·sin β_b (measure over \
+         balls, or give a smaller k if one touches the flanks)"
+    )]
+    SpanTooWide {
+        /// The parameter ("span_k").
+        name: &'static str,
+        /// Number of teeth (spaces) spanned.
+        k: u32,
+        /// Span W_k in mm.
+        span_mm: f64,
+        /// Axial distance of the two contact points W_k·sin β_b in mm.
+        axial_mm: f64,
+        /// Face width b in mm.
+        face_width_mm: f64,
+        /// Base helix angle β_b in degrees.
+        base_helix_deg: f64,
+    },
+    /// A ball that does not touch the usable involute flank, with the range of balls that do.
+    #[error(
+        "{name} = {ball_mm} mm does not touch the involute flanks (usable flank {flank_min_mm:.4} … \
+         {flank_max_mm:.4} mm); balls from {lo} to {hi} mm touch it on this gear",
+        lo = short(*min_ball_mm),
+        hi = short(*max_ball_mm)
+    )]
+    BallOffFlank {
+        /// The parameter ("ball_mm").
+        name: &'static str,
+        /// The ball diameter given, in mm.
+        ball_mm: f64,
+        /// Smallest ball diameter touching the usable flank, in mm.
+        min_ball_mm: f64,
+        /// Largest ball diameter touching the usable flank, in mm.
+        max_ball_mm: f64,
+        /// Lowest diameter of the usable flank in mm.
+        flank_min_mm: f64,
+        /// Highest diameter of the usable flank in mm.
+        flank_max_mm: f64,
+    },
     /// Two gears that cannot mesh together.
     #[error("gears do not mesh: {name} differs ({value} vs {other}); they must be equal")]
     Mismatch {
@@ -99,6 +144,10 @@ fn unit_suffix(unit: &str) -> String {
 fn short(x: f64) -> String {
     if !x.is_finite() || x.abs() >= 1e9 {
         return format!("{x}");
+    }
+    if x != 0.0 && x.abs() < 1e-4 {
+        // Tiny values (e.g. a module of 1e-300) must not read back as 0.
+        return format!("{x:e}");
     }
     let s = format!("{x:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');

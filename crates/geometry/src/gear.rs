@@ -17,6 +17,13 @@ use crate::involute::inv;
 /// Largest |x| accepted anywhere; beyond it no practical gear exists.
 pub(crate) const MAX_SHIFT: f64 = 10.0;
 
+/// Smallest normal module accepted, in mm (below it no gear is cut or measured; it also
+/// keeps every length far from the floating-point underflow range).
+pub const MIN_MODULE_MM: f64 = 0.01;
+
+/// Largest normal module accepted, in mm.
+pub const MAX_MODULE_MM: f64 = 1000.0;
+
 /// External teeth (on the outside of a blank) or internal teeth (a ring gear).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -177,10 +184,11 @@ pub struct Gear {
 impl Gear {
     /// Validates a specification and computes the gear's dimensions.
     ///
-    /// Rejects: module outside (0, 1000] mm, α_n outside (0°, 45°), β outside [0°, 60°),
+    /// Rejects: module outside [0.01, 1000] mm, α_n outside (0°, 45°), β outside [0°, 60°),
     /// z outside 3…10 000, |x| > 10, face width outside (0, 10 000] mm, a basic rack whose
-    /// tool tooth has no room for its tip radius, undercut (external gears: x < x_min),
-    /// a pointed tooth (s_an ≤ 0) and an internal tip circle inside the base circle.
+    /// tool tooth has no room for its tip radius, a pointed tooth (s_an ≤ 0) and an internal
+    /// tip circle inside the base circle. Undercut is computed, not refused: see
+    /// [`Gear::undercut`].
     ///
     /// # Formula
     /// m_t = m_n / cos β; tan α_t = tan α_n / cos β; tan β_b = tan β·cos α_t;
@@ -398,7 +406,7 @@ impl Gear {
     }
 
     /// Generating profile shift x_E for a normal tooth-thickness allowance A_sn in mm
-    /// (A_sn < 0 thins the tooth), checked for undercut and a pointed tooth.
+    /// (A_sn < 0 thins the tooth), checked for a pointed tooth (undercut: [`Gear::undercut`]).
     ///
     /// # Formula
     /// x_E = x + A_sn / (2·m_n·tan α_n)
@@ -434,21 +442,32 @@ impl Gear {
             * (generating_shift - self.spec.profile_shift)
     }
 
-    /// Checks a (generating) profile shift for undercut (external gears) and a pointed tooth.
+    /// The undercut of an external gear cut by the rack at profile shift x, as the
+    /// [`GeometryError::Undercut`] that describes it (x, x_min, z_min), or None.
+    ///
+    /// Undercut is not an error: the gear exists and its numbers are computed; the rack tip
+    /// removes part of the involute above the base circle, so the usable flank starts higher
+    /// than the base circle (not computed here: the flank range then begins at d_b) and the
+    /// tooth root is weakened. Callers warn with this value's message.
+    ///
+    /// # Source
+    /// DIN 3960:1987, 3.6.3 [STANDARD]
+    pub fn undercut(&self, name: &'static str, shift: f64) -> Option<GeometryError> {
+        let x_min = self.dims.min_shift_undercut?;
+        // A margin of 1e-12 keeps a gear designed exactly at x_min free of undercut.
+        (shift < x_min - 1e-12).then(|| GeometryError::Undercut {
+            name,
+            value: shift,
+            min: x_min,
+            teeth: self.spec.teeth,
+            min_teeth: self.min_teeth_undercut(shift),
+        })
+    }
+
+    /// Checks a (generating) profile shift for a pointed tooth (undercut is reported by
+    /// [`Gear::undercut`], not refused).
     pub fn check_shift(&self, name: &'static str, shift: f64) -> Result<()> {
         check_range(name, shift, -MAX_SHIFT, MAX_SHIFT, "", false)?;
-        if let Some(x_min) = self.dims.min_shift_undercut {
-            // A margin of 1e-12 keeps a gear designed exactly at x_min valid.
-            if shift < x_min - 1e-12 {
-                return Err(GeometryError::Undercut {
-                    name,
-                    value: shift,
-                    min: x_min,
-                    teeth: self.spec.teeth,
-                    min_teeth: self.min_teeth_undercut(shift),
-                });
-            }
-        }
         let s_an = self.tip_normal_thickness_mm(shift)?;
         if s_an.is_nan() || s_an <= 0.0 {
             return Err(GeometryError::PointedTooth {
@@ -480,12 +499,12 @@ pub(crate) struct TransverseBasics {
 /// ISO 21771:2007, 4.2 [STANDARD]
 pub(crate) fn transverse_basics(spec: &GearSpec) -> Result<TransverseBasics> {
     let m_n = spec.normal_module_mm;
-    if !(m_n.is_finite() && m_n > 0.0 && m_n <= 1000.0) {
+    if !(m_n.is_finite() && (MIN_MODULE_MM..=MAX_MODULE_MM).contains(&m_n)) {
         return Err(GeometryError::OutOfRange {
             name: "normal_module_mm",
             value: m_n,
-            min: 0.0,
-            max: 1000.0,
+            min: MIN_MODULE_MM,
+            max: MAX_MODULE_MM,
             unit: "mm",
         });
     }

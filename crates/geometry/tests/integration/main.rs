@@ -3,6 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 mod bad_input;
+mod construct;
 mod independent_checks;
 mod issue2_vectors;
 mod properties;
+mod span_contact;
