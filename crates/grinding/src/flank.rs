@@ -201,6 +201,65 @@ impl InvoluteGear {
     }
 }
 
+/// The usable involute flank of a gear in roll distances of one flank.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FlankLimits {
+    /// Roll distance of the root form circle d_Ff (0 if the involute starts at the base circle).
+    pub w_root_form_mm: f64,
+    /// Roll distance of the tip circle d_a.
+    pub w_tip_mm: f64,
+    /// Root form diameter d_Ff in mm (None: undercut, the flank starts at the base circle).
+    pub root_form_diameter_mm: Option<f64>,
+    /// Tip diameter d_a in mm.
+    pub tip_diameter_mm: f64,
+}
+
+impl InvoluteGear {
+    /// The gear as the gear-geometry crate sees it (external teeth, DIN 867 basic rack, the
+    /// pressure angle of `flank`); this validates the gear as a gear (3 ≤ z ≤ 10 000,
+    /// |β| < 60°, no pointed tooth, root circle above 0, no undercut by the rack where the
+    /// geometry crate refuses it).
+    pub fn geometry(&self, flank: Flank) -> Result<gearcomp_geometry::Gear> {
+        use gearcomp_geometry::{BasicRack, Gear, GearSpec, Hand as GHand, Mesh};
+        let spec = GearSpec {
+            normal_module_mm: self.m_n_mm,
+            normal_pressure_angle_rad: self.alpha_n_rad(flank),
+            helix_angle_rad: self.beta_rad.abs(),
+            hand: if self.beta_rad < 0.0 {
+                GHand::Left
+            } else {
+                GHand::Right
+            },
+            teeth: self.teeth,
+            mesh: Mesh::External,
+            profile_shift: self.x_shift,
+            face_width_mm: None,
+            rack: BasicRack::DIN_867,
+        };
+        Ok(Gear::new(spec)?)
+    }
+
+    /// Root form and tip of one flank as roll distances.
+    ///
+    /// # Formula
+    /// d_a = d + 2·m_n·(1 + x); d_Ff from rack generation (DIN 867 rack), both from the
+    /// gear-geometry crate; w = √(r² − r_b²).
+    /// # Source
+    /// ISO 21771:2007 5.2, 5.4.5 [STANDARD] (via `gearcomp_geometry::Gear`).
+    pub fn flank_limits(&self, flank: Flank) -> Result<FlankLimits> {
+        let g = self.geometry(flank)?;
+        let rb = self.flank(flank).r_b_mm;
+        let w = |d: f64| (0.25 * d * d - rb * rb).max(0.0).sqrt();
+        let d = g.dims();
+        Ok(FlankLimits {
+            w_root_form_mm: d.root_form_diameter_mm.map_or(0.0, w),
+            w_tip_mm: w(d.tip_diameter_mm),
+            root_form_diameter_mm: d.root_form_diameter_mm,
+            tip_diameter_mm: d.tip_diameter_mm,
+        })
+    }
+}
+
 /// One flank of an involute gear or worm: an involute helicoid.
 ///
 /// # Formula
@@ -382,5 +441,44 @@ mod tests {
         assert!(InvoluteGear::new(31, f64::NAN, 0.35, 0.2).is_err());
         assert!(InvoluteGear::new(31, 3.0, 1.2, 0.2).is_err());
         assert!(InvoluteGear::worm(1, 3.0, 0.35, 1.0, Hand::Right).is_err());
+    }
+
+    /// Root form and tip of the default gear by hand (rack generation, DIN 867 rack):
+    /// w_Ff = r·sin α_t − (h_FfP − x·m_n)/sin α_t with h_FfP = m_n·(1.25 − 0.25·(1 − sin α_n)),
+    /// w_a = √(r_a² − r_b²), r_a = r + m_n·(1 + x). The tip of z = 31, m_n = 3, β = 15° is at
+    /// w = 24.2 mm (the figure). z = 2 and a pointed tooth are refused.
+    #[test]
+    fn flank_limits_by_hand() {
+        for x in [0.0, 0.3, -0.2] {
+            let g = InvoluteGear::asymmetric(
+                31,
+                3.0,
+                20f64.to_radians(),
+                20f64.to_radians(),
+                15f64.to_radians(),
+                x,
+            )
+            .unwrap();
+            let l = g.flank_limits(Flank::Left).unwrap();
+            let f = g.flank(Flank::Left);
+            let r = g.reference_radius_mm();
+            let at = (20f64.to_radians().tan() / 15f64.to_radians().cos()).atan();
+            let h = 3.0 * (1.25 - 0.25 * (1.0 - 20f64.to_radians().sin()));
+            let w_ff = r * at.sin() - (h - x * 3.0) / at.sin();
+            let ra = r + 3.0 * (1.0 + x);
+            assert_relative_eq!(l.w_root_form_mm, w_ff, epsilon = 1e-9);
+            assert_relative_eq!(
+                l.w_tip_mm,
+                (ra * ra - f.r_b_mm * f.r_b_mm).sqrt(),
+                epsilon = 1e-9
+            );
+            if x == 0.0 {
+                assert!((l.w_tip_mm - 24.2).abs() < 0.05, "{}", l.w_tip_mm);
+            }
+        }
+        let two = InvoluteGear::new(2, 3.0, 0.35, 0.2).unwrap();
+        assert!(two.flank_limits(Flank::Right).is_err());
+        let pointed = InvoluteGear::asymmetric(12, 3.0, 0.35, 0.35, 0.0, 2.5).unwrap();
+        assert!(pointed.flank_limits(Flank::Right).is_err());
     }
 }

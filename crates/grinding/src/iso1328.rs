@@ -115,6 +115,84 @@ pub struct FlankEvaluation {
     pub within_tolerance: bool,
 }
 
+/// A trace evaluated at a position: width z of a profile trace, roll distance w of a helix
+/// trace (mm).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PlacedTrace {
+    /// Position of the trace in mm.
+    pub at_mm: f64,
+    /// Its evaluation.
+    pub trace: TraceEvaluation,
+}
+
+/// The largest values over several traces: F and f_f the maxima, f_H the signed value of
+/// largest magnitude.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WorstTrace {
+    /// Largest total deviation in µm.
+    pub total_um: f64,
+    /// Largest form deviation in µm.
+    pub form_um: f64,
+    /// Slope deviation of largest magnitude in µm (signed).
+    pub slope_um: f64,
+}
+
+impl WorstTrace {
+    fn of(traces: &[PlacedTrace]) -> Self {
+        let mut w = WorstTrace {
+            total_um: 0.0,
+            form_um: 0.0,
+            slope_um: 0.0,
+        };
+        for t in traces {
+            w.total_um = w.total_um.max(t.trace.total_um);
+            w.form_um = w.form_um.max(t.trace.form_um);
+            if t.trace.slope_um.abs() > w.slope_um.abs() {
+                w.slope_um = t.trace.slope_um;
+            }
+        }
+        w
+    }
+}
+
+/// Statement on the pitch deviations, which a one-flank simulation cannot give.
+pub const PITCH_NOT_EVALUATED: &str =
+    "f_pt and F_p not evaluated: the simulation grinds one tooth flank with ideal indexing \
+     (every tooth identical), so pitch deviations would be 0 by construction; they come from \
+     machine indexing errors, which are not modelled";
+
+/// ISO 1328-1 evaluation over several profile and helix traces, as measuring practice takes
+/// them, with the class the flank achieves.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MultiTraceEvaluation {
+    /// Profile traces at the start, middle and end of L_β (and evenly between for more).
+    pub profiles: Vec<PlacedTrace>,
+    /// Helix traces at the start, middle and end of L_α (and evenly between for more).
+    pub helices: Vec<PlacedTrace>,
+    /// Largest profile values (F_α, f_fα, f_Hα).
+    pub profile_worst: WorstTrace,
+    /// Largest helix values (F_β, f_fβ, f_Hβ).
+    pub helix_worst: WorstTrace,
+    /// Tolerances of the requested class.
+    pub tolerances: Tolerances,
+    /// Every trace within the requested class.
+    pub within_tolerance: bool,
+    /// The best class (1 … 11) whose profile and helix tolerances every trace meets, None if
+    /// not even class 11.
+    pub class_achieved: Option<u8>,
+    /// Pitch deviations: not evaluated (see [`PITCH_NOT_EVALUATED`]).
+    pub pitch: &'static str,
+}
+
+fn within(t: &Tolerances, p: &WorstTrace, h: &WorstTrace) -> bool {
+    p.total_um <= t.total_alpha_t_um
+        && p.form_um <= t.f_f_alpha_t_um
+        && p.slope_um.abs() <= t.f_h_alpha_t_um
+        && h.total_um <= t.total_beta_t_um
+        && h.form_um <= t.f_f_beta_t_um
+        && h.slope_um.abs() <= t.f_h_beta_t_um
+}
+
 impl DeviationMap {
     /// Checks size and values.
     pub fn new(grid: FlankGrid, f_mm: Vec<f64>) -> Result<Self> {
@@ -173,6 +251,72 @@ impl DeviationMap {
             })
             .collect();
         (xs, fs)
+    }
+
+    /// ISO 1328-1 evaluation with `n_traces` (≥ 3) profile traces over L_β and as many helix
+    /// traces over L_α (first, last and evenly between), against class `class` of a gear with
+    /// reference diameter `d_mm`, module `m_n_mm` and face width `b_mm`, and the best class
+    /// achieved.
+    ///
+    /// # Source
+    /// ISO 1328-1:2013 clause 3.3 (deviations), formulas (5)–(12) (tolerances) [STANDARD];
+    /// several traces per flank: measuring practice (e.g. three profiles across the face,
+    /// three helices across the profile) [convention fixed here, docs/grinding.md].
+    pub fn evaluate_traces(
+        &self,
+        d_mm: f64,
+        m_n_mm: f64,
+        b_mm: f64,
+        class: u8,
+        n_traces: usize,
+    ) -> Result<MultiTraceEvaluation> {
+        if !(3..=101).contains(&n_traces) {
+            return Err(GrindError::BadData {
+                field: "ISO 1328 traces per direction",
+                got: n_traces,
+                expected: "3 ..= 101",
+            });
+        }
+        let tol = tolerances(d_mm, m_n_mm, b_mm, class)?;
+        let g = self.grid;
+        let pr = profile_evaluation_range(g.w_range_mm);
+        let hr = helix_evaluation_range(g.z_range_mm, m_n_mm);
+        let at = |r: (f64, f64), k: usize| r.0 + (r.1 - r.0) * k as f64 / (n_traces - 1) as f64;
+        let mut profiles = Vec::with_capacity(n_traces);
+        let mut helices = Vec::with_capacity(n_traces);
+        for k in 0..n_traces {
+            let z = at(hr, k);
+            let (x, f) = self.trace_um(true, z, pr);
+            profiles.push(PlacedTrace {
+                at_mm: z,
+                trace: evaluate_trace(&x, &f, pr)?,
+            });
+            let w = at(pr, k);
+            let (x, f) = self.trace_um(false, w, hr);
+            helices.push(PlacedTrace {
+                at_mm: w,
+                trace: evaluate_trace(&x, &f, hr)?,
+            });
+        }
+        let pw = WorstTrace::of(&profiles);
+        let hw = WorstTrace::of(&helices);
+        let mut class_achieved = None;
+        for c in 1..=11u8 {
+            if within(&tolerances(d_mm, m_n_mm, b_mm, c)?, &pw, &hw) {
+                class_achieved = Some(c);
+                break;
+            }
+        }
+        Ok(MultiTraceEvaluation {
+            profiles,
+            helices,
+            profile_worst: pw,
+            helix_worst: hw,
+            within_tolerance: within(&tol, &pw, &hw),
+            tolerances: tol,
+            class_achieved,
+            pitch: PITCH_NOT_EVALUATED,
+        })
     }
 
     /// ISO 1328-1 evaluation: profile at mid face width, helix at the middle of L_α; the grid's
@@ -262,5 +406,52 @@ mod tests {
             .evaluate(tolerances(80.0, 2.0, 20.0, 5).unwrap(), 2.0)
             .unwrap();
         assert!(!e5.within_tolerance);
+    }
+
+    /// A twist f = k·(w − 16.7)·z (k = 1e-4 mm/mm²) on w ∈ [11, 23], z ∈ [−10, 10], m_n = 2:
+    /// the single mid-face profile and mid-profile helix see nothing (f = 0 on both), three
+    /// traces each see it. By hand: profiles at z = −9, 0, 9 (L_β ends and middle) have slope
+    /// k·z·11.4 µm·10³ ⇒ f_Hα = ±10.26 µm, F_α = 10.26, f_fα = 0; helices at w = 11, 16.7,
+    /// 22.4 have slope k·(w − 16.7)·18 ⇒ ±10.26 µm likewise. The class achieved is the smallest
+    /// class whose f_Hα, F_α, f_Hβ, F_β limits exceed 10.26 µm.
+    #[test]
+    fn three_traces_see_a_twist() {
+        let grid = FlankGrid::new((11.0, 23.0), (-10.0, 10.0), 13, 21).unwrap();
+        let k = 1e-4;
+        let mut f = Vec::new();
+        for i in 0..grid.n_w {
+            for j in 0..grid.n_z {
+                f.push(k * (grid.w_mm(i) - 16.7) * grid.z_mm(j));
+            }
+        }
+        let map = DeviationMap::new(grid, f).unwrap();
+        let one = map
+            .evaluate(tolerances(80.0, 2.0, 20.0, 6).unwrap(), 2.0)
+            .unwrap();
+        assert!(one.profile.total_um < 1e-9 && one.helix.total_um < 1e-9);
+        let e = map.evaluate_traces(80.0, 2.0, 20.0, 6, 3).unwrap();
+        let pos: Vec<f64> = e.profiles.iter().map(|t| t.at_mm).collect();
+        assert_eq!(pos.len(), 3);
+        assert_relative_eq!(pos[0], -9.0, epsilon = 1e-12);
+        assert_relative_eq!(pos[2], 9.0, epsilon = 1e-12);
+        assert_relative_eq!(e.helices[2].at_mm, 22.4, epsilon = 1e-12);
+        assert_relative_eq!(e.profiles[0].trace.slope_um, -10.26, epsilon = 1e-9);
+        assert_relative_eq!(e.profiles[2].trace.slope_um, 10.26, epsilon = 1e-9);
+        assert!(e.profiles[1].trace.total_um < 1e-9);
+        assert_relative_eq!(e.profile_worst.total_um, 10.26, epsilon = 1e-9);
+        assert!(e.profile_worst.form_um < 1e-9);
+        assert_relative_eq!(e.helices[0].trace.slope_um, -10.26, epsilon = 1e-9);
+        assert_relative_eq!(e.helix_worst.total_um, 10.26, epsilon = 1e-9);
+        let expect = (1..=11u8).find(|&c| {
+            let t = tolerances(80.0, 2.0, 20.0, c).unwrap();
+            t.f_h_alpha_t_um >= 10.26
+                && t.total_alpha_t_um >= 10.26
+                && t.f_h_beta_t_um >= 10.26
+                && t.total_beta_t_um >= 10.26
+        });
+        assert_eq!(e.class_achieved, expect);
+        assert!(expect.unwrap() > 6 && !e.within_tolerance);
+        assert!(e.pitch.contains("not evaluated"));
+        assert!(map.evaluate_traces(80.0, 2.0, 20.0, 6, 2).is_err());
     }
 }
