@@ -1,0 +1,66 @@
+//! FL_THERMAL with the default (every family, rolling-origin validation on the first 24 h):
+//! every choice is made on the training rows only — scrambling the test rows leaves the
+//! model file unchanged — and the figures measured are guarded.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
+use gearcomp_identify::identify::{identify, plain_least_squares, IdentifyOptions, Split};
+
+fn table() -> Table {
+    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let sel = Selection {
+        targets: vec!["ch1_um".into(), "ch3_um".into(), "ch5_um".into()],
+        ..Selection::default()
+    };
+    read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap()
+}
+
+#[test]
+fn fl_thermal_default_uses_training_rows_only_and_at_most_8_sensors() {
+    let t = table();
+    let id = identify(&t, &IdentifyOptions::default()).unwrap();
+    // Scramble every test row (inputs and targets): reverse, shift and add noise-like terms.
+    let mut s = t.clone();
+    let test: Vec<usize> = (0..s.time_s.len())
+        .filter(|&i| s.time_s[i] >= 86_400.0)
+        .collect();
+    for col in s.inputs.iter_mut().chain(s.targets.iter_mut()) {
+        let vals: Vec<f64> = test.iter().map(|&i| col[i]).collect();
+        for (k, &i) in test.iter().enumerate() {
+            col[i] = vals[vals.len() - 1 - k] * 1.3 + ((k * 7919) % 13) as f64;
+        }
+    }
+    let id2 = identify(&s, &IdentifyOptions::default()).unwrap();
+    for (a, b) in id.targets.iter().zip(&id2.targets) {
+        assert_eq!(
+            a.model, b.model,
+            "{}: the model depends on test rows",
+            a.target
+        );
+        assert_eq!(a.family, b.family);
+        assert_eq!(a.cv_rmse, b.cv_rmse);
+        assert_ne!(
+            a.test_rmse, b.test_rmse,
+            "the scramble must reach the test rows"
+        );
+    }
+    let base = plain_least_squares(&t, &Split::TimeBefore(86_400.0)).unwrap();
+    // Measured (docs/identification.md): ch1 2.775, ch3 9.403, ch5 5.996 µm; plain LS on
+    // all 16 inputs 3.937, 7.476, 16.471 µm. The 2.0 / 3.7 / 3.5 µm are not met.
+    let measured = [2.775, 9.403, 5.996];
+    for (j, m) in id.targets.iter().enumerate() {
+        let test = m.test_rmse.unwrap();
+        println!(
+            "{}: {} {} sensors, test {test:.3} µm (plain LS {:.3})",
+            m.target,
+            m.family,
+            m.sensors.len(),
+            base[j].1.unwrap()
+        );
+        assert!(m.sensors.len() <= 8, "{}", m.target);
+        assert!(m.model.channels().len() <= 8, "{}", m.target);
+        assert!((test - measured[j]).abs() < 5e-3, "{}: {test}", m.target);
+        assert!(m.fold_rmse.len() == 3 && m.fold_rmse.iter().all(|v| v.is_finite()));
+    }
+    assert!(id.method.contains("rolling origin"), "{}", id.method);
+}
