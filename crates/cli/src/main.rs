@@ -46,8 +46,9 @@ enum Command {
     /// Generating grinding with a dressed worm: contact path, worm-to-gear mapping,
     /// diagonal generating, ISO 1328 flank evaluation.
     Grind(cmd_grind::Args),
-    /// The compensation service: sensors in (simulator, MQTT, Modbus TCP), offsets out,
-    /// every sample kept in SQLite, HTTP API and dashboard.
+    /// The compensation service: sensors in (simulator, CSV replay, MQTT, Modbus TCP,
+    /// OPC UA), offsets out (MQTT, Modbus TCP, OPC UA), every sample kept in SQLite or
+    /// PostgreSQL, HTTP(S) API and dashboard; one machine or several per process.
     Serve(cmd_serve::Args),
 }
 

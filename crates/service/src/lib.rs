@@ -1,15 +1,18 @@
 //! The compensation service behind `gearcomp serve`: live sensor readings in (built-in
-//! simulator, MQTT, Modbus TCP), the thermal engine of gearcomp-thermal stepping in a
-//! dedicated cycle thread, offsets out (MQTT, Modbus register), every raw sample,
-//! averaged value, offset and alarm kept in SQLite (WAL), and an HTTP API with a dashboard.
+//! simulator, CSV replay, MQTT, Modbus TCP, OPC UA), the thermal engine of gearcomp-thermal
+//! stepping in a dedicated cycle thread, offsets out (MQTT, Modbus register, OPC UA node),
+//! every raw sample, averaged value, offset and alarm kept in SQLite (WAL) or PostgreSQL
+//! (optionally over TLS, with a local spill file through outages), and an HTTP(S) API with a
+//! dashboard. One process can serve several machines.
 //!
 //! * [`config`]: `machine.toml` ([`ServiceConfig`]), unknown keys refused.
 //! * [`cycle`]: the cycle thread, the service clock, bumpless transfer on model changes.
-//! * [`storage`]: the SQLite record, batched commits, CSV export for `gearcomp fit`.
+//! * [`storage`]: the backend-neutral record (`Store`), SQLite and PostgreSQL, batched
+//!   commits, CSV export for `gearcomp fit`.
 //! * [`auth`]: tokens (generated at first start, stored hashed), read-only / operator.
 //! * [`http`]: REST API and the dashboard page.
-//! * [`sources`]: simulator, MQTT and Modbus adapters.
-//! * [`service`]: [`serve`] puts it together and stops it cleanly.
+//! * [`sources`]: simulator, CSV replay, MQTT, Modbus TCP and OPC UA adapters.
+//! * [`service`]: [`serve`] and [`serve_many`] put it together and stop it cleanly.
 //!
 //! Conventions are listed in `docs/service.md`.
 
