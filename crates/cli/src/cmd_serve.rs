@@ -40,6 +40,21 @@ pub struct Args {
     /// Print the SHA-256 of a token (for `[[auth.tokens]] sha256 = ...`) and exit.
     #[arg(long, value_name = "TOKEN")]
     pub hash_token: Option<String>,
+    /// Issue a new token (operator or read_only) into the record of --config/--db, written
+    /// once to the new owner-only file --token-file, and exit. A running service accepts
+    /// it within a second.
+    #[arg(long, value_name = "ROLE", requires = "token_file")]
+    pub issue_token: Option<String>,
+    /// The file --issue-token writes the token to (created 0600; never overwritten).
+    #[arg(long, value_name = "FILE")]
+    pub token_file: Option<PathBuf>,
+    /// Revoke the record's token with this id (8 hex digits, as --list-tokens and the
+    /// audit log show) and exit. A running service refuses it within a second.
+    #[arg(long, value_name = "ID")]
+    pub revoke_token: Option<String>,
+    /// List the record's tokens (id and role, never the token) and exit.
+    #[arg(long)]
+    pub list_tokens: bool,
 }
 
 /// Runs the subcommand.
@@ -70,6 +85,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let cfg = &machines[0].config;
+    if args.issue_token.is_some() || args.revoke_token.is_some() || args.list_tokens {
+        if machines.len() > 1 {
+            anyhow::bail!(
+                "invalid token command with {} --config: expected one machine's configuration",
+                machines.len()
+            );
+        }
+        let mut cfg = cfg.clone();
+        if let Some(db) = &args.db {
+            cfg.storage.path = db.clone();
+        }
+        let store = gearcomp_service::storage::open_store(&cfg)?;
+        use gearcomp_service::auth;
+        if let Some(role) = &args.issue_token {
+            let role = gearcomp_service::config::Role::from_name(role).ok_or_else(|| {
+                anyhow::anyhow!("invalid --issue-token = {role:?}: expected operator or read_only")
+            })?;
+            let file = args.token_file.clone().unwrap_or_default();
+            let id = auth::issue_token(&*store, role, &file)?;
+            println!(
+                "issued {} token {id} in {}; written to {} (owner-only)",
+                role.name(),
+                store.describe(),
+                file.display()
+            );
+        }
+        if let Some(id) = &args.revoke_token {
+            let n = auth::revoke_token(&*store, id)?;
+            println!("revoked {n} token(s) with id {id} in {}", store.describe());
+        }
+        if args.list_tokens {
+            for (id, role) in auth::list_tokens(&*store)? {
+                println!("{id} {}", role.name());
+            }
+        }
+        return Ok(());
+    }
     if let (Some(out), None, gearcomp_service::config::StorageBackend::Postgres) =
         (&args.export_csv, &args.db, cfg.storage.backend)
     {

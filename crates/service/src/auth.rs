@@ -16,10 +16,13 @@ pub struct KnownToken {
     pub role: Role,
 }
 
-/// The verifier of API tokens.
-#[derive(Debug, Clone, Default)]
+/// The verifier of API tokens: the configured ones and those kept in the record (which
+/// `gearcomp serve --issue-token` / `--revoke-token` change; a running service picks the
+/// change up with [`Tokens::reload`]).
+#[derive(Debug, Default)]
 pub struct Tokens {
-    known: Vec<KnownToken>,
+    configured: Vec<KnownToken>,
+    known: std::sync::RwLock<Vec<KnownToken>>,
 }
 
 /// A freshly generated token pair (shown once).
@@ -29,6 +32,8 @@ pub struct Generated {
     pub operator: String,
     /// Read-only token.
     pub read_only: String,
+    /// The owner-only file they were written to (see [`secure_record`]).
+    pub file: Option<std::path::PathBuf>,
 }
 
 /// SHA-256 of a token as lowercase hex.
@@ -64,23 +69,21 @@ impl Tokens {
         store: &dyn crate::storage::Store,
         configured: &[TokenEntry],
     ) -> Result<(Self, Option<Generated>)> {
-        let mut known: Vec<KnownToken> = configured
+        let configured: Vec<KnownToken> = configured
             .iter()
             .map(|t| KnownToken {
                 sha256: t.sha256.clone(),
                 role: t.role,
             })
             .collect();
-        for (sha256, role) in store.token_hashes()? {
-            if let Some(role) = Role::from_name(&role) {
-                known.push(KnownToken { sha256, role });
-            }
-        }
+        let mut known = configured.clone();
+        known.extend(stored_tokens(store)?);
         let mut generated = None;
         if known.is_empty() {
             let g = Generated {
                 operator: generate_token(Role::Operator)?,
                 read_only: generate_token(Role::ReadOnly)?,
+                file: None,
             };
             for (tok, role) in [
                 (&g.operator, Role::Operator),
@@ -92,14 +95,35 @@ impl Tokens {
             }
             generated = Some(g);
         }
-        Ok((Self { known }, generated))
+        Ok((
+            Self {
+                configured,
+                known: std::sync::RwLock::new(known),
+            },
+            generated,
+        ))
+    }
+
+    /// Reads the record's tokens again (issued or revoked since the start).
+    pub fn reload(&self, store: &dyn crate::storage::Store) -> Result<()> {
+        let mut known = self.configured.clone();
+        known.extend(stored_tokens(store)?);
+        match self.known.write() {
+            Ok(mut k) => *k = known,
+            Err(p) => *p.into_inner() = known,
+        }
+        Ok(())
     }
 
     /// The role of a presented token, if it is known; compares hashes in constant time.
     pub fn role_of(&self, token: &str) -> Option<Role> {
         let h = hash_token(token);
         let mut best: Option<Role> = None;
-        for k in &self.known {
+        let known = match self.known.read() {
+            Ok(k) => k,
+            Err(p) => p.into_inner(),
+        };
+        for k in known.iter() {
             if ct_eq(k.sha256.as_bytes(), h.as_bytes()) {
                 best = best.max(Some(k.role));
             }
@@ -111,6 +135,148 @@ impl Tokens {
     pub fn token_id(token: &str) -> String {
         hash_token(token)[..8].to_string()
     }
+}
+
+fn stored_tokens(store: &dyn crate::storage::Store) -> Result<Vec<KnownToken>> {
+    Ok(store
+        .token_hashes()?
+        .into_iter()
+        .filter_map(|(sha256, role)| Role::from_name(&role).map(|role| KnownToken { sha256, role }))
+        .collect())
+}
+
+/// Writes a secret into a new file readable by its owner only (mode 0600 on Unix); an
+/// existing file is never overwritten.
+pub fn write_secret_file(path: &std::path::Path, text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true).create_new(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.mode(0o600);
+    }
+    let io = |source| crate::error::ServiceError::Io {
+        action: "create (owner-only, never overwritten)",
+        path: path.display().to_string(),
+        source,
+    };
+    let mut f = o.open(path).map_err(io)?;
+    f.write_all(text.as_bytes()).map_err(io)?;
+    f.sync_all().map_err(io)?;
+    Ok(())
+}
+
+/// Makes an existing file readable by its owner only (mode 0600 on Unix; a no-op
+/// elsewhere).
+pub fn restrict_file(path: &std::path::Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if path.exists() {
+            std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)).map_err(
+                |source| crate::error::ServiceError::Io {
+                    action: "restrict to the owner",
+                    path: path.display().to_string(),
+                    source,
+                },
+            )?;
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
+}
+
+/// At start: the SQLite record (and its WAL files) made owner-only, and tokens generated
+/// at this first start written once into the new owner-only file `<storage.path>.tokens`
+/// (`<storage.path>.<unix seconds>.tokens` if that exists; never overwritten).
+pub fn secure_record(
+    cfg: &crate::config::ServiceConfig,
+    generated: Option<&mut Generated>,
+) -> Result<()> {
+    if cfg.storage.backend == crate::config::StorageBackend::Sqlite {
+        for suffix in ["", "-wal", "-shm"] {
+            let mut p = cfg.storage.path.clone().into_os_string();
+            p.push(suffix);
+            restrict_file(std::path::Path::new(&p))?;
+        }
+    }
+    if let Some(g) = generated {
+        let mut file = cfg.storage.path.clone().into_os_string();
+        file.push(".tokens");
+        let mut file = std::path::PathBuf::from(file);
+        if file.exists() {
+            let mut f = cfg.storage.path.clone().into_os_string();
+            f.push(format!(".{}.tokens", crate::storage::unix_now_s() as u64));
+            file = f.into();
+        }
+        write_secret_file(
+            &file,
+            &token_file_text(&[
+                (Role::Operator, &g.operator),
+                (Role::ReadOnly, &g.read_only),
+            ]),
+        )?;
+        g.file = Some(file);
+    }
+    Ok(())
+}
+
+/// The text of a token file: one `role token` line per token.
+pub fn token_file_text(tokens: &[(Role, &str)]) -> String {
+    let mut s =
+        String::from("# gearcomp API tokens (shown once; the record keeps only their SHA-256)\n");
+    for (role, t) in tokens {
+        s.push_str(&format!("{} {t}\n", role.name()));
+    }
+    s
+}
+
+/// Issues a new token of `role`: written once into the new owner-only file `file`, its
+/// hash stored in the record. Returns the token's id (first 8 hex digits of its hash, as
+/// the audit log names it).
+pub fn issue_token(
+    store: &dyn crate::storage::Store,
+    role: Role,
+    file: &std::path::Path,
+) -> Result<String> {
+    let token = generate_token(role)?;
+    // The file first: a token whose file could not be written is never valid.
+    write_secret_file(file, &token_file_text(&[(role, &token)]))?;
+    store.add_token(role.name(), &hash_token(&token))?;
+    Ok(Tokens::token_id(&token))
+}
+
+/// Revokes the record's tokens with this id (8…64 hex digits of the hash); returns how
+/// many. A running service refuses them within a second.
+pub fn revoke_token(store: &dyn crate::storage::Store, id: &str) -> Result<usize> {
+    let id = id.trim().to_ascii_lowercase();
+    if id.len() < 8 || id.len() > 64 || !id.chars().all(|c| c.is_ascii_hexdigit()) {
+        return Err(invalid(
+            "--revoke-token",
+            &id,
+            "a token id: 8…64 hex digits of its SHA-256 (as --list-tokens and the audit log show)",
+        ));
+    }
+    let n = store.remove_token(&id)?;
+    if n == 0 {
+        let ids: Vec<String> = list_tokens(store)?.into_iter().map(|(i, _)| i).collect();
+        return Err(invalid(
+            "--revoke-token",
+            &id,
+            format!("the id of a token in the record ({})", ids.join(", ")),
+        ));
+    }
+    Ok(n)
+}
+
+/// The record's tokens: (id, role), oldest first.
+pub fn list_tokens(store: &dyn crate::storage::Store) -> Result<Vec<(String, Role)>> {
+    Ok(stored_tokens(store)?
+        .into_iter()
+        .map(|k| (k.sha256[..8.min(k.sha256.len())].to_string(), k.role))
+        .collect())
 }
 
 fn ct_eq(a: &[u8], b: &[u8]) -> bool {
@@ -164,5 +330,51 @@ mod tests {
         let (again, none) = Tokens::load_or_generate_in(&store, &[]).unwrap();
         assert!(none.is_none());
         assert_eq!(again.role_of(&g.operator), Some(Role::Operator));
+    }
+
+    #[test]
+    fn issued_tokens_live_in_an_owner_only_file_and_revoke_while_running() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("record.sqlite");
+        drop(crate::storage::open(&path).unwrap());
+        let store = crate::storage::SqliteStore::new(&path);
+        let (tokens, g) = Tokens::load_or_generate_in(&store, &[]).unwrap();
+        let g = g.unwrap();
+        let file = dir.path().join("op2.token");
+        let id = issue_token(&store, Role::Operator, &file).unwrap();
+        let text = std::fs::read_to_string(&file).unwrap();
+        let tok = text
+            .lines()
+            .nth(1)
+            .unwrap()
+            .strip_prefix("operator ")
+            .unwrap();
+        // The id is the first 8 hex digits of the token's SHA-256 (FIPS 180-4 digest).
+        assert_eq!(id, hash_token(tok)[..8]);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&file).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o600);
+        }
+        // Never overwritten: a second issue into the same file is refused, nothing stored.
+        assert!(issue_token(&store, Role::ReadOnly, &file).is_err());
+        assert_eq!(list_tokens(&store).unwrap().len(), 3);
+        // The running verifier sees the new token after a reload, and not after revoking.
+        assert_eq!(tokens.role_of(tok), None);
+        tokens.reload(&store).unwrap();
+        assert_eq!(tokens.role_of(tok), Some(Role::Operator));
+        assert_eq!(revoke_token(&store, &id).unwrap(), 1);
+        tokens.reload(&store).unwrap();
+        assert_eq!(tokens.role_of(tok), None);
+        assert_eq!(tokens.role_of(&g.read_only), Some(Role::ReadOnly));
+        // Bad ids: too short (would match many) or unknown, named with the option.
+        let e = revoke_token(&store, "ab").unwrap_err().to_string();
+        assert!(e.contains("--revoke-token"), "{e}");
+        let e = revoke_token(&store, &id).unwrap_err().to_string();
+        assert!(
+            e.contains("--revoke-token") && e.contains(&Tokens::token_id(&g.operator)),
+            "{e}"
+        );
     }
 }

@@ -70,8 +70,28 @@ pub struct AppState {
 
 type Shared = Arc<AppState>;
 
-/// The router with every route.
+/// How often a running service reads the record's tokens again (issued or revoked by
+/// `gearcomp serve --issue-token` / `--revoke-token` while it runs).
+pub const TOKEN_RELOAD: Duration = Duration::from_secs(1);
+
+async fn reload_tokens(state: std::sync::Weak<AppState>) {
+    let mut tick = tokio::time::interval(TOKEN_RELOAD);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        let Some(st) = state.upgrade() else { return };
+        // The store blocks (SQLite file, PostgreSQL client): off the async workers. A
+        // failed read keeps the tokens as they were.
+        let _ = tokio::task::spawn_blocking(move || st.tokens.reload(&*st.store)).await;
+    }
+}
+
+/// The router with every route. Within a tokio runtime it also starts the task that
+/// keeps the tokens current (it ends with the router's state).
 pub fn router(state: Shared) -> Router {
+    if tokio::runtime::Handle::try_current().is_ok() {
+        tokio::spawn(reload_tokens(Arc::downgrade(&state)));
+    }
     Router::new()
         .route("/", get(page))
         .route("/dashboard.js", get(script))

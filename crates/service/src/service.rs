@@ -206,6 +206,9 @@ fn announce(r: &Running) {
     if let Some(g) = &r.generated {
         let _ = writeln!(out, "operator token (shown once): {}", g.operator);
         let _ = writeln!(out, "read-only token (shown once): {}", g.read_only);
+        if let Some(f) = &g.file {
+            let _ = writeln!(out, "tokens written to {} (owner-only)", f.display());
+        }
     }
     let _ = writeln!(
         out,
@@ -350,7 +353,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 0.0
             };
             store.close_stale_alarms(origin_s)?;
-            let (tokens, generated) = Tokens::load_or_generate_in(&*store, &store_cfg.auth.tokens)?;
+            let (tokens, mut generated) =
+                Tokens::load_or_generate_in(&*store, &store_cfg.auth.tokens)?;
+            crate::auth::secure_record(&store_cfg, generated.as_mut())?;
             store.add_model(&model_src, &model_toml)?;
             let totals = store.sample_totals()?;
             Ok((store, origin_s, tokens, generated, totals))

@@ -752,6 +752,9 @@ pub trait Store: Send + Sync {
         params: WriterParams,
         stats: Arc<StoreStats>,
     ) -> Result<JoinHandle<Result<()>>>;
+    /// Deletes the tokens whose hash starts with `id` (the 8 hex digits the audit log
+    /// shows); returns how many.
+    fn remove_token(&self, id: &str) -> Result<usize>;
 }
 
 /// Opens the store a configuration names (creating the schema if needed).
@@ -861,6 +864,13 @@ impl Store for SqliteStore {
     }
 
     fn alarms(&self, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>> {
+    fn remove_token(&self, id: &str) -> Result<usize> {
+        Ok(open(&self.path)?.execute(
+            "DELETE FROM tokens WHERE substr(sha256, 1, length(?1)) = ?1",
+            params![id],
+        )?)
+    }
+
         alarms(&open_read(&self.path)?, active_only, limit)
     }
 

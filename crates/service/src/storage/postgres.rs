@@ -659,6 +659,16 @@ impl Store for PgStore {
     fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
         self.with(|c, mid| {
             c.execute(
+    fn remove_token(&self, id: &str) -> Result<usize> {
+        self.with(|c, mid| {
+            let n = c.execute(
+                "DELETE FROM tokens WHERE machine_id = $1 AND left(sha256, length($2)) = $2",
+                &[&mid, &id],
+            )?;
+            Ok(n as usize)
+        })
+    }
+
                 "INSERT INTO models (machine_id, unix_s, source, config_toml) \
                  VALUES ($1, $2, $3, $4)",
                 &[&mid, &unix_now_s(), &source, &config_toml],

@@ -290,3 +290,65 @@ async fn https_with_rustls_and_no_plaintext_on_the_plant_network() {
     };
     assert!(e.contains("http.tls.key_file"), "{e}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tokens_in_an_owner_only_file_issued_and_revoked_while_running() {
+    use gearcomp_service::auth;
+    use gearcomp_service::config::Role;
+    let dir = tempfile::tempdir().unwrap();
+    let run = start_with(
+        dir.path(),
+        "[http]\nport = 0\n[storage]\npath = \"tok.db\"\n[input]\nkind = \"simulator\"\nspeedup = 60.0\n",
+    )
+    .await;
+    let g = run.generated.clone().unwrap();
+    // First start: the tokens are also in <record>.tokens, owner-only, as is the record.
+    let file = g.file.clone().unwrap();
+    assert_eq!(file, dir.path().join("tok.db.tokens"));
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains(&format!("operator {}", g.operator)), "{text}");
+    assert!(
+        text.contains(&format!("read_only {}", g.read_only)),
+        "{text}"
+    );
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        for p in [file.clone(), dir.path().join("tok.db")] {
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o600, "{}", p.display());
+        }
+    }
+    let api = Api::new(&run);
+
+    // Issued while the service runs (what `gearcomp serve --issue-token` does): accepted
+    // within the reload period, then revoked: refused again.
+    let store = gearcomp_service::storage::SqliteStore::new(&dir.path().join("tok.db"));
+    let tfile = dir.path().join("late.token");
+    let id = auth::issue_token(&store, Role::ReadOnly, &tfile).unwrap();
+    let text = std::fs::read_to_string(&tfile).unwrap();
+    let tok = text
+        .lines()
+        .find_map(|l| l.strip_prefix("read_only "))
+        .unwrap()
+        .to_string();
+    let wait_code = |want: u16| {
+        let api = &api;
+        let tok = tok.clone();
+        async move {
+            for _ in 0..100 {
+                if api.get("/api/status", Some(&tok)).await.0 == want {
+                    return true;
+                }
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+            false
+        }
+    };
+    assert!(wait_code(200).await, "issued token never accepted");
+    assert_eq!(auth::revoke_token(&store, &id).unwrap(), 1);
+    assert!(wait_code(401).await, "revoked token still accepted");
+    // The first tokens still work.
+    assert_eq!(api.get("/api/status", Some(&g.operator)).await.0, 200);
+    run.stop().await.unwrap();
+}
