@@ -965,3 +965,102 @@ fn finish(
         test_rmse: rmse_where(&e, train, false),
     })
 }
+
+/// How a fixed model is fitted ([`evaluate_fixed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FitSpec {
+    /// Ordinary least squares.
+    Ols,
+    /// Ridge with this α (α·n scaling, standardised columns, unpenalised intercept).
+    Ridge(f64),
+    /// Principal-component regression on this many components.
+    Pcr(usize),
+}
+
+/// One regressor of a fixed model: `transform(sensor)`, or `value(sensor) − value(minus)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedTerm {
+    /// Input index.
+    pub sensor: usize,
+    /// Second input of a difference (then `transform` must be `Value`).
+    pub minus: Option<usize>,
+    /// Transform of the input.
+    pub transform: Transform,
+}
+
+/// A fixed model's validation under [`deployment_scheme`] and its fit on all training rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedResult {
+    /// Held-out RMSE per fold.
+    pub fold_rmse: Vec<f64>,
+    /// Pooled held-out RMSE.
+    pub cv_rmse: f64,
+    /// The fit on every training row (intercept first, one coefficient per term).
+    pub fit: LinearFit,
+}
+
+/// Validates and fits one fixed model of target `target` (no selection): the building block
+/// of every family, exposed so it can be checked against an independent implementation.
+pub fn evaluate_fixed(
+    table: &Table,
+    train: &[bool],
+    folds: usize,
+    target: usize,
+    terms: &[FixedTerm],
+    fit: FitSpec,
+) -> Result<FixedResult> {
+    if target >= table.targets.len() || terms.is_empty() {
+        return Err(invalid(
+            "target/terms",
+            target,
+            "a target index and ≥ 1 term",
+        ));
+    }
+    let scheme = deployment_scheme(table, train, folds)?;
+    let segs = table.segment_ranges();
+    let mut cols = Vec::with_capacity(terms.len());
+    for t in terms {
+        let x = table
+            .inputs
+            .get(t.sensor)
+            .ok_or_else(|| invalid("term.sensor", t.sensor, "an input index"))?;
+        cols.push(match t.minus {
+            Some(m) => {
+                let y = table
+                    .inputs
+                    .get(m)
+                    .ok_or_else(|| invalid("term.minus", m, "an input index"))?;
+                x.iter().zip(y).map(|(a, b)| a - b).collect()
+            }
+            None => transform_segments(&table.time_s, x, t.transform, &segs)?,
+        });
+    }
+    let eng = Engine::new(&cols, std::slice::from_ref(&table.targets[target]), &scheme);
+    let fitter = match fit {
+        FitSpec::Ols => Fitter::Ols,
+        FitSpec::Ridge(a) => Fitter::Ridge(a),
+        FitSpec::Pcr(k) => Fitter::Pcr(k),
+    };
+    let idx: Vec<usize> = (0..cols.len()).collect();
+    let sse = eng
+        .fold_sse(&idx, 0, fitter)
+        .ok_or_else(|| IdentifyError::RankDeficient {
+            columns: "the fixed model in some fold".into(),
+            pivot: 0.0,
+            tolerance: 0.0,
+        })?;
+    let names: Vec<String> = (0..cols.len()).map(|k| format!("term {k}")).collect();
+    let tr: Vec<Vec<f64>> = cols.iter().map(|c| select_rows(c, train)).collect();
+    let refs: Vec<&[f64]> = tr.iter().map(|v| v.as_slice()).collect();
+    let y = select_rows(&table.targets[target], train);
+    let fit = match fit {
+        FitSpec::Ols => regress::ols(&refs, &y, &names)?,
+        FitSpec::Ridge(a) => regress::ridge(&refs, &y, a, &names)?,
+        FitSpec::Pcr(k) => regress::pcr(&refs, &y, k, &names)?,
+    };
+    Ok(FixedResult {
+        fold_rmse: eng.fold_rmse(&sse),
+        cv_rmse: eng.pooled(&sse),
+        fit,
+    })
+}
