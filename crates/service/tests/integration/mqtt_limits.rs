@@ -409,6 +409,7 @@ async fn a_session_that_drops_at_once_does_not_reset_the_back_off() {
         .await
         .unwrap();
     let gaps: Vec<f64> = at.windows(2).map(|w| (w[1] - w[0]).as_secs_f64()).collect();
+    eprintln!("attempt gaps (s): {gaps:?}");
     // Each accepted-then-dropped session counts as a failure: the waits double
     // 0.1, 0.2, 0.4, 0.8, 0.8 s (a gap is the wait plus the attempt itself, so at least
     // the wait). Reset at every CONNACK, every gap would be about 0.1 s.
