@@ -532,18 +532,19 @@ fn producible_range(
     let scale = largest_producible_scale(design, dresser, fl, m, &t.points, d_s_mm, b);
     let share = match (scale, input.crowning_um) {
         (None, _) => format!(
-            "at the worm diameter {d_s_mm} mm not even the unmodified profile stays within \
+            "at the worm diameter {d_s_mm:.3} mm not even the unmodified profile stays within \
              {budget}"
         ),
         (Some(s), Some(c)) => format!(
-            "at the worm diameter {d_s_mm} mm the largest crowning this worm and dresser carry \
+            "at the worm diameter {d_s_mm:.3} mm the largest crowning this worm and dresser carry \
              within {budget} is crowning_um = {:.3} µm",
-            s * c
+            // Toward zero, so the stated value itself stays producible.
+            (s * c * 1e3).trunc() / 1e3
         ),
         (Some(s), None) => format!(
-            "at the worm diameter {d_s_mm} mm at most {:.1} % of these points (every f scaled \
+            "at the worm diameter {d_s_mm:.3} mm at most {:.1} % of these points (every f scaled \
              alike) is producible within {budget}",
-            100.0 * s
+            (1e3 * s).trunc() / 10.0
         ),
     };
     let dia = if d_s_mm >= design.d_s0_mm {
@@ -551,15 +552,14 @@ fn producible_range(
     } else {
         match smallest_producible_diameter(design, dresser, fl, m, &t.points, d_s_mm, b) {
             Some(d) => format!(
-                "; the requested {} is producible for [solve] diameter_mm from {d:.1} to {} mm",
-                t.key.trim_start_matches("[solve] "),
-                design.d_s0_mm
+                "; the requested modification ({}) is producible for [solve] diameter_mm from \
+                 {d:.1} to {} mm",
+                t.key, design.d_s0_mm
             ),
             None => format!(
-                "; the requested {} is not producible at any diameter, not even on the new worm \
-                 ({} mm)",
-                t.key.trim_start_matches("[solve] "),
-                design.d_s0_mm
+                "; the requested modification ({}) is not producible at any worm diameter, not \
+                 even on the new worm ({} mm)",
+                t.key, design.d_s0_mm
             ),
         }
     };
@@ -636,7 +636,7 @@ pub fn solve_request(design: &Worm, dresser: &Dresser, input: &SolveInput) -> Re
             key: t.key.to_string(),
             detail: format!(
                 "{} beyond [solve] budget_mm = {} mm ({:.0} µm): the worm cannot carry this \
-                 modification at the worm diameter {d_s} mm; {}. Set [solve] accept_penetration = \
+                 modification at the worm diameter {d_s:.3} mm; {}. Set [solve] accept_penetration = \
                  true to output the solution anyway (flagged)",
                 checks.describe(),
                 input.budget_mm,

@@ -5,9 +5,12 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod analytic;
 mod campaign;
 mod dressing;
 mod geometry;
 mod kinematics;
+mod request_props;
+mod request_repro;
 mod solvers;
 mod topology;
