@@ -118,3 +118,96 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
     assert!(auto[2] <= 1.02 * ls[2], "{auto:?} vs {ls:?}");
     assert!(auto[1] <= 1.05 * ls[1], "{auto:?} vs {ls:?}");
 }
+
+/// Every family's model, written as the model file the engine loads, runs in the
+/// compensation engine (gearcomp-thermal) with the prediction the fit reports: the law
+/// value per cycle equals `predict` on each run (the engine restarted per run).
+#[test]
+fn every_family_runs_in_the_engine_as_fitted() {
+    use gearcomp_identify::identify::predict;
+    use gearcomp_identify::select::Family;
+    use gearcomp_thermal::config::{TimeFilterConfig, Trigger};
+    use gearcomp_thermal::presets::HOBBING_MODEL_KEY;
+    use gearcomp_thermal::{Engine, Inputs, Reading};
+    let text = hobbing_runs();
+    let sel = Selection {
+        targets: vec!["drift_um".into()],
+        run: Some("run".into()),
+        ..Selection::default()
+    };
+    let t = read_csv(&text, "hobbing runs", &sel, ReadOptions::default()).unwrap();
+    for fam in Family::ALL {
+        let id = identify(
+            &t,
+            &IdentifyOptions {
+                families: vec![fam],
+                split: Split::TestRuns(vec!["4".into()]),
+                ..IdentifyOptions::default()
+            },
+        )
+        .unwrap();
+        let m = &id.targets[0];
+        // Through the model-file text, as the engine would read it.
+        let file = gearcomp_core::model::ModelFile {
+            format: gearcomp_core::model::MODEL_FORMAT.into(),
+            name: "fit".into(),
+            description: String::new(),
+            axes: vec![gearcomp_core::model::AxisModel {
+                axis: "X".into(),
+                target: m.target.clone(),
+                machine: m.model.clone(),
+                workpiece: None,
+            }],
+            provenance: None,
+        };
+        let file = gearcomp_core::model::ModelFile::from_toml_str(&file.to_toml_string().unwrap())
+            .unwrap();
+        let mut cfg = hobbing().config;
+        cfg.sampling.samples_per_average = 1;
+        cfg.sampling.time_filter = TimeFilterConfig::None {};
+        cfg.sampling.trigger = Trigger::Clock { period_s: 60.0 };
+        cfg.insert_model(HOBBING_MODEL_KEY, file.clone());
+        let predicted = predict(&t, &file.axes[0].machine).unwrap();
+        let mut compared = 0;
+        for (s, e) in t.segment_ranges() {
+            let mut eng = Engine::new(&cfg).unwrap();
+            for i in s..e {
+                let readings: Vec<Reading> = t
+                    .input_names
+                    .iter()
+                    .map(|_| Reading {
+                        raw: 0.0,
+                        stamp_s: t.time_s[i],
+                    })
+                    .enumerate()
+                    .map(|(c, r)| Reading {
+                        raw: t.inputs[c][i],
+                        ..r
+                    })
+                    .collect();
+                let out = eng.step(&Inputs {
+                    time_s: t.time_s[i],
+                    readings: &readings,
+                    trigger: false,
+                    safe_point: true,
+                    positions_mm: &[0.0],
+                });
+                let law = out.axes()[0].law_um;
+                if law.is_finite() {
+                    let p = predicted[i];
+                    assert!(
+                        (law - p).abs() <= 1e-9 * (1.0 + p.abs()),
+                        "{}: row {i}: engine {law} vs fit {p}",
+                        fam.name()
+                    );
+                    compared += 1;
+                }
+            }
+        }
+        assert!(
+            compared > t.time_s.len() * 9 / 10,
+            "{}: {compared}",
+            fam.name()
+        );
+    }
+}

@@ -147,6 +147,10 @@ pub struct OffsetOut {
     pub offsets_um: [f64; MAX_AXES],
     /// Axes in use.
     pub n_axes: u8,
+    /// Per axis: the offset is a valid one (resumed from the record, or computed by an
+    /// engine whose law has had every input). Outputs write nothing for an axis that is
+    /// not valid: never a 0 that only means "no value yet".
+    pub valid: [bool; MAX_AXES],
     /// Wall-clock instant the scan that caused it completed.
     pub scan_at: Option<Instant>,
 }
@@ -158,6 +162,7 @@ impl Default for OffsetOut {
             seq: 0,
             offsets_um: [0.0; MAX_AXES],
             n_axes: 0,
+            valid: [false; MAX_AXES],
             scan_at: None,
         }
     }
@@ -214,13 +219,13 @@ pub struct Live {
     pub axes: Vec<LiveAxis>,
     /// The latched stop request.
     pub stop: Option<String>,
+    /// Occurrences of each active input alarm (see [`crate::alarms`]).
+    pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
 }
 
 impl Live {
     /// The initial state for these names.
     pub fn new(channels: &[String], axes: &[String]) -> Self {
-    /// Occurrences of each active input alarm (see [`crate::alarms`]).
-    pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
         Self {
             time_s: f64::NAN,
             status: "starting",
@@ -249,12 +254,12 @@ impl Live {
                 })
                 .collect(),
             stop: None,
+            input_alarm_counts: Default::default(),
         }
     }
 }
 
 /// Bumpless transfer after an engine swap: the output holds the last applied offset until
-            input_alarm_counts: Default::default(),
 /// the new engine has a value, then the difference decays at a fixed rate.
 ///
 /// # Formula
@@ -315,6 +320,115 @@ impl Bumpless {
         self.bias_um[i] = b - b.clamp(-r, r);
         out
     }
+}
+
+/// What a restarted service resumes from, kept in the record (`Record::Resume`): the
+/// offsets last applied per axis and the engine's state (averages, filters, rate limit,
+/// latched stop).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResumeState {
+    /// [`config_hash`] of the engine configuration the state belongs to.
+    pub config_hash: u64,
+    /// Per axis: a valid offset had been applied.
+    pub valid: Vec<bool>,
+    /// Per axis: the offset last applied, µm.
+    pub applied_um: Vec<f64>,
+    /// `Engine::save_state`.
+    pub engine: Vec<f64>,
+}
+
+const RESUME_TAG: &str = "gearcomp-resume-1";
+
+impl ResumeState {
+    /// Text form: every number as the 16 hex digits of its bits, so nothing is rounded.
+    pub fn encode(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::with_capacity(32 + 17 * (self.applied_um.len() + self.engine.len()));
+        let _ = write!(
+            s,
+            "{RESUME_TAG} {:016x} {} {}",
+            self.config_hash,
+            self.applied_um.len(),
+            self.engine.len()
+        );
+        for v in &self.valid {
+            s.push_str(if *v { " 1" } else { " 0" });
+        }
+        for v in self.applied_um.iter().chain(&self.engine) {
+            let _ = write!(s, " {:016x}", v.to_bits());
+        }
+        s
+    }
+
+    /// Parses [`ResumeState::encode`]'s text; None if it is not one.
+    pub fn decode(text: &str) -> Option<Self> {
+        let mut it = text.split_ascii_whitespace();
+        if it.next()? != RESUME_TAG {
+            return None;
+        }
+        let config_hash = u64::from_str_radix(it.next()?, 16).ok()?;
+        let n_axes: usize = it.next()?.parse().ok()?;
+        let n_engine: usize = it.next()?.parse().ok()?;
+        if n_axes > MAX_AXES || n_engine > 1 << 24 {
+            return None;
+        }
+        let mut valid = Vec::with_capacity(n_axes);
+        for _ in 0..n_axes {
+            valid.push(match it.next()? {
+                "1" => true,
+                "0" => false,
+                _ => return None,
+            });
+        }
+        let mut num = || -> Option<f64> {
+            let t = it.next()?;
+            (t.len() == 16).then_some(())?;
+            Some(f64::from_bits(u64::from_str_radix(t, 16).ok()?))
+        };
+        let mut applied_um = Vec::with_capacity(n_axes);
+        for _ in 0..n_axes {
+            applied_um.push(num()?);
+        }
+        let mut engine = Vec::with_capacity(n_engine);
+        for _ in 0..n_engine {
+            engine.push(num()?);
+        }
+        it.next().is_none().then_some(Self {
+            config_hash,
+            valid,
+            applied_um,
+            engine,
+        })
+    }
+}
+
+/// FNV-1a of an engine configuration's text: a saved engine state is restored only into
+/// an engine built from the same configuration.
+pub fn config_hash(config_toml: &str) -> u64 {
+    config_toml.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// What [`Cycle::resume`] took over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Resumed {
+    /// Nothing usable (another axis layout, or no valid offset).
+    Nothing,
+    /// The applied offsets; the engine starts afresh (its configuration changed) and holds
+    /// them until its laws have values.
+    Offsets,
+    /// The applied offsets and the engine's state.
+    OffsetsAndEngine,
+}
+
+/// Periodic saving of the resume state.
+#[derive(Debug)]
+struct Persist {
+    interval: Duration,
+    last: Instant,
+    dirty: bool,
+    hash: u64,
 }
 
 fn status_name(s: AxisStatus) -> &'static str {
@@ -388,6 +502,10 @@ pub struct Cycle {
     input_alarms: crate::alarms::InputAlarms,
     bumpless: Bumpless,
     applied_um: [f64; MAX_AXES],
+    /// Per axis: a valid offset exists (see [`OffsetOut::valid`]).
+    valid: [bool; MAX_AXES],
+    /// Where the resume state is saved (None: not kept, e.g. benchmarks).
+    persist: Option<Persist>,
     seq: u64,
     cycles: u64,
     samples: u64,
@@ -448,6 +566,8 @@ impl Cycle {
             input_alarms: Default::default(),
             bumpless: Bumpless::default(),
             applied_um: [0.0; MAX_AXES],
+            valid: [false; MAX_AXES],
+            persist: None,
             seq: 0,
             cycles: 0,
             samples: 0,
@@ -464,6 +584,97 @@ impl Cycle {
         }
     }
 
+    /// Keeps the resume state in the record at most every `interval` (wall clock) while
+    /// anything changes, and at the end of the run.
+    pub fn keep_state(&mut self, interval: Duration) {
+        self.persist = Some(Persist {
+            interval,
+            last: Instant::now(),
+            dirty: false,
+            hash: config_hash(&self.config.to_toml_string().unwrap_or_default()),
+        });
+    }
+
+    /// Whether the machine is at a safe point before the source has said so (true unless
+    /// the source reports the machine state: then false, so nothing moves before it has).
+    pub fn set_safe_point(&mut self, safe_point: bool) {
+        self.safe_point = safe_point;
+    }
+
+    /// Resumes from the state a previous run kept (call before `run`): the last applied
+    /// offsets are published at once as valid (the first value the outputs write), the
+    /// engine's state is restored when its configuration is unchanged, and the engine's
+    /// rate limit and safe-point gate move on from the applied offsets.
+    pub fn resume(&mut self, r: &ResumeState) -> Resumed {
+        let n = self.n_axes;
+        if r.applied_um.len() != n || r.valid.len() != n || !r.valid.iter().any(|v| *v) {
+            return Resumed::Nothing;
+        }
+        let hash = config_hash(&self.config.to_toml_string().unwrap_or_default());
+        let engine_ok = hash == r.config_hash && self.engine.restore_state(&r.engine).is_ok();
+        for i in 0..n {
+            let y = r.applied_um[i];
+            if r.valid[i] && y.is_finite() {
+                self.engine.resume_offset(i, y, engine_ok);
+                self.applied_um[i] = y;
+                self.valid[i] = true;
+            }
+        }
+        self.seq += 1;
+        self.offsets.send_replace(OffsetOut {
+            time_s: f64::NAN,
+            seq: self.seq,
+            offsets_um: self.applied_um,
+            n_axes: n as u8,
+            valid: self.valid,
+            scan_at: None,
+        });
+        if let Ok(mut live) = self.live.lock() {
+            for (i, l) in live.axes.iter_mut().enumerate() {
+                l.offset_um = self.applied_um[i];
+                l.engine_offset_um = self.applied_um[i];
+            }
+        }
+        if engine_ok {
+            Resumed::OffsetsAndEngine
+        } else {
+            Resumed::Offsets
+        }
+    }
+
+    /// The state to resume from now.
+    pub fn resume_state(&self) -> ResumeState {
+        let mut engine = Vec::new();
+        self.engine.save_state(&mut engine);
+        ResumeState {
+            config_hash: config_hash(&self.config.to_toml_string().unwrap_or_default()),
+            valid: self.valid[..self.n_axes].to_vec(),
+            applied_um: self.applied_um[..self.n_axes].to_vec(),
+            engine,
+        }
+    }
+
+    fn save_state(&mut self, time_s: f64) {
+        let Some(p) = self.persist.as_mut() else {
+            return;
+        };
+        p.last = Instant::now();
+        p.dirty = false;
+        let hash = p.hash;
+        let mut engine = Vec::new();
+        self.engine.save_state(&mut engine);
+        let st = ResumeState {
+            config_hash: hash,
+            valid: self.valid[..self.n_axes].to_vec(),
+            applied_um: self.applied_um[..self.n_axes].to_vec(),
+            engine,
+        };
+        self.record(Record::Resume {
+            time_s,
+            state: st.encode(),
+        });
+    }
+
     fn record(&self, r: Record) {
         // A closed store means the service is ending; the cycle must not panic over it.
         let _ = self.records.send(r);
@@ -475,6 +686,24 @@ impl Cycle {
             key,
             message,
         });
+    }
+
+    fn input_alarm_edge(&self, e: crate::alarms::Edge) {
+        match e {
+            crate::alarms::Edge::Raised { key, message } => {
+                self.raise(self.clock.now_s(), key, message)
+            }
+            crate::alarms::Edge::Cleared { key } => self.record(Record::AlarmCleared {
+                time_s: self.clock.now_s(),
+                key,
+            }),
+        }
+    }
+
+    fn publish_alarm_counts(&self) {
+        if let Ok(mut live) = self.live.lock() {
+            live.input_alarm_counts = self.input_alarms.counts();
+        }
     }
 
     /// Handles one message; returns false on shutdown.
@@ -530,11 +759,17 @@ impl Cycle {
                 if let Some(e) = self.input_alarms.raise(key, message) {
                     self.input_alarm_edge(e);
                 }
+                self.publish_alarm_counts();
             }
             InputMsg::ClearAlarm { key } => {
                 for e in self.input_alarms.clear(key) {
                     self.input_alarm_edge(e);
                 }
+                self.publish_alarm_counts();
+            }
+            InputMsg::AlarmCount { key, count } => {
+                self.input_alarms.set_count(key, count);
+                self.publish_alarm_counts();
             }
             InputMsg::SwapEngine(engine, config) => {
                 let rates: Vec<f64> = config
@@ -546,6 +781,10 @@ impl Cycle {
                 self.bumpless.start(&self.applied_um[..n], &rates);
                 self.engine = *engine;
                 self.config = *config;
+                if let Some(p) = self.persist.as_mut() {
+                    p.hash = config_hash(&self.config.to_toml_string().unwrap_or_default());
+                    p.dirty = true;
+                }
             }
             InputMsg::AckStop => self.engine.acknowledge_stop(),
             InputMsg::Shutdown => return false,
@@ -658,6 +897,11 @@ impl Cycle {
         let mut changed = false;
         let mut next = [0.0; MAX_AXES];
         for (i, a) in out.axes().iter().enumerate() {
+            if !self.valid[i] && self.engine.axis_ready(i) {
+                // The first valid offset: outputs may write from now on.
+                self.valid[i] = true;
+                changed = true;
+            }
             let ready = a.status != AxisStatus::Starting;
             let y = self.bumpless.apply(i, a.offset_um, ready);
             next[i] = y;
@@ -679,35 +923,20 @@ impl Cycle {
             }
         }
         self.applied_um = next;
-        if changed || self.seq == 0 {
+        // Nothing leaves before an axis has a valid offset (no 0 meaning "no value yet").
+        if changed && self.valid[..n_axes].iter().any(|v| *v) {
             self.seq += 1;
             let o = OffsetOut {
                 time_s: t,
                 seq: self.seq,
                 offsets_um: next,
-    fn input_alarm_edge(&self, e: crate::alarms::Edge) {
-        match e {
-            crate::alarms::Edge::Raised { key, message } => {
-                self.raise(self.clock.now_s(), key, message)
-            }
-            crate::alarms::Edge::Cleared { key } => self.record(Record::AlarmCleared {
-                time_s: self.clock.now_s(),
-                key,
-            }),
-        }
-    }
-
-    fn publish_alarm_counts(&self) {
-        if let Ok(mut live) = self.live.lock() {
-            live.input_alarm_counts = self.input_alarms.counts();
-        }
-    }
-
                 n_axes: n_axes as u8,
+                valid: self.valid,
                 scan_at: self.scan_at,
             };
             self.offsets.send_replace(o);
         }
+        let averaged = out.averaged;
         if let Ok(mut live) = self.live.lock() {
             live.time_s = t;
             live.status = engine_status_name(out.status);
@@ -734,6 +963,12 @@ impl Cycle {
                 live.stop = out.stop.map(|s| stop_text(&self.engine, s));
             }
         }
+        if let Some(p) = self.persist.as_mut() {
+            p.dirty |= changed || averaged;
+            if p.dirty && p.last.elapsed() >= p.interval {
+                self.save_state(t);
+            }
+        }
     }
 
     /// Runs until shutdown: steps on complete scans, and at the latest every period so a
@@ -756,7 +991,6 @@ impl Cycle {
             }
             if self.last_step.elapsed() >= self.period {
                 self.step();
-                self.publish_alarm_counts();
             }
         }
         // Finish: whatever arrived is stepped once more so the record ends on a cycle.
@@ -765,13 +999,11 @@ impl Cycle {
                 break;
             }
         }
-                self.publish_alarm_counts();
-            }
-            InputMsg::AlarmCount { key, count } => {
-                self.input_alarms.set_count(key, count);
-                self.publish_alarm_counts();
         if self.n_fresh > 0 {
             self.step();
+        }
+        if self.cycles > 0 {
+            self.save_state(self.last_time_s);
         }
     }
 }
@@ -888,6 +1120,150 @@ mod tests {
         sample(&mut cycle, 24.0);
         assert_eq!(off_rx.borrow().offsets_um[0], -16.0);
         assert_eq!(live.lock().unwrap().axes[0].status, "frozen");
+    }
+
+    /// A and B in °C, Cz = −3.75·(A − B) on Z, rate limit 0.5 µm per cycle, applied only
+    /// at safe points.
+    const RATE_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+        valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+        [[channels]]\nname = \"B\"\nsensor = { kind = \"celsius\" }\n\
+        valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+        [[axes]]\nname = \"Z\"\napply = { kind = \"measuring_system\" }\nmax_offset_um = 100.0\n\
+        max_step_um = 0.5\nsafe_points_only = true\n\
+        [[axes.terms]]\nkind = \"difference\"\na = \"A\"\nb = \"B\"\nkz_um_per_c = -3.75\n";
+
+    type Rig = (
+        Cycle,
+        std::sync::mpsc::Receiver<Record>,
+        tokio::sync::watch::Receiver<OffsetOut>,
+        Clock,
+    );
+
+    fn rig(origin_s: f64) -> Rig {
+        let cfg = EngineConfig::from_toml_str(RATE_ENGINE).unwrap();
+        let engine = Engine::new(&cfg).unwrap();
+        let (rec_tx, rec_rx) = std::sync::mpsc::sync_channel(1 << 16);
+        let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
+        let live = Arc::new(Mutex::new(Live::new(
+            engine.channel_names(),
+            engine.axis_names(),
+        )));
+        let clock = Clock::new(origin_s, 1.0);
+        let cycle = Cycle::new(CycleParts {
+            engine,
+            config: cfg,
+            clock,
+            period_s: 1.0,
+            bumpless_step_um: 0.5,
+            records: rec_tx,
+            live,
+            offsets: off_tx,
+            shutdown: Arc::new(AtomicBool::new(false)),
+        });
+        (cycle, rec_rx, off_rx, clock)
+    }
+
+    /// One complete scan (A, B) at the given machine state; returns the offset published.
+    fn scan(r: &mut Rig, a_c: f64, safe_point: bool) -> (u64, f64) {
+        assert!(r.0.handle(InputMsg::MachineState { safe_point }));
+        for (c, raw) in [(0u16, a_c), (1u16, 20.0)] {
+            assert!(r.0.handle(InputMsg::Sample {
+                channel: c,
+                raw,
+                stamp_s: r.3.now_s(),
+            }));
+        }
+        let o = *r.2.borrow();
+        (o.seq, o.offsets_um[0])
+    }
+
+    #[test]
+    fn resume_state_text_round_trips_every_bit() {
+        let st = ResumeState {
+            config_hash: 0xfeed_beef_0123_4567,
+            valid: vec![true, false],
+            applied_um: vec![-22.5, 0.1 + 0.2],
+            engine: vec![
+                1.0,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                -0.0,
+                5e-324,
+                1.0 / 3.0,
+            ],
+        };
+        let back = ResumeState::decode(&st.encode()).unwrap();
+        assert_eq!(back.config_hash, st.config_hash);
+        assert_eq!(back.valid, st.valid);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.applied_um), bits(&st.applied_um));
+        assert_eq!(bits(&back.engine), bits(&st.engine));
+        // Truncated, extended or foreign text is refused.
+        let text = st.encode();
+        assert!(ResumeState::decode(&text[..text.len() - 1]).is_none());
+        assert!(ResumeState::decode(&format!("{text} 00")).is_none());
+        assert!(ResumeState::decode("gearcomp-resume-0 0 0 0").is_none());
+    }
+
+    /// Restart mid-cut: the first value out is the last applied offset, nothing moves
+    /// until the next safe point, then the rate limit governs; a fault freezes and alarms,
+    /// never writes 0; a fresh start with a fault writes nothing at all.
+    #[test]
+    fn restart_resumes_mid_cut_without_a_step() {
+        let mut r1 = rig(0.0);
+        // A = 24 °C: target −15 µm, reached at 0.5 µm per cycle; stop at −5 µm.
+        let mut ys = Vec::new();
+        for _ in 0..10 {
+            ys.push(scan(&mut r1, 24.0, true).1);
+        }
+        let want: Vec<f64> = (1..=10).map(|k| -0.5 * f64::from(k)).collect();
+        assert_eq!(ys, want);
+        let state = r1.0.resume_state();
+        assert_eq!(state.applied_um, vec![-5.0]);
+
+        // The new run starts mid-cut (the source reports the machine state).
+        let mut r2 = rig(100.0);
+        r2.0.set_safe_point(false);
+        assert_eq!(r2.0.resume(&state), Resumed::OffsetsAndEngine);
+        let first = *r2.2.borrow();
+        assert_eq!(
+            (first.seq, first.offsets_um[0], first.valid[0]),
+            (1, -5.0, true)
+        );
+        // Mid-cut with a new temperature (target −22.5 µm): held at −5 µm.
+        for _ in 0..5 {
+            assert_eq!(scan(&mut r2, 26.0, false), (1, -5.0));
+        }
+        // At the safe point: one rate step per cycle, −5.5, −6, −6.5.
+        let ys: Vec<f64> = (0..3).map(|_| scan(&mut r2, 26.0, true).1).collect();
+        assert_eq!(ys, vec![-5.5, -6.0, -6.5]);
+        // A fault: the target freezes at its last good value (−22.5 µm) with an alarm;
+        // the offset goes on towards it at the rate limit, never to 0.
+        let ys: Vec<f64> = (0..3).map(|_| scan(&mut r2, f64::NAN, true).1).collect();
+        assert_eq!(ys, vec![-7.0, -7.5, -8.0]);
+        let raised: Vec<String> =
+            r2.1.try_iter()
+                .filter_map(|r| match r {
+                    Record::AlarmRaised { key, .. } => Some(key),
+                    _ => None,
+                })
+                .collect();
+        assert_eq!(raised, vec!["channel.A.not_a_number".to_string()]);
+
+        // Another configuration (engine state not restorable): the offsets still resume
+        // and are held until the new law has a value.
+        let mut r3 = rig(200.0);
+        let mut other = state.clone();
+        other.config_hash ^= 1;
+        assert_eq!(r3.0.resume(&other), Resumed::Offsets);
+        assert_eq!(r3.2.borrow().offsets_um[0], -5.0);
+
+        // A fresh start whose first readings are faulty publishes nothing.
+        let mut r4 = rig(300.0);
+        for _ in 0..3 {
+            assert_eq!(scan(&mut r4, f64::NAN, true).0, 0);
+        }
+        assert!(!r4.2.borrow().valid[0]);
     }
 
     #[test]

@@ -14,7 +14,7 @@ use gearcomp_thermal::{Engine, EngineConfig, Preset, Simulator};
 
 use crate::auth::Tokens;
 use crate::config::{InputSection, MachineEntry, ServiceConfig};
-use crate::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut};
+use crate::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut, ResumeState};
 use crate::error::{Result, ServiceError};
 use crate::http::{self, AppState, ModelInfo};
 use crate::storage::{self, StoreStats};
@@ -341,7 +341,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     let (ch, ax, tg) = (channels.clone(), axes.clone(), targets.clone());
     let model_toml = engine_cfg.to_toml_string().unwrap_or_default();
     let model_src = model_source.clone();
-    let (store, origin_s, tokens, generated, totals) =
+    let (store, origin_s, tokens, generated, totals, resume) =
         tokio::task::spawn_blocking(move || -> Result<_> {
             let store = storage::open_store(&store_cfg)?;
             store.register_names(&ch, &ax, &tg)?;
@@ -358,7 +358,8 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             crate::auth::secure_record(&store_cfg, generated.as_mut())?;
             store.add_model(&model_src, &model_toml)?;
             let totals = store.sample_totals()?;
-            Ok((store, origin_s, tokens, generated, totals))
+            let resume = store.resume_state()?;
+            Ok((store, origin_s, tokens, generated, totals, resume))
         })
         .await
         .map_err(|_| ServiceError::Stopped("opening the store"))??;
@@ -401,7 +402,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             .await
             .map_err(|_| ServiceError::Stopped("the store thread"))??
     };
-    let cycle = Cycle::new(CycleParts {
+    let mut cycle = Cycle::new(CycleParts {
         engine,
         config: engine_cfg.clone(),
         clock,
@@ -415,6 +416,20 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     let cycle_thread = std::thread::Builder::new()
         .name("gearcomp-cycle".into())
         .spawn(move || cycle.run(in_rx))
+    // Bumpless restart: the state the last run kept (applied offsets, filters, rate
+    // limit, latched stop) is taken over; it is kept again while this run goes on.
+    cycle.keep_state(commit);
+    if let Some(state) = resume.as_deref().and_then(ResumeState::decode) {
+        cycle.resume(&state);
+    }
+    // A source that reports the machine state starts "not at a safe point", so nothing
+    // moves mid-cut before its first report.
+    #[cfg(feature = "opcua")]
+    if let InputSection::OpcUa(o) = &cfg.input {
+        if o.program_state.is_some() {
+            cycle.set_safe_point(false);
+        }
+    }
         .map_err(|source| ServiceError::Io {
             action: "start",
             path: "the cycle thread".into(),

@@ -105,6 +105,14 @@ pub enum Record {
         /// Details.
         detail: String,
     },
+    /// The state a restarted service resumes from (`cycle::ResumeState::encode`); only
+    /// the newest is kept.
+    Resume {
+        /// Cycle time it was taken at, s.
+        time_s: f64,
+        /// The encoded state.
+        state: String,
+    },
     /// A model put in use.
     Model {
         /// Where it came from.
@@ -160,6 +168,8 @@ CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY, unix_s REAL NOT NULL,
     token_id TEXT NOT NULL, role TEXT NOT NULL, action TEXT NOT NULL, detail TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS models (id INTEGER PRIMARY KEY, unix_s REAL NOT NULL,
     source TEXT NOT NULL, config_toml TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS resume_state (id INTEGER PRIMARY KEY CHECK (id = 1),
+    time_s REAL NOT NULL, state TEXT NOT NULL);
 ";
 
 /// Opens (creating if needed) the database, with WAL and the schema.
@@ -242,6 +252,15 @@ pub fn last_time_s(conn: &Connection) -> Result<f64> {
         }
     }
     Ok(t)
+}
+
+/// The newest resume state kept in the record (see [`Record::Resume`]), if any.
+pub fn resume_state(conn: &Connection) -> Result<Option<String>> {
+    Ok(conn
+        .query_row("SELECT state FROM resume_state WHERE id = 1", [], |r| {
+            r.get(0)
+        })
+        .optional()?)
 }
 
 /// Alarms left open by a previous run are closed at `time_s` (their causes are re-raised
@@ -359,6 +378,13 @@ pub fn writer_loop(
                             action,
                             detail,
                         } => audit(&tx, &token_id, role, action, &detail)?,
+                        Record::Resume { time_s, state } => {
+                            tx.execute(
+                                "INSERT INTO resume_state (id, time_s, state) VALUES (1, ?1, ?2) \
+                                 ON CONFLICT (id) DO UPDATE SET time_s = excluded.time_s, state = excluded.state",
+                                params![time_s, state],
+                            )?;
+                        }
                         Record::Model {
                             source,
                             config_toml,
@@ -728,8 +754,13 @@ pub trait Store: Send + Sync {
     fn token_hashes(&self) -> Result<Vec<(String, String)>>;
     /// Stores a token hash.
     fn add_token(&self, role: &str, sha256: &str) -> Result<()>;
+    /// Deletes the tokens whose hash starts with `id` (the 8 hex digits the audit log
+    /// shows); returns how many.
+    fn remove_token(&self, id: &str) -> Result<usize>;
     /// Records a model put in use.
     fn add_model(&self, source: &str, config_toml: &str) -> Result<()>;
+    /// The newest resume state kept by a previous run (`Record::Resume`), if any.
+    fn resume_state(&self) -> Result<Option<String>>;
     /// Committed samples: (count, highest sample id).
     fn sample_totals(&self) -> Result<(u64, u64)>;
     /// A channel's history in a time range (newest `limit` rows, returned oldest first).
@@ -752,9 +783,6 @@ pub trait Store: Send + Sync {
         params: WriterParams,
         stats: Arc<StoreStats>,
     ) -> Result<JoinHandle<Result<()>>>;
-    /// Deletes the tokens whose hash starts with `id` (the 8 hex digits the audit log
-    /// shows); returns how many.
-    fn remove_token(&self, id: &str) -> Result<usize>;
 }
 
 /// Opens the store a configuration names (creating the schema if needed).
@@ -838,12 +866,24 @@ impl Store for SqliteStore {
         Ok(())
     }
 
+    fn remove_token(&self, id: &str) -> Result<usize> {
+        Ok(open(&self.path)?.execute(
+            "DELETE FROM tokens WHERE substr(sha256, 1, length(?1)) = ?1",
+            params![id],
+        )?)
+    }
+
     fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
         open(&self.path)?.execute(
             "INSERT INTO models (unix_s, source, config_toml) VALUES (?1, ?2, ?3)",
             params![unix_now_s(), source, config_toml],
         )?;
         Ok(())
+    }
+
+    fn resume_state(&self) -> Result<Option<String>> {
+        // The writable open creates the table in a record written by an older version.
+        resume_state(&open(&self.path)?)
     }
 
     fn sample_totals(&self) -> Result<(u64, u64)> {
@@ -864,13 +904,6 @@ impl Store for SqliteStore {
     }
 
     fn alarms(&self, active_only: bool, limit: u32) -> Result<Vec<AlarmRow>> {
-    fn remove_token(&self, id: &str) -> Result<usize> {
-        Ok(open(&self.path)?.execute(
-            "DELETE FROM tokens WHERE substr(sha256, 1, length(?1)) = ?1",
-            params![id],
-        )?)
-    }
-
         alarms(&open_read(&self.path)?, active_only, limit)
     }
 

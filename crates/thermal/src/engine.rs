@@ -18,9 +18,12 @@ use crate::config::{
     Application, AxisConfig, ChannelConfig, EngineConfig, TermConfig, TimeFilterConfig, Trigger,
 };
 use crate::error::{check_range, invalid, Result, ThermalError};
-use crate::filter::{BlockAverage, DelayLine, FirstOrderLag, MovingWindow};
+use crate::filter::{BlockAverage, DelayLine, FirstOrderLag, MovingWindow, StateCursor};
 use crate::law;
 use crate::sensor::{self, Resistive, SensorKind};
+
+/// Layout version of [`Engine::save_state`].
+const STATE_VERSION: f64 = 1.0;
 
 /// Most channels one engine reads (fault bookkeeping uses a 64-bit mask).
 pub const MAX_CHANNELS: usize = 64;
@@ -463,6 +466,29 @@ struct LinearEval {
 }
 
 impl LinearEval {
+    fn save(&self, out: &mut Vec<f64>) {
+        for r in &self.regressors {
+            out.push(r.x);
+            match &r.transform {
+                TransformState::Value => {}
+                TransformState::Lag(l) | TransformState::Rate(l, _) => l.save(out),
+                TransformState::Delay(d) => d.save(out),
+            }
+        }
+    }
+
+    fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        for r in &mut self.regressors {
+            r.x = c.next()?;
+            match &mut r.transform {
+                TransformState::Value => {}
+                TransformState::Lag(l) | TransformState::Rate(l, _) => l.restore(c)?,
+                TransformState::Delay(d) => d.restore(c)?,
+            }
+        }
+        Some(())
+    }
+
     fn build(m: &LinearModel, field: &str, names: &[String]) -> Result<Self> {
         let mut regressors = Vec::with_capacity(m.terms.len());
         for (i, t) in m.terms.iter().enumerate() {
@@ -1321,9 +1347,166 @@ impl Engine {
         self.channels.get(channel).map_or(f64::NAN, |c| c.value)
     }
 
+    /// True once every channel an axis's law reads has had an averaged value (its offset
+    /// is then a computed one, not the starting 0).
+    pub fn axis_ready(&self, axis: usize) -> bool {
+        self.axes
+            .get(axis)
+            .is_some_and(|a| a.mask & !self.has_value_mask == 0)
+    }
+
     /// Clears a latched stop request (the operator acknowledged it).
     pub fn acknowledge_stop(&mut self) {
         self.stop = None;
+    }
+
+    /// Appends the engine's state (time base, latched stop, every channel's average,
+    /// filter and check state, every axis's offset, target, law value, pulse count and
+    /// model transforms) to `out` as plain numbers, so a restarted service can resume
+    /// without a step ([`Engine::restore_state`]). The layout is fixed by the
+    /// configuration: it can only be restored into an engine built from the same one.
+    pub fn save_state(&self, out: &mut Vec<f64>) {
+        let mask = self.has_value_mask;
+        out.extend_from_slice(&[
+            STATE_VERSION,
+            self.channels.len() as f64,
+            self.axes.len() as f64,
+            self.next_clock_s,
+            self.last_time_s,
+            self.start_s,
+            f64::from((mask >> 32) as u32),
+            f64::from(mask as u32),
+        ]);
+        match self.stop {
+            Some(s) => out.extend_from_slice(&[
+                1.0,
+                f64::from(s.channel),
+                s.value,
+                s.limit_min,
+                s.limit_max,
+            ]),
+            None => out.extend_from_slice(&[0.0; 5]),
+        }
+        for ch in &self.channels {
+            out.extend_from_slice(&[ch.last_stamp_s, ch.stuck_ref, ch.stuck_since_s, ch.value]);
+            ch.block.save(out);
+            match &ch.filter {
+                TimeFilter::None => {}
+                TimeFilter::Lag(l) => l.save(out),
+                TimeFilter::Window(w) => w.save(out),
+            }
+        }
+        for ax in &self.axes {
+            out.extend_from_slice(&[
+                ax.out.offset_um,
+                ax.out.target_um,
+                ax.out.law_um,
+                ax.out.pulse_total as f64,
+                ax.carry_pulses,
+            ]);
+            for t in &ax.terms {
+                if let Term::Model(m) = &t.term {
+                    m.machine.save(out);
+                    if let Some(w) = &m.workpiece {
+                        w.temperature.save(out);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Restores a state saved by [`Engine::save_state`] from an engine with the same
+    /// configuration; all or nothing: on an error the engine is unchanged.
+    pub fn restore_state(&mut self, state: &[f64]) -> Result<()> {
+        let mut e = self.clone();
+        let mut c = StateCursor::new(state);
+        match e.restore_from(&mut c) {
+            Some(()) if c.at_end() => {
+                *self = e;
+                Ok(())
+            }
+            _ => Err(invalid(
+                "engine state",
+                format!("{} values", state.len()),
+                "a state saved by an engine with the same configuration",
+            )),
+        }
+    }
+
+    fn restore_from(&mut self, c: &mut StateCursor) -> Option<()> {
+        if c.next()? != STATE_VERSION
+            || c.count(MAX_CHANNELS + 1)? != self.channels.len()
+            || c.count(MAX_AXES + 1)? != self.axes.len()
+        {
+            return None;
+        }
+        self.next_clock_s = c.next()?;
+        self.last_time_s = c.next()?;
+        self.start_s = c.next()?;
+        let hi = c.count(1 << 32)? as u64;
+        let lo = c.count(1 << 32)? as u64;
+        self.has_value_mask = (hi << 32) | lo;
+        let has_stop = c.count(2)? == 1;
+        let stop = StopReason {
+            channel: c.count(self.channels.len())? as u16,
+            value: c.next()?,
+            limit_min: c.next()?,
+            limit_max: c.next()?,
+        };
+        self.stop = has_stop.then_some(stop);
+        for ch in &mut self.channels {
+            ch.last_stamp_s = c.next()?;
+            ch.stuck_ref = c.next()?;
+            ch.stuck_since_s = c.next()?;
+            ch.value = c.next()?;
+            ch.block.restore(c)?;
+            match &mut ch.filter {
+                TimeFilter::None => {}
+                TimeFilter::Lag(l) => l.restore(c)?,
+                TimeFilter::Window(w) => w.restore(c)?,
+            }
+        }
+        for ax in &mut self.axes {
+            ax.out.offset_um = c.next()?;
+            ax.out.target_um = c.next()?;
+            ax.out.law_um = c.next()?;
+            let total = c.next()?;
+            if !(total.is_finite() && total.fract() == 0.0) {
+                return None;
+            }
+            ax.out.pulse_total = total as i64;
+            ax.carry_pulses = c.next()?;
+            for t in &mut ax.terms {
+                if let Term::Model(m) = &mut t.term {
+                    m.machine.restore(c)?;
+                    if let Some(w) = &mut m.workpiece {
+                        w.temperature.restore(c)?;
+                    }
+                }
+            }
+            if !(ax.out.offset_um.is_finite() && ax.out.target_um.is_finite()) {
+                return None;
+            }
+        }
+        Some(())
+    }
+
+    /// Sets an axis's applied offset to the value the machine holds (the last one
+    /// written before a restart), so the rate limit and the safe-point gate move on
+    /// from there rather than from 0. An axis whose target is not known (no state
+    /// restored) takes the offset as its running compensation as well, and holds it
+    /// until its law has a value. Non-finite values and unknown axes are ignored.
+    pub fn resume_offset(&mut self, axis: usize, offset_um: f64, target_known: bool) {
+        if let Some(ax) = self.axes.get_mut(axis) {
+            if !offset_um.is_finite() {
+                return;
+            }
+            let o = offset_um.clamp(-ax.max_offset_um, ax.max_offset_um);
+            ax.out.offset_um = o;
+            if !target_known {
+                ax.out.target_um = o;
+            }
+        }
     }
 
     /// Runs one cycle and returns its result. Allocation-free; never panics on any input
@@ -1661,6 +1844,113 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// An engine restored from a saved state continues exactly as the engine that was
+    /// never interrupted (the reference), bit for bit, for every preset (block
+    /// averages, lags, triggers, dead band, rate limit, safe points); a state of another
+    /// layout is refused and leaves the engine unchanged.
+    #[test]
+    fn restored_state_continues_as_the_uninterrupted_engine() {
+        for p in crate::presets::Preset::ALL {
+            let b = crate::presets::bundle(p);
+            let mut sim = crate::sim::Simulator::new(b.machine.clone(), 7).unwrap();
+            let names: Vec<String> = sim.spec().sensors.iter().map(|s| s.name.clone()).collect();
+            let map: Vec<usize> = b
+                .config
+                .channels
+                .iter()
+                .map(|c| names.iter().position(|n| n == &c.name).unwrap())
+                .collect();
+            let n_axes = b.config.axes.len();
+            let positions = [0.0; MAX_AXES];
+            let mut a = Engine::new(&b.config).unwrap();
+            let mut restored: Option<Engine> = None;
+            let mut compared = 0;
+            for k in 0..3000u32 {
+                let st = sim.advance().clone();
+                let readings: Vec<Reading> = map
+                    .iter()
+                    .map(|&s| Reading {
+                        raw: st.raw[s],
+                        stamp_s: st.time_s,
+                    })
+                    .collect();
+                let inputs = Inputs {
+                    time_s: st.time_s,
+                    readings: &readings,
+                    trigger: k % 3 == 0,
+                    safe_point: !st.cutting,
+                    positions_mm: &positions[..n_axes],
+                };
+                let oa = a.step(&inputs);
+                if k == 1000 {
+                    let mut buf = Vec::new();
+                    a.save_state(&mut buf);
+                    let mut e = Engine::new(&b.config).unwrap();
+                    e.restore_state(&buf).unwrap();
+                    // One value short: refused, nothing changed.
+                    let mut f = Engine::new(&b.config).unwrap();
+                    let before = format!("{f:?}");
+                    assert!(f.restore_state(&buf[..buf.len() - 1]).is_err());
+                    assert_eq!(format!("{f:?}"), before);
+                    restored = Some(e);
+                } else if let Some(e) = restored.as_mut() {
+                    let ob = e.step(&inputs);
+                    assert_eq!(format!("{oa:?}"), format!("{ob:?}"), "{p:?} step {k}");
+                    compared += 1;
+                }
+            }
+            assert!(a.axes.iter().any(|x| x.out.offset_um != 0.0), "{p:?}");
+            assert_eq!(compared, 1999);
+        }
+    }
+
+    /// A resumed offset is held while the law has no value, then the rate limit moves
+    /// it by at most max_step_um per cycle (closed form: 10 − 0.5·k), never through 0.
+    #[test]
+    fn resumed_offset_is_held_then_rate_limited() {
+        let cfg = EngineConfig::from_toml_str(
+            "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+             valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+             [[axes]]\nname = \"Z\"\napply = { kind = \"measuring_system\" }\n\
+             max_offset_um = 100.0\nmax_step_um = 0.5\n\
+             [[axes.terms]]\nkind = \"linear\"\nchannel = \"A\"\nkd_um_per_c = 1.0\nalpha_um = -20.0\n",
+        )
+        .unwrap();
+        let mut e = Engine::new(&cfg).unwrap();
+        e.resume_offset(0, 10.0, false);
+        let nan = [Reading {
+            raw: f64::NAN,
+            stamp_s: f64::NEG_INFINITY,
+        }];
+        // No reading yet (a fault): the resumed value is held, never 0.
+        for k in 1..=3 {
+            let o = e.step(&Inputs {
+                time_s: f64::from(k),
+                readings: &nan,
+                trigger: true,
+                safe_point: true,
+                positions_mm: &[0.0],
+            });
+            assert_eq!(o.axes()[0].offset_um, 10.0);
+        }
+        // Law = 1·28 − 20 = 8 µm: 10 → 9.5 → 9 → 8.5 → 8.
+        let mut got = Vec::new();
+        for k in 4..=9 {
+            let o = e.step(&Inputs {
+                time_s: f64::from(k),
+                readings: &[Reading {
+                    raw: 28.0,
+                    stamp_s: f64::from(k),
+                }],
+                trigger: true,
+                safe_point: true,
+                positions_mm: &[0.0],
+            });
+            got.push(o.axes()[0].offset_um);
+        }
+        assert_eq!(got, vec![9.5, 9.0, 8.5, 8.0, 8.0, 8.0]);
     }
 
     /// The precomputed shrink agrees bit for bit with `gearcomp_geometry::shrink` (the

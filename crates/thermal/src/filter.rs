@@ -266,6 +266,116 @@ impl DelayLine {
     }
 }
 
+/// Reads a saved state back value by value (see `Engine::save_state`).
+#[derive(Debug)]
+pub(crate) struct StateCursor<'a> {
+    s: &'a [f64],
+    i: usize,
+}
+
+impl<'a> StateCursor<'a> {
+    pub(crate) fn new(s: &'a [f64]) -> Self {
+        Self { s, i: 0 }
+    }
+
+    /// The next value, or None past the end.
+    pub(crate) fn next(&mut self) -> Option<f64> {
+        let v = self.s.get(self.i).copied();
+        self.i += 1;
+        v
+    }
+
+    /// The next value as a count (a non-negative integer below `max`).
+    pub(crate) fn count(&mut self, max: usize) -> Option<usize> {
+        let v = self.next()?;
+        (v >= 0.0 && v.fract() == 0.0 && v < max as f64).then_some(v as usize)
+    }
+
+    /// True when every value was read.
+    pub(crate) fn at_end(&self) -> bool {
+        self.i == self.s.len()
+    }
+}
+
+impl BlockAverage {
+    pub(crate) fn save(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&[self.count as f64, self.sum]);
+    }
+
+    pub(crate) fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        self.count = c.count(self.n)?;
+        self.sum = c.next()?;
+        Some(())
+    }
+}
+
+impl FirstOrderLag {
+    pub(crate) fn save(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&[
+            self.last_dt_s,
+            self.gain,
+            self.y,
+            self.t_last_s,
+            f64::from(u8::from(self.started)),
+        ]);
+    }
+
+    pub(crate) fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        self.last_dt_s = c.next()?;
+        self.gain = c.next()?;
+        self.y = c.next()?;
+        self.t_last_s = c.next()?;
+        self.started = c.count(2)? == 1;
+        Some(())
+    }
+}
+
+impl MovingWindow {
+    pub(crate) fn save(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&[self.head as f64, self.len as f64, self.sum]);
+        out.extend_from_slice(&self.buf);
+    }
+
+    pub(crate) fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        let cap = self.buf.len();
+        self.head = c.count(cap)?;
+        self.len = c.count(cap + 1)?;
+        self.sum = c.next()?;
+        for b in self.buf.iter_mut() {
+            *b = c.next()?;
+        }
+        Some(())
+    }
+}
+
+impl DelayLine {
+    pub(crate) fn save(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&[
+            self.head as f64,
+            self.len as f64,
+            self.stored as f64,
+            self.hint as f64,
+        ]);
+        out.extend_from_slice(&self.t[..]);
+        out.extend_from_slice(&self.v[..]);
+    }
+
+    pub(crate) fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        self.head = c.count(DELAY_CAPACITY)?;
+        self.len = c.count(DELAY_CAPACITY + 1)?;
+        // Counts of points stored: exact in an f64 up to 2^53.
+        self.stored = c.count(1 << 53)? as u64;
+        self.hint = c.count(1 << 53)? as u64;
+        for x in self.t.iter_mut() {
+            *x = c.next()?;
+        }
+        for x in self.v.iter_mut() {
+            *x = c.next()?;
+        }
+        Some(())
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {

@@ -170,7 +170,7 @@ async fn run_module(
     let conn_key = format!("modbus.{i}.connection");
     let period = Duration::from_secs_f64(cfg.poll_period_s);
     let mut failures = 0u32;
-    let mut written_seq = 0u64;
+    let mut held = Held::default();
     loop {
         let mut ctx = match connect(&m).await {
             Ok(c) => c,
@@ -192,6 +192,8 @@ async fn run_module(
             }
         };
         failures = 0;
+        // A new connection (the device may have restarted): check and write at once.
+        held.connected = true;
         send(
             &tx,
             InputMsg::ClearAlarm {
@@ -286,58 +288,168 @@ async fn run_module(
             send(&tx, InputMsg::ScanEnd);
             if let Some((o, axis)) = &out {
                 let snap = *offsets.borrow_and_update();
-                if snap.seq != written_seq && (*axis) < snap.n_axes as usize {
-                    let okey = "modbus.offset_output".to_string();
-                    match encode_offset(snap.offsets_um[*axis], o.um_per_count) {
-                        Ok(word) => {
-                            match ctx.write_single_register(o.address, word).await {
-                                Ok(Ok(())) => {
-                                    // Only a confirmed write counts; a failed one is
-                                    // retried with the newest value at the next poll.
-                                    written_seq = snap.seq;
-                                    send(&tx, InputMsg::ClearAlarm { key: okey });
-                                }
-                                Ok(Err(exc)) => send(
-                                    &tx,
-                                    InputMsg::RaiseAlarm {
-                                        key: okey,
-                                        message: format!(
-                                            "Modbus offset write to register {}: exception {exc:?}; retrying",
-                                            o.address
-                                        ),
-                                    },
-                                ),
-                                Err(e) => {
-                                    send(
-                                        &tx,
-                                        InputMsg::RaiseAlarm {
-                                            key: okey,
-                                            message: format!(
-                                                "Modbus offset write to register {}: {e}; retrying",
-                                                o.address
-                                            ),
-                                        },
-                                    );
-                                    break 'poll;
-                                }
-                            }
-                        }
-                        Err(msg) => {
-                            written_seq = snap.seq;
-                            send(
-                                &tx,
-                                InputMsg::RaiseAlarm {
-                                    key: okey,
-                                    message: msg,
-                                },
-                            );
-                        }
-                    }
+                if write_output(&mut ctx, o, *axis, &snap, &mut held, &tx)
+                    .await
+                    .is_err()
+                {
+                    break 'poll;
                 }
             }
         }
         failures = failures.saturating_add(1);
         tokio::time::sleep(Duration::from_secs_f64(cfg.reconnect.wait_s(failures))).await;
+    }
+}
+
+/// What the offset output knows about the device's register.
+#[derive(Debug, Default)]
+struct Held {
+    /// The offset sequence number last confirmed written.
+    written_seq: u64,
+    /// The word last confirmed written (what the device should hold).
+    word: Option<u16>,
+    /// When the register is read back next.
+    next_check: Option<tokio::time::Instant>,
+    /// A connection was (re)opened since the last write.
+    connected: bool,
+}
+
+const OUT_KEY: &str = "modbus.offset_output";
+const HELD_KEY: &str = "modbus.offset_output.held";
+
+/// Writes the newest valid offset when it is new, on a new connection, or when the
+/// device no longer holds the word last written (read back every `refresh_s`: a device
+/// that restarted or was overwritten raises `modbus.offset_output.held` and is written
+/// again). Err: the connection failed.
+async fn write_output(
+    ctx: &mut client::Context,
+    o: &crate::config::ModbusOffsetOutput,
+    axis: usize,
+    snap: &OffsetOut,
+    held: &mut Held,
+    tx: &SyncSender<InputMsg>,
+) -> std::result::Result<(), ()> {
+    // Nothing before the axis has a valid offset (no 0 meaning "no value yet").
+    if axis >= snap.n_axes as usize || !snap.valid[axis] {
+        return Ok(());
+    }
+    let now = tokio::time::Instant::now();
+    let mut force = std::mem::take(&mut held.connected);
+    if let Some(want) = held.word {
+        if force || held.next_check.is_none_or(|t| now >= t) {
+            held.next_check = Some(now + Duration::from_secs_f64(o.refresh_s));
+            let read = tokio::time::timeout(
+                Duration::from_secs(3),
+                ctx.read_holding_registers(o.address, 1),
+            )
+            .await;
+            match read {
+                Ok(Ok(Ok(w))) if w.first() == Some(&want) => {
+                    send(
+                        tx,
+                        InputMsg::ClearAlarm {
+                            key: HELD_KEY.into(),
+                        },
+                    );
+                }
+                Ok(Ok(Ok(w))) => {
+                    let got = w
+                        .first()
+                        .map_or("nothing".to_string(), |v| format!("{} counts", *v as i16));
+                    send(
+                        tx,
+                        InputMsg::RaiseAlarm {
+                            key: HELD_KEY.into(),
+                            message: format!(
+                                "Modbus offset register {} holds {got}, expected {} counts ({} µm at {} µm/count): device restarted or overwritten; written again",
+                                o.address,
+                                want as i16,
+                                f64::from(want as i16) * o.um_per_count,
+                                o.um_per_count
+                            ),
+                        },
+                    );
+                    force = true;
+                }
+                Ok(Ok(Err(exc))) => {
+                    send(
+                        tx,
+                        InputMsg::RaiseAlarm {
+                            key: HELD_KEY.into(),
+                            message: format!(
+                                "Modbus offset register {}: read-back refused ({exc:?}); written again",
+                                o.address
+                            ),
+                        },
+                    );
+                    force = true;
+                }
+                Ok(Err(_)) | Err(_) => return Err(()),
+            }
+        }
+    }
+    if snap.seq == held.written_seq && !force {
+        return Ok(());
+    }
+    let word = match encode_offset(snap.offsets_um[axis], o.um_per_count) {
+        Ok(w) => w,
+        Err(msg) => {
+            held.written_seq = snap.seq;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: OUT_KEY.into(),
+                    message: msg,
+                },
+            );
+            return Ok(());
+        }
+    };
+    match ctx.write_single_register(o.address, word).await {
+        Ok(Ok(())) => {
+            // Only a confirmed write counts; a failed one is retried with the newest
+            // value at the next poll.
+            held.written_seq = snap.seq;
+            held.word = Some(word);
+            if held.next_check.is_none() {
+                held.next_check = Some(now + Duration::from_secs_f64(o.refresh_s));
+            }
+            send(
+                tx,
+                InputMsg::ClearAlarm {
+                    key: OUT_KEY.into(),
+                },
+            );
+            Ok(())
+        }
+        Ok(Err(exc)) => {
+            held.connected = true;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: OUT_KEY.into(),
+                    message: format!(
+                        "Modbus offset write to register {}: exception {exc:?}; retrying",
+                        o.address
+                    ),
+                },
+            );
+            Ok(())
+        }
+        Err(e) => {
+            held.connected = true;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: OUT_KEY.into(),
+                    message: format!(
+                        "Modbus offset write to register {}: {e}; retrying",
+                        o.address
+                    ),
+                },
+            );
+            Err(())
+        }
     }
 }
 

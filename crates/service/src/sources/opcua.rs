@@ -825,8 +825,11 @@ async fn write_offset(
     tx: &SyncSender<InputMsg>,
 ) {
     let snap = *offsets.borrow();
+    // Nothing before the axis has a valid offset: a session opened before the first
+    // scan must not write the 0 that only means "no value yet".
     if (snap.seq == o.written_seq && !o.rewrite)
         || o.axis >= snap.n_axes as usize
+        || !snap.valid[o.axis]
         || Instant::now() < o.next_try
     {
         return;

@@ -59,7 +59,7 @@ use crate::error::{invalid, Result, ServiceError};
 use spill::Spill;
 
 /// Schema version this build writes.
-pub const SCHEMA_VERSION: i32 = 1;
+pub const SCHEMA_VERSION: i32 = 2;
 
 /// Advisory-lock class of gearcomp (first key of the two-key lock functions).
 const LOCK_CLASS: i32 = 0x6763_6f6d; // "gcom"
@@ -71,7 +71,8 @@ const CHUNK_RECORDS: usize = 100_000;
 pub const SHUTDOWN_RETRY: Duration = Duration::from_secs(10);
 
 /// Migrations, index = version − 1. Each runs once, in the transaction that records it.
-const MIGRATIONS: [&str; 1] = ["
+const MIGRATIONS: [&str; 2] = [
+    "
 CREATE TABLE machines (id SERIAL PRIMARY KEY, name TEXT NOT NULL UNIQUE,
     last_batch BIGINT NOT NULL DEFAULT 0, created_unix_s DOUBLE PRECISION NOT NULL);
 CREATE TABLE channels (machine_id INTEGER NOT NULL REFERENCES machines(id),
@@ -111,7 +112,12 @@ CREATE TABLE audit (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
 CREATE TABLE models (id BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY,
     machine_id INTEGER NOT NULL, unix_s DOUBLE PRECISION NOT NULL, source TEXT NOT NULL,
     config_toml TEXT NOT NULL);
-"];
+",
+    "
+CREATE TABLE resume_state (machine_id INTEGER PRIMARY KEY REFERENCES machines(id),
+    time_s DOUBLE PRECISION NOT NULL, state TEXT NOT NULL);
+",
+];
 
 /// Connection settings and the machine's key, shared by the readers and the writer.
 #[derive(Clone)]
@@ -656,9 +662,6 @@ impl Store for PgStore {
         })
     }
 
-    fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
-        self.with(|c, mid| {
-            c.execute(
     fn remove_token(&self, id: &str) -> Result<usize> {
         self.with(|c, mid| {
             let n = c.execute(
@@ -669,11 +672,27 @@ impl Store for PgStore {
         })
     }
 
+    fn add_model(&self, source: &str, config_toml: &str) -> Result<()> {
+        self.with(|c, mid| {
+            c.execute(
                 "INSERT INTO models (machine_id, unix_s, source, config_toml) \
                  VALUES ($1, $2, $3, $4)",
                 &[&mid, &unix_now_s(), &source, &config_toml],
             )?;
             Ok(())
+        })
+    }
+
+    fn resume_state(&self) -> Result<Option<String>> {
+        self.with(|c, mid| {
+            let row = c.query_opt(
+                "SELECT state FROM resume_state WHERE machine_id = $1",
+                &[&mid],
+            )?;
+            Ok(match row {
+                Some(r) => Some(r.try_get(0)?),
+                None => None,
+            })
         })
     }
 
@@ -1508,6 +1527,14 @@ fn write_chunk<'a>(
                     "INSERT INTO models (machine_id, unix_s, source, config_toml) \
                      VALUES ($1, $2, $3, $4)",
                     &[&mid, &unix_now_s(), source, config_toml],
+                )?;
+            }
+            Record::Resume { time_s, state } => {
+                tx.execute(
+                    "INSERT INTO resume_state (machine_id, time_s, state) VALUES ($1, $2, $3) \
+                     ON CONFLICT (machine_id) DO UPDATE SET time_s = EXCLUDED.time_s, \
+                     state = EXCLUDED.state",
+                    &[&mid, time_s, state],
                 )?;
             }
         }

@@ -519,6 +519,15 @@ fn encode(
             None,
             [Some(source), Some(config_toml), None, None],
         ),
+        Record::Resume { time_s, state } => (
+            9,
+            Some(*time_s),
+            None,
+            None,
+            None,
+            None,
+            [Some(state), None, None, None],
+        ),
     }
 }
 
@@ -576,6 +585,10 @@ fn decode(row: Row) -> Record {
             role: intern(s2),
             action: intern(s3),
             detail: s4,
+        },
+        9 => Record::Resume {
+            time_s: t,
+            state: s1,
         },
         _ => Record::Model {
             source: s1,
