@@ -750,11 +750,21 @@ pub struct ModbusOffsetOutput {
     /// µm per register count (i16, two's complement), 0.001…1000.
     #[serde(default = "tenth")]
     pub um_per_count: f64,
+    /// Every `refresh_s` (0.05…3600 s) the register is read back and, if the device no
+    /// longer holds the offset (restarted, overwritten), alarmed and written again; it is
+    /// also written at once on every new connection.
+    #[serde(default = "modbus_refresh_s")]
+    pub refresh_s: f64,
 }
 
 #[cfg(feature = "modbus")]
 fn tenth() -> f64 {
     0.1
+}
+
+#[cfg(feature = "modbus")]
+fn modbus_refresh_s() -> f64 {
+    1.0
 }
 
 pub use crate::sources::replay::ReplayInput;
@@ -763,11 +773,6 @@ pub use crate::sources::replay::ReplayInput;
 pub use crate::sources::opcua_config::{
     OpcUaChannel, OpcUaInput, OpcUaOffsetOutput, OpcUaProgramState, OpcUaTrigger,
 };
-    /// Every `refresh_s` (0.05…3600 s) the register is read back and, if the device no
-    /// longer holds the offset (restarted, overwritten), alarmed and written again; it is
-    /// also written at once on every new connection.
-    #[serde(default = "modbus_refresh_s")]
-    pub refresh_s: f64,
 
 impl ServiceConfig {
     /// Parses a configuration text; `path` only names the file in messages.
@@ -775,11 +780,6 @@ impl ServiceConfig {
         let cfg: Self = toml::from_str(text).map_err(|e| ServiceError::Config {
             path: path.into(),
             message: e.to_string(),
-#[cfg(feature = "modbus")]
-fn modbus_refresh_s() -> f64 {
-    1.0
-}
-
         })?;
         cfg.validate()?;
         Ok(cfg)
@@ -995,6 +995,13 @@ fn modbus_refresh_s() -> f64 {
                         1000.0,
                         "0.001…1000 µm",
                     )?;
+                    check_range(
+                        "input.offset_output.refresh_s",
+                        o.refresh_s,
+                        0.05,
+                        3600.0,
+                        "0.05…3600 s",
+                    )?;
                 }
             }
             #[cfg(feature = "opcua")]
@@ -1011,13 +1018,6 @@ impl ServiceConfig {
     fn validate_http(&self) -> Result<()> {
         let h = &self.http;
         if !h.bind.is_loopback() && h.tls.is_none() && !h.allow_plaintext {
-                    check_range(
-                        "input.offset_output.refresh_s",
-                        o.refresh_s,
-                        0.05,
-                        3600.0,
-                        "0.05…3600 s",
-                    )?;
             return Err(invalid(
                 "http.bind",
                 h.bind,

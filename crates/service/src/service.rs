@@ -413,9 +413,6 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         offsets: off_tx,
         shutdown: shutdown.clone(),
     });
-    let cycle_thread = std::thread::Builder::new()
-        .name("gearcomp-cycle".into())
-        .spawn(move || cycle.run(in_rx))
     // Bumpless restart: the state the last run kept (applied offsets, filters, rate
     // limit, latched stop) is taken over; it is kept again while this run goes on.
     cycle.keep_state(commit);
@@ -430,6 +427,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             cycle.set_safe_point(false);
         }
     }
+    let cycle_thread = std::thread::Builder::new()
+        .name("gearcomp-cycle".into())
+        .spawn(move || cycle.run(in_rx))
         .map_err(|source| ServiceError::Io {
             action: "start",
             path: "the cycle thread".into(),
