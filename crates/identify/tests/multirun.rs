@@ -123,6 +123,7 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
 /// compensation engine (gearcomp-thermal) with the prediction the fit reports: the law
 /// value per cycle equals `predict` on each run (the engine restarted per run).
 #[test]
+#[allow(clippy::needless_range_loop)]
 fn every_family_runs_in_the_engine_as_fitted() {
     use gearcomp_identify::identify::predict;
     use gearcomp_identify::select::Family;
@@ -173,16 +174,11 @@ fn every_family_runs_in_the_engine_as_fitted() {
             let mut eng = Engine::new(&cfg).unwrap();
             for i in s..e {
                 let readings: Vec<Reading> = t
-                    .input_names
+                    .inputs
                     .iter()
-                    .map(|_| Reading {
-                        raw: 0.0,
+                    .map(|x| Reading {
+                        raw: x[i],
                         stamp_s: t.time_s[i],
-                    })
-                    .enumerate()
-                    .map(|(c, r)| Reading {
-                        raw: t.inputs[c][i],
-                        ..r
                     })
                     .collect();
                 let out = eng.step(&Inputs {
