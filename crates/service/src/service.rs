@@ -368,10 +368,10 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     stats.committed_samples.store(totals.0, Ordering::Release);
     stats.last_sample_id.store(totals.1, Ordering::Release);
 
-    let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
     let http_tls = cfg.http.tls.as_ref().map(http::tls_acceptor).transpose()?;
     let scheme = if http_tls.is_some() { "https" } else { "http" };
     let http_limits = http::ServerLimits::of(&cfg.http);
+    let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
         .await
         .map_err(|source| ServiceError::Io {
             action: "bind",
@@ -553,6 +553,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
 
     Ok(Running {
         addr,
+        scheme,
         generated,
         db: db_path,
         machine: cfg.machine.name.clone(),
@@ -568,7 +569,6 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         http_stop: http_stop_tx,
         server,
     })
-        scheme,
 }
 
 impl Running {
