@@ -556,6 +556,19 @@ pub struct MqttInput {
     /// Environment variable holding the broker password.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub password_env: Option<String>,
+    /// TLS to the broker (rustls, ring provider); the broker's certificate must chain to
+    /// `ca_file` and name `host`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tls: Option<MqttTls>,
+}
+
+/// TLS to the MQTT broker.
+#[cfg(feature = "mqtt")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MqttTls {
+    /// The plant CA's certificate(s) (PEM), relative to the configuration file.
+    pub ca_file: PathBuf,
 }
 
 #[cfg(feature = "mqtt")]
@@ -830,6 +843,9 @@ impl ServiceConfig {
         if let InputSection::Mqtt(m) = &mut cfg.input {
             if let Some(f) = m.password_file.as_mut().filter(|f| f.is_relative()) {
                 *f = dir.join(&*f);
+            }
+            if let Some(t) = m.tls.as_mut().filter(|t| t.ca_file.is_relative()) {
+                t.ca_file = dir.join(&t.ca_file);
             }
         }
         #[cfg(feature = "opcua")]

@@ -285,6 +285,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     #[cfg(feature = "mqtt")]
     if let crate::config::InputSection::Mqtt(m) = &cfg.input {
         m.credentials()?;
+        if let Some(t) = &m.tls {
+            crate::sources::mqtt::tls_config(t)?;
+        }
     }
     let (engine_cfg, model_source) = engine_config(&cfg)?;
     let engine = Engine::new(&engine_cfg)?;

@@ -179,6 +179,49 @@ async fn timers(state: std::sync::Weak<std::sync::Mutex<ConnState>>, tx: SyncSen
     }
 }
 
+/// The rustls client configuration of `input.tls` (ring provider; the broker must chain
+/// to the CA file), checked at start; the error names the key and the file.
+pub fn tls_config(
+    t: &crate::config::MqttTls,
+) -> crate::error::Result<std::sync::Arc<rustls::ClientConfig>> {
+    use crate::error::invalid;
+    use rustls::pki_types::pem::PemObject;
+    use rustls::pki_types::CertificateDer;
+    let certs: Vec<CertificateDer<'static>> = CertificateDer::pem_file_iter(&t.ca_file)
+        .and_then(|it| it.collect::<std::result::Result<Vec<_>, _>>())
+        .map_err(|e| {
+            invalid(
+                "input.tls.ca_file",
+                format!("{} ({e})", t.ca_file.display()),
+                "a readable PEM file with the plant CA's certificate",
+            )
+        })?;
+    let mut roots = rustls::RootCertStore::empty();
+    for c in certs {
+        roots.add(c).map_err(|e| {
+            invalid(
+                "input.tls.ca_file",
+                format!("{} ({e})", t.ca_file.display()),
+                "CA certificates rustls accepts",
+            )
+        })?;
+    }
+    if roots.is_empty() {
+        return Err(invalid(
+            "input.tls.ca_file",
+            t.ca_file.display(),
+            "a PEM file with at least one CERTIFICATE block",
+        ));
+    }
+    let provider = std::sync::Arc::new(rustls::crypto::ring::default_provider());
+    let cfg = rustls::ClientConfig::builder_with_provider(provider)
+        .with_safe_default_protocol_versions()
+        .map_err(|e| invalid("input.tls", e, "TLS 1.2 or 1.3 with the ring provider"))?
+        .with_root_certificates(roots)
+        .with_no_client_auth();
+    Ok(std::sync::Arc::new(cfg))
+}
+
 /// Runs until the task is aborted.
 pub async fn run(p: MqttParts) {
     let MqttParts {
@@ -214,6 +257,26 @@ pub async fn run(p: MqttParts) {
                     message: format!("MQTT broker {}:{}: {e}", cfg.host, cfg.port),
                 },
             );
+        }
+    }
+    if let Some(t) = &cfg.tls {
+        match tls_config(t) {
+            Ok(c) => {
+                opts.set_transport(rumqttc::Transport::Tls(rumqttc::TlsConfiguration::Rustls(
+                    c,
+                )));
+            }
+            Err(e) => {
+                // Checked at start; the file has gone since. Never fall back to plain TCP.
+                send(
+                    &tx,
+                    InputMsg::RaiseAlarm {
+                        key: conn_key.clone(),
+                        message: format!("MQTT broker {}:{}: {e}", cfg.host, cfg.port),
+                    },
+                );
+                return;
+            }
         }
     }
     let (client, mut eventloop) = AsyncClient::new(opts, 256);

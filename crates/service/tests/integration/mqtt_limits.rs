@@ -423,3 +423,166 @@ async fn a_session_that_drops_at_once_does_not_reset_the_back_off() {
     assert_eq!(alarms_with(&all, "mqtt.connection").len(), 1, "{all}");
     run.stop().await.unwrap();
 }
+
+/// A CA and a broker certificate it signed for 127.0.0.1: (CA PEM, cert PEM, key PEM).
+fn broker_pki() -> (String, String, String) {
+    use rcgen::{
+        BasicConstraints, CertificateParams, DnType, IsCa, Issuer, KeyPair, KeyUsagePurpose,
+    };
+    let ca_key = KeyPair::generate().unwrap();
+    let mut p = CertificateParams::new(Vec::<String>::new()).unwrap();
+    p.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    p.distinguished_name
+        .push(DnType::CommonName, "gearcomp test plant CA");
+    p.key_usages = vec![KeyUsagePurpose::KeyCertSign, KeyUsagePurpose::CrlSign];
+    let ca = p.self_signed(&ca_key).unwrap();
+    let issuer = Issuer::new(p, ca_key);
+    let key = KeyPair::generate().unwrap();
+    let mut p = CertificateParams::new(vec!["127.0.0.1".to_string()]).unwrap();
+    p.distinguished_name.push(DnType::CommonName, "127.0.0.1");
+    let cert = p.signed_by(&key, &issuer).unwrap();
+    (ca.pem(), cert.pem(), key.serialize_pem())
+}
+
+/// A TLS-only broker (rumqttd with rustls) requiring a login.
+fn start_tls_broker(port: u16, dir: &std::path::Path, cert: &str, key: &str, login: (&str, &str)) {
+    std::fs::write(dir.join("broker.crt"), cert).unwrap();
+    std::fs::write(dir.join("broker.key"), key).unwrap();
+    let cfg = format!(
+        r#"
+id = 0
+[router]
+max_connections = 100
+max_outgoing_packet_count = 200
+max_segment_size = 1048576
+max_segment_count = 10
+[v4.1]
+name = "v4-tls"
+listen = "127.0.0.1:{port}"
+next_connection_delay_ms = 1
+[v4.1.tls]
+certpath = "{}"
+keypath = "{}"
+[v4.1.connections]
+connection_timeout_ms = 5000
+max_payload_size = 20480
+max_inflight_count = 100
+dynamic_filters = true
+[v4.1.connections.auth]
+{} = "{}"
+"#,
+        dir.join("broker.crt").display(),
+        dir.join("broker.key").display(),
+        login.0,
+        login.1
+    );
+    let config: rumqttd::Config = toml::from_str(&cfg).unwrap();
+    std::thread::spawn(move || {
+        let mut broker = rumqttd::Broker::new(config);
+        let _ = broker.start();
+    });
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(Instant::now() < deadline, "broker did not listen on {port}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tls_broker_with_login_and_a_wrong_ca_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("engine.toml"), engine_ab(5.0)).unwrap();
+    let (ca, cert, key) = broker_pki();
+    std::fs::write(dir.path().join("plant-ca.pem"), &ca).unwrap();
+    std::fs::write(dir.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
+    let port = free_port();
+    let login = ("gearcomp", "s3cret over TLS");
+    start_tls_broker(port, dir.path(), &cert, &key, login);
+
+    // The gateway over TLS too (same CA).
+    let mut roots = rustls::RootCertStore::empty();
+    for c in rustls::pki_types::pem::PemObject::pem_slice_iter(ca.as_bytes()) {
+        roots.add(c.unwrap()).unwrap();
+    }
+    let ccfg = rustls::ClientConfig::builder_with_provider(std::sync::Arc::new(
+        rustls::crypto::ring::default_provider(),
+    ))
+    .with_safe_default_protocol_versions()
+    .unwrap()
+    .with_root_certificates(roots)
+    .with_no_client_auth();
+    let mut opts = MqttOptions::new("gw-tls", "127.0.0.1", port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    opts.set_credentials(login.0, login.1);
+    opts.set_transport(rumqttc::Transport::Tls(rumqttc::TlsConfiguration::Rustls(
+        std::sync::Arc::new(ccfg),
+    )));
+    let (gw, mut el) = AsyncClient::new(opts, 64);
+    tokio::spawn(async move {
+        loop {
+            if el.poll().await.is_err() {
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        }
+    });
+
+    let tls = "username = \"gearcomp\"\npassword_file = \"mqtt.pw\"\ntls = { ca_file = \"plant-ca.pem\" }\n";
+    let run = start_with(dir.path(), &machine_toml("t1", port, tls)).await;
+    let ro = run.generated.clone().unwrap().read_only;
+    let api = Api::new(&run);
+    feed_until(&api, &ro, &gw, "t1", 24.0, 20.0, -15.0).await;
+    let (_, all) = api.get("/api/alarms", Some(&ro)).await;
+    assert!(alarms_with(&all, "mqtt.connection").is_empty(), "{all}");
+
+    // A broker certificate from another CA: refused (the connection alarm names the
+    // certificate problem), nothing received, never a fallback to plain TCP.
+    let dir2 = tempfile::tempdir().unwrap();
+    std::fs::write(dir2.path().join("engine.toml"), engine_ab(5.0)).unwrap();
+    let (other_ca, _, _) = broker_pki();
+    std::fs::write(dir2.path().join("plant-ca.pem"), other_ca).unwrap();
+    std::fs::write(dir2.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
+    let bad = start_with(dir2.path(), &machine_toml("t2", port, tls)).await;
+    let ro2 = bad.generated.clone().unwrap().read_only;
+    let api2 = Api::new(&bad);
+    let all = api2
+        .wait_for("/api/alarms", &ro2, 15.0, |v| {
+            !alarms_with(v, "mqtt.connection").is_empty()
+        })
+        .await;
+    let msg = alarms_with(&all, "mqtt.connection")[0]["message"]
+        .as_str()
+        .unwrap()
+        .to_lowercase();
+    assert!(
+        msg.contains("certificate") || msg.contains("issuer"),
+        "{msg}"
+    );
+    assert!(!msg.contains("s3cret"), "{msg}");
+    let (_, st) = api2.get("/api/status", Some(&ro2)).await;
+    assert_eq!(st["samples_received"], 0, "{st}");
+    bad.stop().await.unwrap();
+
+    // Without TLS against the TLS port: no session either.
+    let dir3 = tempfile::tempdir().unwrap();
+    std::fs::write(dir3.path().join("engine.toml"), engine_ab(5.0)).unwrap();
+    std::fs::write(dir3.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
+    let plain = start_with(
+        dir3.path(),
+        &machine_toml(
+            "t3",
+            port,
+            "username = \"gearcomp\"\npassword_file = \"mqtt.pw\"\n",
+        ),
+    )
+    .await;
+    let ro3 = plain.generated.clone().unwrap().read_only;
+    let api3 = Api::new(&plain);
+    api3.wait_for("/api/alarms", &ro3, 15.0, |v| {
+        !alarms_with(v, "mqtt.connection").is_empty()
+    })
+    .await;
+    let (_, st) = api3.get("/api/status", Some(&ro3)).await;
+    assert_eq!(st["samples_received"], 0, "{st}");
+    plain.stop().await.unwrap();
+    run.stop().await.unwrap();
+}
