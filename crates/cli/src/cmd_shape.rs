@@ -108,9 +108,12 @@ struct SimSummary {
     c2_error_rms_urad: f64,
     c2_error_in_face_max_urad: f64,
     deviation_max_um: f64,
-    design_lead_mm: f64,
-    simulated_lead_mm: f64,
-    lead_rel_error: f64,
+    /// None (null) for a spur gear: a straight tooth trace has no lead.
+    design_lead_mm: Option<f64>,
+    /// None (null) for a spur gear; its trace's residual slope is f_Hβ.
+    simulated_lead_mm: Option<f64>,
+    /// None (null) for a spur gear.
+    lead_rel_error: Option<f64>,
     evaluation_length_mm: f64,
     f_h_beta_um: f64,
     f_h_beta_tolerance_um: f64,
@@ -157,53 +160,64 @@ fn located(path: &Path, e: ShapingError) -> anyhow::Error {
 }
 
 fn run_program(a: RunArgs) -> anyhow::Result<()> {
+    use std::io::Write as _;
     let machine = load_machine(&a)?;
     let text = std::fs::read_to_string(&a.program)
         .with_context(|| format!("cannot read part program {}", a.program.display()))?;
+    // At most MAX_G83_BLOCKS blocks (refused at parse time); every block is checked with its
+    // line before any runs, then each result is printed as soon as it is computed.
     let program = parse_program(&text).map_err(|e| located(&a.program, e))?;
+    let mut configs = Vec::with_capacity(program.cycles.len());
+    for block in &program.cycles {
+        configs.push(
+            block
+                .to_simulation(&machine)
+                .map_err(|e| located(&a.program, e))?,
+        );
+    }
     let lines: Vec<&str> = text.lines().collect();
+    let mut stdout = std::io::stdout().lock();
     let mut reports = Vec::new();
     let mut sims = Vec::new();
-    for block in &program.cycles {
-        let cfg = block
-            .to_simulation(&machine)
-            .map_err(|e| located(&a.program, e))?;
-        let ip = Interpolator::new(cfg.interp)
-            .map_err(|e| located(&a.program, located_block(block, e)))?;
-        let execution = execute_program(&cfg.interp).map_err(|e| located(&a.program, e))?;
-        let sim = simulate(&cfg).map_err(|e| located(&a.program, e))?;
+    if a.json {
+        writeln!(stdout, "[")?;
+    }
+    for (i, (block, cfg)) in program.cycles.iter().zip(&configs).enumerate() {
+        let at = |e: ShapingError| located(&a.program, block.locate(e));
+        let ip = Interpolator::new(cfg.interp).map_err(at)?;
+        let execution = execute_program(&cfg.interp).map_err(at)?;
+        let sim = simulate(cfg).map_err(at)?;
         let source = lines
             .get(block.line - 1)
             .map_or("", |l| l.trim())
             .to_string();
-        reports.push(summarise(block, source, &ip, &machine, execution, &sim));
-        sims.push(sim);
+        let report = summarise(block, source, &ip, &machine, execution, &sim);
+        if a.json {
+            let sep = if i + 1 < program.cycles.len() {
+                ","
+            } else {
+                ""
+            };
+            writeln!(stdout, "{}{sep}", serde_json::to_string_pretty(&report)?)?;
+        } else {
+            print_text(&mut stdout, &report)?;
+        }
+        stdout.flush()?;
+        if a.report.is_some() {
+            reports.push(report);
+            sims.push(sim);
+        }
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&reports)?);
-    } else {
-        for r in &reports {
-            print_text(r);
-        }
+        writeln!(stdout, "]")?;
     }
     if let Some(path) = &a.report {
         write_report(path, &reports, &sims)?;
         if !a.json {
-            println!("report written to {}", path.display());
+            writeln!(stdout, "report written to {}", path.display())?;
         }
     }
     Ok(())
-}
-
-fn located_block(block: &G83Block, e: ShapingError) -> ShapingError {
-    match e {
-        ShapingError::Infeasible { .. } => ShapingError::Parse {
-            line: block.line,
-            column: block.column_of('S'),
-            message: e.to_string(),
-        },
-        other => other,
-    }
 }
 
 fn summarise(
@@ -271,41 +285,48 @@ fn summarise(
     }
 }
 
-fn print_text(r: &CycleReport) {
+fn print_text(out: &mut impl std::io::Write, r: &CycleReport) -> std::io::Result<()> {
     let g = &r.gear;
     let e = &r.execution;
     let s = &r.simulation;
-    println!("G83 on line {}: {}", r.line, r.block);
-    println!(
+    writeln!(out, "G83 on line {}: {}", r.line, r.block)?;
+    writeln!(
+        out,
         "  gear      Z_C1 = {} ({:?}, {:?} hand), m_n = {} mm, beta = {} deg, delta beta = {} deg",
         g.workpiece_teeth, g.mesh, g.hand, g.normal_module_mm, g.helix_deg, g.delta_beta_deg
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  cutter    Z_C2 = {}, lead P_z = {:.5} mm; workpiece lead {:.5} mm",
         g.cutter_teeth, g.cutter_lead_mm, g.workpiece_lead_mm
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  coupling  C2/C1 = {} (exact), C1 {} counts/stroke (circular feed {:.5} mm)",
         g.generating_ratio, g.c1_counts_per_stroke, g.realised_circular_feed_mm
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  stroke    R = {} mm, L = {} mm, S = {} /min, v_Z peak {:.3} mm/s at {:.2} deg",
         g.crank_radius_mm,
         g.rod_length_mm,
         g.strokes_per_min,
         g.v_z_peak_mm_s,
         g.v_z_peak_theta_deg
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  C2 demand speed {:.3} rpm (limit {:.1}), acceleration {:.3} rev/s^2 (limit {:.1}): feasible",
         g.c2_speed_peak_rpm, g.c2_speed_limit_rpm, g.c2_accel_peak_rev_s2, g.c2_accel_limit_rev_s2
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  program   {} double strokes, {} cycles, {:.1} s; X infeed {:.4} mm; C1 {:.4} rev; \
          coupling residual {} (exact: 0 = no drift)",
         e.strokes, e.cycles, e.cut_time_s, e.x_infeed_mm, e.c1_revolutions, e.coupling_residual
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  tracking  {} strokes at {} ms{}: C2 error max {:.3} urad, rms {:.3} urad, in face {:.3} \
          urad; deviation at base circle max {:.4} um",
         s.strokes,
@@ -315,16 +336,15 @@ fn print_text(r: &CycleReport) {
         s.c2_error_rms_urad,
         s.c2_error_in_face_max_urad,
         s.deviation_max_um
-    );
-    let lead = if s.design_lead_mm.is_finite() {
-        format!(
-            "design lead {:.6} mm, simulated {:.6} mm (relative {:.3e})",
-            s.design_lead_mm, s.simulated_lead_mm, s.lead_rel_error
-        )
-    } else {
-        "spur gear (straight tooth trace)".to_string()
+    )?;
+    let lead = match (s.design_lead_mm, s.simulated_lead_mm, s.lead_rel_error) {
+        (Some(d), Some(m), Some(r)) => {
+            format!("design lead {d:.6} mm, simulated {m:.6} mm (relative {r:.3e})")
+        }
+        _ => "spur gear (straight tooth trace, no lead)".to_string(),
     };
-    println!(
+    writeln!(
+        out,
         "  helix     {lead}; f_Hb = {:.4} um over L_b = {:.2} mm; ISO 1328-1 class {} f_HbT = {} \
          um: {}",
         s.f_h_beta_um,
@@ -336,7 +356,8 @@ fn print_text(r: &CycleReport) {
         } else {
             "OUT OF TOLERANCE"
         }
-    );
+    )?;
+    Ok(())
 }
 
 fn write_report(
@@ -398,7 +419,10 @@ fn write_report(
                 ),
                 row(
                     "design / simulated lead",
-                    format!("{:.6} / {:.6} mm", s.design_lead_mm, s.simulated_lead_mm),
+                    match (s.design_lead_mm, s.simulated_lead_mm) {
+                        (Some(d), Some(m)) => format!("{d:.6} / {m:.6} mm"),
+                        _ => "spur gear: no lead".to_string(),
+                    },
                 ),
                 row(
                     "f_Hbeta / ISO 1328-1 tolerance",

@@ -14,7 +14,12 @@ pub enum ShapingError {
     #[error(transparent)]
     Geometry(#[from] gearcomp_geometry::GeometryError),
     /// A parameter is outside its allowed range (or not finite).
-    #[error("{field} = {value} {unit} is out of range: allowed {min} ..= {max} {unit}")]
+    #[error(
+        "{field} = {v} {unit} is out of range: allowed {lo} ..= {hi} {unit}",
+        v = short(*value),
+        lo = short(*min),
+        hi = short(*max)
+    )]
     OutOfRange {
         /// Name of the parameter (with its G-code letter where it has one).
         field: &'static str,
@@ -95,4 +100,17 @@ pub(crate) fn check_range(
             unit,
         })
     }
+}
+
+/// A number as a person writes it: up to 6 decimals without trailing zeros, tiny and huge
+/// values in exponent form (5.4207e-5 rather than 0.00005420693404688031).
+fn short(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    if x.abs() < 1e-3 || x.abs() >= 1e9 {
+        return format!("{x:.4e}");
+    }
+    let s = format!("{x:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }

@@ -34,9 +34,9 @@ use winnow::token::{one_of, take_till};
 use crate::coupling::{GearCut, Hand, Mesh};
 use crate::crank::SliderCrank;
 use crate::error::{Result, ShapingError};
-use crate::interpolator::{InterpolatorConfig, LinearLimits, RotaryLimits};
+use crate::interpolator::{Interpolator, InterpolatorConfig, LinearLimits, RotaryLimits};
 use crate::servo::{LoopParams, ServoModel};
-use crate::simulate::SimulationConfig;
+use crate::simulate::{execution_plan, validate_simulation, SimulationConfig};
 use crate::units::{deg_to_rad, rev_s2_to_rad_s2, rpm_to_rad_s};
 
 /// One word of a block: address letter, value and 1-based column of the letter.
@@ -199,9 +199,14 @@ pub fn parse_line(text: &str, line_no: usize) -> Result<Vec<Word>> {
     Ok(words)
 }
 
-/// Parses a whole program and returns its G83 cycles.
+/// Most G83 blocks one program may hold. Each block is a whole cut that `gearcomp shape run`
+/// executes and simulates (about 0.1–1 s each); a real part program has a few. A longer
+/// program is refused at parse time, before anything runs, instead of running for hours.
+pub const MAX_G83_BLOCKS: usize = 100;
+
+/// Parses a whole program and returns its G83 cycles (at most [`MAX_G83_BLOCKS`]).
 pub fn parse_program(text: &str) -> Result<Program> {
-    let mut cycles = Vec::new();
+    let mut cycles: Vec<G83Block> = Vec::new();
     let mut ended = false;
     for (i, raw_line) in text.lines().enumerate() {
         let line_no = i + 1;
@@ -260,6 +265,18 @@ pub fn parse_program(text: &str) -> Result<Program> {
             }
         }
         match g83_col {
+            Some(col) if cycles.len() == MAX_G83_BLOCKS => {
+                return Err(err(
+                    line_no,
+                    col,
+                    format!(
+                        "more than {MAX_G83_BLOCKS} G83 blocks: a program may hold at most \
+                         {MAX_G83_BLOCKS} (each is a whole cut, executed and simulated); split \
+                         the program (the first {MAX_G83_BLOCKS} end on line {})",
+                        cycles.last().map_or(0, |c| c.line)
+                    ),
+                ))
+            }
             Some(col) => cycles.push(g83_block(line_no, col, &params)?),
             None => {
                 if let Some(w) = params.first() {
@@ -477,12 +494,27 @@ impl G83Block {
             .map_or(1, |w| w.column)
     }
 
-    /// Builds the simulation set-up; a range error points at the responsible word.
+    /// Builds the simulation set-up and checks everything the interpolator, the simulation
+    /// and the whole-cut execution will check (ranges of every word, feasibility, length of
+    /// the cut), so each error carries this block's line and the responsible word's column.
     pub fn to_simulation(&self, m: &MachineData) -> Result<SimulationConfig> {
-        self.build(m).map_err(|e| self.locate(e))
+        let cfg = self.build(m).map_err(|e| self.locate(e))?;
+        let ip = Interpolator::new(cfg.interp).map_err(|e| self.locate(e))?;
+        validate_simulation(&cfg).map_err(|e| self.locate(e))?;
+        execution_plan(&cfg.interp, &ip).map_err(|e| self.locate(e))?;
+        Ok(cfg)
     }
 
-    fn locate(&self, e: ShapingError) -> ShapingError {
+    /// An error of this block's set-up or run, with its line (and the word's column where
+    /// the error names one); errors that already have a place are kept.
+    pub fn locate(&self, e: ShapingError) -> ShapingError {
+        match e {
+            ShapingError::Parse { .. } => e,
+            other => self.locate_word(other),
+        }
+    }
+
+    fn locate_word(&self, e: ShapingError) -> ShapingError {
         let letter = match &e {
             ShapingError::OutOfRange { field, .. } => field
                 .split_whitespace()

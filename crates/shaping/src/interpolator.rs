@@ -203,7 +203,16 @@ impl Interpolator {
         ] {
             check_range(field, f64::from(cpr), 360.0, f64::from(MAX_CPR), "")?;
         }
-        check_range("circular feed F", cfg.circular_feed_mm, 0.0, 10.0, "mm")?;
+        let r_c1 = cfg.cut.workpiece_pitch_radius_mm();
+        // F must turn the workpiece: at least half a C1 count per stroke (rounded to one).
+        let half_count_mm = 0.5 * TAU / f64::from(cfg.c1_cpr) * r_c1;
+        check_range(
+            "circular feed F (at least half a C1 count per stroke)",
+            cfg.circular_feed_mm,
+            half_count_mm,
+            10.0,
+            "mm",
+        )?;
         check_range("radial feed U", cfg.radial_feed_mm, 0.0, 1.0, "mm")?;
         check_range("radial depth X", cfg.depth_mm, 0.0, 100.0, "mm")?;
         check_range("lift-off E", cfg.lift_off_mm, 0.0, 10.0, "mm")?;
@@ -244,13 +253,11 @@ impl Interpolator {
         )?;
 
         let cut = cfg.cut;
-        let r_c1 = cut.workpiece_pitch_radius_mm();
         let c1_counts_f = cfg.circular_feed_mm / r_c1 * f64::from(cfg.c1_cpr) / TAU;
         let c1_counts_per_stroke = c1_counts_f.round() as i64;
-        if cfg.circular_feed_mm > 0.0 && c1_counts_per_stroke == 0 {
-            let half_count_mm = 0.5 * TAU / f64::from(cfg.c1_cpr) * r_c1;
+        if c1_counts_per_stroke == 0 {
             return Err(ShapingError::OutOfRange {
-                field: "circular feed F (below half a C1 count per stroke)",
+                field: "circular feed F (at least half a C1 count per stroke)",
                 value: cfg.circular_feed_mm,
                 min: half_count_mm,
                 max: 10.0,

@@ -59,12 +59,14 @@ pub struct TracePoint {
 /// The helix the simulated cut would produce.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct LeadEvaluation {
-    /// Design lead of the workpiece π·m_n·Z_C1/sin β' in mm (infinite for spur gears).
-    pub design_lead_mm: f64,
-    /// Lead of the least-squares tooth trace in mm.
-    pub measured_lead_mm: f64,
-    /// (measured − design)/design (0 for spur gears with a straight trace).
-    pub lead_rel_error: f64,
+    /// Design lead of the workpiece π·m_n·Z_C1/sin β' in mm; None for a spur gear (a
+    /// straight tooth trace has no lead).
+    pub design_lead_mm: Option<f64>,
+    /// Lead of the least-squares tooth trace in mm; None for a spur gear (the trace's
+    /// residual slope is reported as f_Hβ instead).
+    pub measured_lead_mm: Option<f64>,
+    /// (measured − design)/design; None for a spur gear.
+    pub lead_rel_error: Option<f64>,
     /// Helix evaluation length L_β in mm.
     pub evaluation_length_mm: f64,
     /// Helix slope deviation f_Hβ in µm (signed, transverse, at the base circle).
@@ -107,11 +109,11 @@ pub struct SimulationResult {
 /// Smallest overtravel of the cutter beyond each face of the workpiece, in mm.
 pub const MIN_OVERTRAVEL_MM: f64 = 1.0;
 
-/// Runs the simulation; the crank turns at exactly the nominal speed from θ = 0.
-pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
-    let mut interp = Interpolator::new(cfg.interp)?;
-    let ic = cfg.interp;
-    let stroke = ic.crank.stroke_mm();
+/// Checks the parts of a simulation set-up the interpolator does not: strokes to simulate,
+/// facewidth B against the stroke, pressure angle and the servo loops. [`simulate`] calls
+/// it; a G83 block calls it when it is converted, so the error carries the block's line.
+pub fn validate_simulation(cfg: &SimulationConfig) -> Result<()> {
+    let stroke = cfg.interp.crank.stroke_mm();
     check_range(
         "strokes to simulate",
         f64::from(cfg.strokes),
@@ -138,6 +140,15 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
             p.validate()?;
         }
     }
+    Ok(())
+}
+
+/// Runs the simulation; the crank turns at exactly the nominal speed from θ = 0.
+pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
+    let mut interp = Interpolator::new(cfg.interp)?;
+    validate_simulation(cfg)?;
+    let ic = cfg.interp;
+    let stroke = ic.crank.stroke_mm();
     let cut = ic.cut;
     let beta = cut.beta_rad();
     let d_mm = cut.m_n_mm() * f64::from(cut.z_c1()) / beta.cos();
@@ -241,12 +252,18 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     }
     let g_slope = line_slope(&lead_z, &lead_g)?;
     let dev_slope = line_slope(&lead_z, &lead_dev)?;
+    // A spur gear's trace is straight: no lead. TAU/|slope| of its residual slope would be a
+    // meaningless huge number (4.9e20 mm was printed), so there is none.
     let design_lead = cut.workpiece_lead_mm();
-    let measured_lead = TAU / g_slope.abs();
-    let lead_rel_error = if design_lead.is_finite() {
-        (measured_lead - design_lead) / design_lead
+    let (design_lead, measured_lead, lead_rel_error) = if design_lead.is_finite() {
+        let measured = TAU / g_slope.abs();
+        (
+            Some(design_lead),
+            Some(measured),
+            Some((measured - design_lead) / design_lead),
+        )
     } else {
-        0.0
+        (None, None, None)
     };
     let f_hb = dev_slope * l_beta;
     let tol = round_tolerance_um(tol_raw);
@@ -323,15 +340,9 @@ pub struct ExecutionSummary {
 /// Largest number of control cycles [`execute_program`] runs.
 pub const MAX_EXECUTION_CYCLES: u64 = 50_000_000;
 
-/// Runs a whole cycle: strokes to reach the depth at the radial feed, then one full
-/// workpiece revolution at depth, with the crank at nominal speed; checks the exact coupling
-/// identity at the end.
-///
-/// # Formula
-/// strokes = ⌈X/U⌉ + ⌈cpr_C1 / c1_per_stroke⌉ (one stroke if F = 0);
-/// residual = C2_gen·den·cpr_C1·|ρ_den| − ρ_num·cpr_C2·C1·den (exactly 0 when nothing drifts).
-pub fn execute_program(cfg: &InterpolatorConfig) -> Result<ExecutionSummary> {
-    let mut ip = Interpolator::new(*cfg)?;
+/// Double strokes, control cycles and crank counts per cycle of a whole cycle, refused when
+/// it would exceed [`MAX_EXECUTION_CYCLES`].
+pub fn execution_plan(cfg: &InterpolatorConfig, ip: &Interpolator) -> Result<(u64, u64, f64)> {
     let infeed_strokes = if cfg.radial_feed_mm > 0.0 {
         (cfg.depth_mm / cfg.radial_feed_mm).ceil() as u64
     } else {
@@ -356,6 +367,19 @@ pub fn execute_program(cfg: &InterpolatorConfig) -> Result<ExecutionSummary> {
             unit: "",
         });
     }
+    Ok((strokes, cycles, counts_per_cycle))
+}
+
+/// Runs a whole cycle: strokes to reach the depth at the radial feed, then one full
+/// workpiece revolution at depth, with the crank at nominal speed; checks the exact coupling
+/// identity at the end.
+///
+/// # Formula
+/// strokes = ⌈X/U⌉ + ⌈cpr_C1 / c1_per_stroke⌉ (F > 0: at least one C1 count per stroke);
+/// residual = C2_gen·den·cpr_C1·|ρ_den| − ρ_num·cpr_C2·C1·den (exactly 0 when nothing drifts).
+pub fn execute_program(cfg: &InterpolatorConfig) -> Result<ExecutionSummary> {
+    let mut ip = Interpolator::new(*cfg)?;
+    let (strokes, cycles, counts_per_cycle) = execution_plan(cfg, &ip)?;
     let mut out = ip.cycle(0);
     for k in 1..=cycles {
         let raw =

@@ -121,11 +121,19 @@ fn range_and_feasibility_errors_point_at_the_word() {
         }
         other => panic!("{other:?}"),
     }
-    // Infeasible stroke rate: simulation refuses, pointing at S.
+    // Infeasible stroke rate: refused when the block is converted, pointing at S (col 29).
     let p = parse_program("G83 T40 L25 Q3 P15 R25 K200 S1000 F0.5 B40").unwrap();
-    let cfg = p.cycles[0].to_simulation(&m).unwrap();
-    let e = gearcomp_shaping::interpolator::Interpolator::new(cfg.interp).unwrap_err();
-    assert!(matches!(e, ShapingError::Infeasible { .. }));
+    match p.cycles[0].to_simulation(&m).unwrap_err() {
+        ShapingError::Parse {
+            line,
+            column,
+            message,
+        } => {
+            assert_eq!((line, column), (1, 29));
+            assert!(message.contains("infeasible"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 proptest! {

@@ -48,7 +48,7 @@ fn ideal_servos_cut_the_design_lead() {
         let r = simulate(&sim(cfg, ServoModel::Ideal)).unwrap();
         // Independent design lead: π·m_n·z/sin(β + Δβ) (ISO 21771 helix lead).
         let design = PI * 3.0 * f64::from(z1) / f64::to_radians(beta_deg + dbeta_deg).sin();
-        let rel = (r.lead.measured_lead_mm - design) / design;
+        let rel = (r.lead.measured_lead_mm.unwrap() - design) / design;
         assert!(
             rel.abs() < 1e-9,
             "{hand:?} {mesh:?}: relative lead error {rel:e}"
