@@ -630,7 +630,15 @@ pub fn solve_request(design: &Worm, dresser: &Dresser, input: &SolveInput) -> Re
             });
         }
     };
-    let checks = Checks::of(&setup, input.flank, &sol.dk, input.budget_mm)?;
+    let checks = Checks::of(&setup, input.flank, &sol.dk, input.budget_mm).map_err(|e| {
+        DressError::NotProducible {
+            key: t.key.to_string(),
+            detail: format!(
+                "the cut into the opposite flank cannot be evaluated ({e}); {}",
+                producible_range(design, dresser, input, &t, d_s)
+            ),
+        }
+    })?;
     if !checks.ok() && !input.accept_penetration {
         return Err(DressError::NotProducible {
             key: t.key.to_string(),
@@ -645,8 +653,13 @@ pub fn solve_request(design: &Worm, dresser: &Dresser, input: &SolveInput) -> Re
             ),
         });
     }
-    let reference = StretchReference::new(design, dresser, input.flank)?;
-    let stretch = profile_stretch(&setup, input.flank, &reference, &sol.dk, active)?;
+    let evaluation = |e: DressError| DressError::NotProducible {
+        key: t.key.to_string(),
+        detail: format!("the profile stretching of the solution cannot be evaluated ({e})"),
+    };
+    let reference = StretchReference::new(design, dresser, input.flank).map_err(evaluation)?;
+    let stretch =
+        profile_stretch(&setup, input.flank, &reference, &sol.dk, active).map_err(evaluation)?;
     Ok(SolveOutcome {
         setup,
         active_mm: active,
