@@ -10,33 +10,8 @@
 //! Invalid: a shift length outside 0 < h ≤ 336, an unknown preset, or a model file that is
 //! not one: the message names the option and the range or the file. Fixed seed plus fresh.
 
-use crate::common::{gearcomp, temp_dir};
+use crate::common::{all_finite, gearcomp, prop_runners, temp_dir};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestRunner};
-
-fn runners(cases: u32) -> [TestRunner; 2] {
-    let fixed = Config {
-        cases,
-        rng_seed: RngSeed::Fixed(0xde30_0001),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    [TestRunner::new(fixed), TestRunner::new(fresh)]
-}
-
-fn all_finite(v: &serde_json::Value) -> bool {
-    match v {
-        serde_json::Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
-        serde_json::Value::Array(a) => a.iter().all(all_finite),
-        serde_json::Value::Object(o) => o.values().all(all_finite),
-        _ => true,
-    }
-}
 
 #[test]
 fn demo_holds_the_seeds_claims_for_random_shifts() {
@@ -45,7 +20,7 @@ fn demo_holds_the_seeds_claims_for_random_shifts() {
         1.0f64..24.0,
         any::<u64>(),
     );
-    for (i, mut runner) in runners(6).into_iter().enumerate() {
+    for (i, mut runner) in prop_runners(6, 0xde30_0001).into_iter().enumerate() {
         runner
             .run(&strategy, |(preset, hours, seed)| {
                 let dir = temp_dir("demo-props", &format!("valid{i}"));
@@ -97,7 +72,7 @@ fn demo_names_the_option_of_random_bad_input() {
                 .contains(&p.as_str()))
             .prop_map(|p| (vec!["--preset".to_owned(), p], "preset")),
     ];
-    for (i, mut runner) in runners(8).into_iter().enumerate() {
+    for (i, mut runner) in prop_runners(8, 0xde30_0001).into_iter().enumerate() {
         runner
             .run(&strategy, |(args, key)| {
                 let dir = temp_dir("demo-props", &format!("bad{i}"));

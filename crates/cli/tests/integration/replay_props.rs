@@ -13,9 +13,8 @@
 //!
 //! Each property runs on a fixed seed (reproducible in CI) and on a fresh one.
 
-use crate::common::{gearcomp_cmd, temp_dir};
+use crate::common::{gearcomp_cmd, prop_runners, temp_dir};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestRunner};
 use std::fmt::Write as _;
 
 #[derive(Debug, Clone)]
@@ -206,24 +205,9 @@ fn run_case(c: &Case, tag: &str) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-fn runners(cases: u32) -> [TestRunner; 2] {
-    let fixed = Config {
-        cases,
-        rng_seed: RngSeed::Fixed(0x6ea2_c0b1),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    [TestRunner::new(fixed), TestRunner::new(fresh)]
-}
-
 #[test]
 fn replay_matches_the_documented_chain_on_random_logs() {
-    for (i, mut runner) in runners(12).into_iter().enumerate() {
+    for (i, mut runner) in prop_runners(12, 0x6ea2_c0b1).into_iter().enumerate() {
         runner
             .run(&case(), |c| run_case(&c, &format!("valid{i}")))
             .unwrap();
@@ -243,7 +227,7 @@ fn bad_key() -> impl Strategy<Value = (&'static str, String)> {
 
 #[test]
 fn replay_names_the_key_of_a_random_bad_configuration() {
-    for (i, mut runner) in runners(8).into_iter().enumerate() {
+    for (i, mut runner) in prop_runners(8, 0x6ea2_c0b1).into_iter().enumerate() {
         runner
             .run(&(case(), bad_key()), |(c, (key, line))| {
                 let dir = temp_dir("replay-props", &format!("badcfg{i}"));
@@ -284,7 +268,7 @@ fn replay_names_the_key_of_a_random_bad_configuration() {
 
 #[test]
 fn replay_reports_every_random_bad_cell_with_its_line() {
-    for (i, mut runner) in runners(8).into_iter().enumerate() {
+    for (i, mut runner) in prop_runners(8, 0x6ea2_c0b1).into_iter().enumerate() {
         runner
             .run(&(case(), any::<prop::sample::Index>()), |(c, pick)| {
                 let dir = temp_dir("replay-props", &format!("badcell{i}"));

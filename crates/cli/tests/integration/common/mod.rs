@@ -86,3 +86,34 @@ pub const T8_WORM_ARGS: [&str; 12] = [
     "--worm-q",
     "-0.03",
 ];
+
+/// Two proptest runners for one property: a fixed seed (the same cases on every run, so CI
+/// is reproducible) and a fresh random seed (new cases each run). `seed` tells the properties
+/// of the suite apart; failures are not persisted (the printed case is the reproduction).
+pub fn prop_runners(cases: u32, seed: u64) -> [proptest::test_runner::TestRunner; 2] {
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+    let fixed = Config {
+        cases,
+        rng_seed: RngSeed::Fixed(seed),
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let fresh = Config {
+        cases,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    [TestRunner::new(fixed), TestRunner::new(fresh)]
+}
+
+/// Every number in a JSON value is finite; serde_json writes NaN and ±inf as `null`, so a
+/// `null` counts as not finite.
+pub fn all_finite(v: &serde_json::Value) -> bool {
+    match v {
+        serde_json::Value::Null => false,
+        serde_json::Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
+        serde_json::Value::Array(a) => a.iter().all(all_finite),
+        serde_json::Value::Object(o) => o.values().all(all_finite),
+        _ => true,
+    }
+}
