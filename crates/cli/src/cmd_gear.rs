@@ -456,9 +456,13 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
                 .map_err(|e| flagged(e, &format!("span W_k, {case} thickness")))?;
         }
     }
-    let rec_k = gear
-        .recommended_span_k_for(x, &shifts)
-        .map_err(|e| anyhow::anyhow!("no span measurement W_k fits this gear: {e}"))?;
+    let rec_k = gear.recommended_span_k_for(x, &shifts).map_err(|e| {
+        let flag = match e {
+            GeometryError::SpanTooWide { .. } => "--width",
+            _ => "--span-k",
+        };
+        anyhow::anyhow!("no span measurement W_k fits this gear ({flag}): {e}")
+    })?;
     let rec_ball = gear
         .recommended_ball_mm(x)
         .map_err(|e| flagged(e, "recommended ball"))?;

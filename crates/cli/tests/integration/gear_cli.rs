@@ -143,7 +143,7 @@ fn bad_input_is_a_clear_error() {
     let cases: &[(&[&str], &[&str])] = &[
         (
             &["--module", "0", "--teeth", "20"],
-            &["normal_module_mm = 0", "0 … 1000 mm"],
+            &["--module", "normal_module_mm = 0", "0.01 … 1000 mm"],
         ),
         (
             &["--module", "-2", "--teeth", "20"],
@@ -162,20 +162,16 @@ fn bad_input_is_a_clear_error() {
             &["teeth = 2", "3 … 10000"],
         ),
         (
-            &["--module", "1", "--teeth", "10"],
-            &["undercut", "x_min = 0.5006"],
-        ),
-        (
             &["--module", "1", "--teeth", "10", "--shift", "1.2"],
             &["pointed tooth"],
         ),
         (
             &["--module", "1", "--teeth", "20", "--ball", "0.5"],
-            &["ball_mm = 0.5", "does not touch"],
+            &["--ball", "ball_mm = 0.5", "does not touch"],
         ),
         (
             &["--module", "1", "--teeth", "20", "--span-k", "21"],
-            &["span_k = 21", "1 … 19"],
+            &["--span-k", "span_k = 21", "1 … 19"],
         ),
         (
             &[
@@ -248,4 +244,346 @@ fn table_output_has_units() {
     ] {
         assert!(t.contains(needle), "table lacks {needle:?}:\n{t}");
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// Issue 13 item 1: reproductions through the binary, and random gears against the
+// independent flank construction (the same file the library tests use).
+
+#[path = "../../../geometry/tests/integration/construct.rs"]
+mod construct;
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+fn run(args: &[String]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .arg("gear")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn strings(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+/// Every number in a JSON document is finite (serde_json writes NaN/∞ as null, so a null
+/// where a number belongs is caught by the field checks; here: no "NaN" text at all).
+fn all_finite(v: &Value) -> bool {
+    match v {
+        Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
+        Value::Array(a) => a.iter().all(all_finite),
+        Value::Object(o) => o.values().all(all_finite),
+        _ => true,
+    }
+}
+
+/// `--span-k 8` on m = 2, z = 40, β = 30° was refused (contact 99.8192 mm computed with
+/// W_k/cos β_b); the anvils touch at 94.33 mm, and DIN 3960 recommends k = 7.
+#[test]
+fn issue13_helical_span_k8_is_computed() {
+    let v = json(&[
+        "--module", "2", "--teeth", "40", "--helix", "30", "--span-k", "8",
+    ]);
+    close(&v, "tooth.0.span.contact_diameter_mm", 94.33, 0.005);
+    let g = construct::Gear3::new(2.0, 20f64.to_radians(), 30f64.to_radians(), 40, 0.0);
+    let c = construct::span(&g, 8).unwrap();
+    close(
+        &v,
+        "tooth.0.span.contact_diameter_mm",
+        c.contact_diameter_mm,
+        1e-9,
+    );
+    close(&v, "tooth.0.span.span_mm", c.span_mm, 1e-9);
+    assert_eq!(v["recommended"]["span_k"], 7);
+    // The recommended k given back is accepted.
+    let v = json(&[
+        "--module", "2", "--teeth", "40", "--helix", "30", "--span-k", "7",
+    ]);
+    assert_eq!(v["tooth"][0]["span"]["k"], 7);
+}
+
+/// `--width 5` on that gear: refused, stating W_k·sin β_b against the face width, for
+/// the default k and for a k the user gives.
+#[test]
+fn issue13_helical_span_face_width_message() {
+    let base = [
+        "--module", "2", "--teeth", "40", "--helix", "30", "--width", "5",
+    ];
+    let out = gearcomp(&base);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("W_k·sin β_b = 13.2751 mm")
+            && err.contains("face width b = 5 mm")
+            && err.contains("b > W_k·sin β_b"),
+        "{err}"
+    );
+    let mut a = base.to_vec();
+    a.extend(["--span-k", "7"]);
+    let out = gearcomp(&a);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--span-k")
+            && err.contains("span_k = 7")
+            && err.contains("W_k·sin β_b = 18.8233 mm")
+            && err.contains("face width b = 5 mm"),
+        "{err}"
+    );
+}
+
+/// `--ball 1` on z = 20, m = 2 printed "contact diameter NaN mm": refused naming --ball
+/// and the balls that fit.
+#[test]
+fn issue13_small_ball_names_the_valid_range() {
+    let out = gearcomp(&["--module", "2", "--teeth", "20", "--ball", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("NaN"), "{err}");
+    assert!(
+        err.contains("--ball")
+            && err.contains("ball_mm = 1 mm")
+            && err.contains("balls from 2.40103 to"),
+        "{err}"
+    );
+}
+
+/// `--module 1e-300` passed validation.
+#[test]
+fn issue13_tiny_module_is_refused() {
+    let out = gearcomp(&["--module", "1e-300", "--teeth", "20"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--module") && err.contains("1e-300") && err.contains("0.01 … 1000 mm"),
+        "{err}"
+    );
+}
+
+/// Undercut gears are computed with a warning; pointed teeth stay refused.
+#[test]
+fn issue13_undercut_is_a_warning() {
+    let v = json(&["--module", "1", "--teeth", "10"]);
+    let w = v["warnings"][0].as_str().unwrap();
+    assert!(
+        w.contains("undercut") && w.contains("x_min = 0.5006"),
+        "{w}"
+    );
+    assert!(all_finite(&v));
+    let g = construct::Gear3::new(1.0, 20f64.to_radians(), 0.0, 10, 0.0);
+    let k = v["recommended"]["span_k"].as_u64().unwrap() as u32;
+    close(
+        &v,
+        "tooth.0.span.span_mm",
+        construct::span(&g, k).unwrap().span_mm,
+        1e-9,
+    );
+    let out = gearcomp(&["--module", "1", "--teeth", "10", "--shift", "1.2"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("pointed tooth"));
+}
+
+/// Random valid external gears (spur and helical, either hand, shifted, with and without
+/// face width and allowances) through the binary: exit 0 ⇒ every number finite, W_k and
+/// its contact diameter equal to the base-tangent-plane construction, M_dK and its contact
+/// equal to the ball placed against the helical flank, the recommended k is DIN 3960's
+/// whenever that k is measurable, and giving the recommended k back never fails;
+/// exit ≠ 0 ⇒ the message names an option.
+#[test]
+fn gear_matches_construction_on_random_gears() {
+    let strategy = (
+        0.5..10.0f64,
+        15.0..25.0f64,
+        prop_oneof![Just(0.0), -40.0..40.0f64],
+        12u32..150,
+        -0.3..0.7f64,
+        prop_oneof![Just(None), (4.0..80.0f64).prop_map(Some)],
+        prop_oneof![Just(None), (-0.05..0.0f64).prop_map(Some)],
+    );
+    let ok_runs = std::cell::Cell::new(0u32);
+    let check = |(m, a, b, z, x, w, al): (f64, f64, f64, u32, f64, Option<f64>, Option<f64>)| {
+        let mut args = vec![
+            format!("--module={m}"),
+            format!("--pressure-angle={a}"),
+            format!("--helix={b}"),
+            format!("--teeth={z}"),
+            format!("--shift={x}"),
+        ];
+        if let Some(w) = w {
+            args.push(format!("--width={}", w * m));
+        }
+        if let Some(al) = al {
+            args.push(format!("--allowances={},{}", al * m, 0.5 * al * m));
+        }
+        let mut j = args.clone();
+        j.push("--json".into());
+        let out = run(&j);
+        if !out.status.success() {
+            let err = String::from_utf8_lossy(&out.stderr);
+            prop_assert!(
+                err.contains("--") && !err.contains("NaN"),
+                "{args:?}: {err}"
+            );
+            return Ok(());
+        }
+        ok_runs.set(ok_runs.get() + 1);
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        prop_assert!(all_finite(&v), "{args:?}: {v}");
+        let k = v["recommended"]["span_k"].as_u64().unwrap() as u32;
+        for t in v["tooth"].as_array().unwrap() {
+            let x_e = t["generating_shift"].as_f64().unwrap();
+            let g = construct::Gear3::new(m, a.to_radians(), b.abs().to_radians(), z, x_e);
+            let c = construct::span(&g, k).unwrap();
+            let sp = &t["span"];
+            prop_assert!(
+                (sp["span_mm"].as_f64().unwrap() - c.span_mm).abs() < 1e-9 * (1.0 + c.span_mm)
+            );
+            prop_assert!(
+                (sp["contact_diameter_mm"].as_f64().unwrap() - c.contact_diameter_mm).abs()
+                    < 1e-8 * (1.0 + c.contact_diameter_mm),
+                "{args:?}: {sp} vs {c:?}"
+            );
+            if let Some(w) = w {
+                prop_assert!(c.axial_mm < w * m);
+            }
+            let ball = t["ball"]["ball_mm"].as_f64().unwrap();
+            let cb = construct::ball(&g, ball).unwrap();
+            prop_assert!(
+                (t["ball"]["dimension_mm"].as_f64().unwrap() - cb.dimension_mm).abs()
+                    < 1e-6 * (1.0 + m),
+                "{args:?}: {} vs {cb:?}",
+                t["ball"]
+            );
+            prop_assert!(
+                (t["ball"]["contact_diameter_mm"].as_f64().unwrap() - cb.contact_diameter_mm).abs()
+                    < 1e-5 * (1.0 + m)
+            );
+        }
+        // DIN 3960's k when it is measurable at every thickness case.
+        let g0 = construct::Gear3::new(m, a.to_radians(), b.abs().to_radians(), z, x);
+        let din = construct::din3960_k(&g0, x);
+        let mut with_din = args.clone();
+        with_din.push(format!("--span-k={din}"));
+        if din != k && din >= 1 && din < z {
+            prop_assert!(
+                !run(&with_din).status.success(),
+                "{args:?}: k {k} but DIN {din} is measurable"
+            );
+        }
+        // The recommended k given back is accepted.
+        let mut with_k = args.clone();
+        with_k.push(format!("--span-k={k}"));
+        let again = run(&with_k);
+        prop_assert!(
+            again.status.success(),
+            "{args:?} --span-k={k}: {}",
+            String::from_utf8_lossy(&again.stderr)
+        );
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 10,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    for seed in [[5u8; 32], [21u8; 32]] {
+        let mut r =
+            TestRunner::new_with_rng(cfg.clone(), TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
+        r.run(&strategy, check).unwrap();
+    }
+    TestRunner::new(cfg).run(&strategy, check).unwrap();
+    assert!(ok_runs.get() >= 15, "only {} runs computed", ok_runs.get());
+}
+
+/// Random invalid options: exit 2, a message that names the option, never NaN.
+#[test]
+fn gear_refuses_random_invalid_input_naming_the_option() {
+    let strategy = prop_oneof![
+        prop_oneof![
+            Just(-1.0),
+            Just(0.0),
+            Just(1e-300),
+            Just(5e-3),
+            Just(2e3),
+            Just(1e300)
+        ]
+        .prop_map(|m: f64| (
+            vec![format!("--module={m}"), "--teeth=20".to_string()],
+            "--module"
+        )),
+        (-89.0..-60.0f64).prop_map(|b| (
+            strings(&["--module=1", "--teeth=20"])
+                .into_iter()
+                .chain([format!("--helix={b}")])
+                .collect(),
+            "helix"
+        )),
+        (0u32..3).prop_map(|z| (
+            vec!["--module=1".to_string(), format!("--teeth={z}")],
+            "--teeth"
+        )),
+        (0.01..1.2f64).prop_map(|d| (
+            vec![
+                "--module=2".to_string(),
+                "--teeth=20".to_string(),
+                format!("--ball={d}")
+            ],
+            "--ball"
+        )),
+        (12u32..40).prop_map(|k| (
+            vec![
+                "--module=2".to_string(),
+                "--teeth=20".to_string(),
+                format!("--span-k={k}")
+            ],
+            "--span-k"
+        )),
+        (45.0..90.0f64).prop_map(|a| (
+            vec![
+                "--module=2".to_string(),
+                "--teeth=20".to_string(),
+                format!("--pressure-angle={a}")
+            ],
+            "--pressure-angle"
+        )),
+        (1.5..5.0f64).prop_map(|x| (
+            vec![
+                "--module=2".to_string(),
+                "--teeth=20".to_string(),
+                format!("--shift={x}")
+            ],
+            "--shift"
+        )),
+        (1.0..15.0f64).prop_map(|d| (
+            vec![
+                "--module=2".to_string(),
+                "--teeth=20".to_string(),
+                format!("--at-diameter={d}")
+            ],
+            "--at-diameter"
+        )),
+    ];
+    let check = |(args, flag): (Vec<String>, &str)| {
+        let out = run(&args);
+        prop_assert_eq!(out.status.code(), Some(2), "{:?}", args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        prop_assert!(
+            err.contains(flag) && !err.contains("NaN"),
+            "{args:?}: {err}"
+        );
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 16,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut r = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[9u8; 32]),
+    );
+    r.run(&strategy, check).unwrap();
+    TestRunner::new(cfg).run(&strategy, check).unwrap();
 }
