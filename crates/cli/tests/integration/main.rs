@@ -7,6 +7,7 @@ mod common;
 mod demo_cli;
 mod demo_props;
 mod dress_cli;
+mod dress_limits;
 mod dress_contact_point;
 mod dress_topological;
 mod fit_cli;
