@@ -18,6 +18,10 @@ pub const MAX_ACTIVE: usize = 64;
 pub const MAX_KEY_CHARS: usize = 120;
 /// Longest message kept, characters.
 pub const MAX_MESSAGE_CHARS: usize = 1000;
+/// A channel fault alarm clears only after the channel has been good this long (wall
+/// clock): a fault that comes and goes from step to step is one alarm.
+pub const CHANNEL_CLEAR_HOLD: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// The alarm that counts the causes beyond [`MAX_ACTIVE`].
 pub const OVERFLOW_KEY: &str = "input.alarm_table_full";
 

@@ -503,6 +503,8 @@ pub struct Cycle {
     bumpless: Bumpless,
     applied_um: [f64; MAX_AXES],
     /// Per axis: a valid offset exists (see [`OffsetOut::valid`]).
+    /// When each channel's alarmed fault was last seen (wall clock), for the clear hold.
+    fault_seen: Vec<Option<Instant>>,
     valid: [bool; MAX_AXES],
     /// Where the resume state is saved (None: not kept, e.g. benchmarks).
     persist: Option<Persist>,
@@ -571,6 +573,7 @@ impl Cycle {
             seq: 0,
             cycles: 0,
             samples: 0,
+            fault_seen: vec![None; n],
             scan_at: None,
             scan_time_s: None,
             last_step: Instant::now(),
@@ -822,7 +825,11 @@ impl Cycle {
         let out = &self.out;
         self.cycles += 1;
 
-        // Alarms on their edges only: a fault lasting an hour is one alarm.
+        // Alarms on their edges only: a fault lasting an hour is one alarm. A fault is
+        // raised at once but cleared only after the channel has been good for
+        // CHANNEL_CLEAR_HOLD of wall time, so a fault that comes and goes from step to step
+        // (a stale check at a high speed-up, a flickering sensor) is one alarm, not one
+        // row per step.
         for i in 0..self.prev_fault.len() {
             let f = self.engine.channel_fault(i);
             if f != self.prev_fault[i] {
@@ -841,17 +848,34 @@ impl Cycle {
                         .get(i)
                         .map(|c| format!("{}…{}", c.valid_min, c.valid_max))
                         .unwrap_or_default();
-                    self.raise(
-                        t,
-                        format!("channel.{name}.{}", fault_name(new)),
+                    let message = if r.stamp_s == f64::NEG_INFINITY {
+                        // Nothing has arrived since the start: say so, not "NaN at −inf s".
                         format!(
+                            "channel {name}: no reading yet at cycle {t:.3} s (valid {range}); axes reading it are frozen until one arrives"
+                        )
+                    } else {
+                        format!(
+            if f.is_some() && f == self.prev_fault[i] {
+                self.fault_seen[i] = Some(self.last_step);
+            }
+            if f.is_none()
+                && self.prev_fault[i].is_some()
+                && self.fault_seen[i].is_some_and(|seen| {
+                    self.last_step.saturating_duration_since(seen)
+                        < crate::alarms::CHANNEL_CLEAR_HOLD
+                })
+            {
+                continue;
+            }
                             "channel {name}: {} (raw = {}, stamped {:.3} s at cycle {:.3} s; valid {range}); axes reading it are frozen",
+                self.fault_seen[i] = f.map(|_| self.last_step);
                             fault_name(new),
                             r.raw,
                             r.stamp_s,
                             t
-                        ),
-                    );
+                        )
+                    };
+                    self.raise(t, format!("channel.{name}.{}", fault_name(new)), message);
                 }
                 self.prev_fault[i] = f;
             }

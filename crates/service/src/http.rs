@@ -254,6 +254,7 @@ struct RangeQuery {
     channel: Option<String>,
     kind: Option<String>,
     active: Option<bool>,
+    unacknowledged: Option<bool>,
 }
 
 fn range(q: &RangeQuery) -> Result<Range, Response> {
@@ -344,10 +345,16 @@ async fn alarms(
     if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
         return r;
     }
+    // `active=true`: alarms not cleared; `unacknowledged=true`: not cleared or not yet
+    // acknowledged (what an operator still has to look at).
     let active = q.active.unwrap_or(false);
+    let unacked = q.unacknowledged.unwrap_or(false);
     let limit = q.limit.unwrap_or(200).min(10_000);
-    match db(&st, move |c| c.alarms(active, limit)).await {
-        Ok(rows) => {
+    match db(&st, move |c| c.alarms(active || unacked, limit)).await {
+        Ok(mut rows) => {
+            if active {
+                rows.retain(|r| r.cleared_s.is_none());
+            }
             // An active input alarm with repeats carries its count (see crate::alarms);
             // every other row counts once.
             let counts = live(&st).input_alarm_counts;

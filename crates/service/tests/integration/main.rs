@@ -7,6 +7,7 @@ mod common;
 #[cfg(feature = "postgres")]
 mod postgres_common;
 
+mod alarm_flood;
 mod dashboard_browser;
 mod http_api;
 mod http_limits;

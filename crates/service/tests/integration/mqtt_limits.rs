@@ -169,6 +169,13 @@ async fn oversized_and_retained_poison_messages_leave_the_input_running() {
     })
     .await;
 
+    // Cleared: no longer listed as active (acknowledged or not); still listed as
+    // unacknowledged.
+    let (_, act) = api.get("/api/alarms?active=true", Some(&ro)).await;
+    assert!(alarms_with(&act, "mqtt.payload.A").is_empty(), "{act}");
+    let (_, unack) = api.get("/api/alarms?unacknowledged=true", Some(&ro)).await;
+    assert_eq!(alarms_with(&unack, "mqtt.payload.A").len(), 1, "{unack}");
+
     // A live oversized message (20 KiB, over the client library's 10 KiB default that
     // used to end the session) on B, then new readings: 24.4 − 20 → −16.5 µm.
     let big = format!(r#"{{"value": 1.0, "pad": "{}"}}"#, "y".repeat(20 * 1024));
