@@ -665,6 +665,54 @@ pub struct ModbusInput {
     /// Where the offset is written, if anywhere.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_output: Option<ModbusOffsetOutput>,
+    /// The stop / feed-hold output (first module), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_output: Option<ModbusStopOutput>,
+    /// The heartbeat output (first module), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heartbeat: Option<ModbusHeartbeat>,
+}
+
+/// Where a Modbus flag is written.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FlagTable {
+    /// A coil (function 5, Write Single Coil).
+    Coil,
+    /// A holding register (function 6), 1 or 0.
+    Holding,
+}
+
+/// The stop / feed-hold output: 1 while the engine's stop request is latched (a limit
+/// was exceeded; it stays until the operator acknowledges it), 0 otherwise.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusStopOutput {
+    /// Coil or holding-register address.
+    pub address: u16,
+    /// `coil` (default) or `holding`.
+    #[serde(default = "flag_coil")]
+    pub table: FlagTable,
+}
+
+#[cfg(feature = "modbus")]
+fn flag_coil() -> FlagTable {
+    FlagTable::Coil
+}
+
+/// The heartbeat output: a holding register counting up (0…65535, wrapping) every
+/// `period_s` while the compensation cycle runs; it stops when the compensator is dead.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusHeartbeat {
+    /// Holding-register address.
+    pub address: u16,
+    /// Period, s (≥ `cycle.period_s`, ≥ the poll period, ≤ 3600).
+    #[serde(default = "one")]
+    pub period_s: f64,
 }
 
 /// One Modbus TCP module.
@@ -1017,6 +1065,18 @@ impl ServiceConfig {
                         0.05,
                         3600.0,
                         "0.05…3600 s",
+                    )?;
+                }
+                if let Some(h) = &m.heartbeat {
+                    // The cycle steps at least every cycle.period_s: a shorter heartbeat
+                    // would stall between two steps of a live cycle.
+                    let lo = self.cycle.period_s.max(m.poll_period_s);
+                    check_range(
+                        "input.heartbeat.period_s",
+                        h.period_s,
+                        lo,
+                        3600.0,
+                        &format!("{lo}…3600 s (≥ cycle.period_s and poll_period_s)"),
                     )?;
                 }
             }

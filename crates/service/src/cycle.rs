@@ -151,6 +151,9 @@ pub struct OffsetOut {
     /// engine whose law has had every input). Outputs write nothing for an axis that is
     /// not valid: never a 0 that only means "no value yet".
     pub valid: [bool; MAX_AXES],
+    /// The engine's latched stop request (until the operator acknowledges it), for a
+    /// stop / feed-hold output.
+    pub stop: bool,
     /// Wall-clock instant the scan that caused it completed.
     pub scan_at: Option<Instant>,
 }
@@ -163,6 +166,7 @@ impl Default for OffsetOut {
             offsets_um: [0.0; MAX_AXES],
             n_axes: 0,
             valid: [false; MAX_AXES],
+            stop: false,
             scan_at: None,
         }
     }
@@ -221,6 +225,9 @@ pub struct Live {
     pub stop: Option<String>,
     /// Occurrences of each active input alarm (see [`crate::alarms`]).
     pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
+    /// Scan complete → offset in the output cell, per scan-triggered step.
+    #[serde(skip)]
+    pub latency: Arc<crate::latency::Histogram>,
 }
 
 impl Live {
@@ -255,6 +262,7 @@ impl Live {
                 .collect(),
             stop: None,
             input_alarm_counts: Default::default(),
+            latency: Default::default(),
         }
     }
 }
@@ -462,6 +470,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::Stale => "stale",
         Fault::Stuck => "stuck",
         Fault::OutOfOrder => "out_of_order",
+        Fault::RateOfChange => "rate_of_change",
+        Fault::Spike => "spike",
     }
 }
 
@@ -484,6 +494,7 @@ pub struct Cycle {
     bumpless_step_um: f64,
     records: SyncSender<Record>,
     live: Arc<Mutex<Live>>,
+    latency: Arc<crate::latency::Histogram>,
     offsets: tokio::sync::watch::Sender<OffsetOut>,
     readings: Vec<Reading>,
     /// Held axis positions, mm, NaN until received; the engine reads the first
@@ -497,17 +508,21 @@ pub struct Cycle {
     safe_point: bool,
     last_time_s: f64,
     prev_fault: Vec<Option<Fault>>,
+    /// When each channel's alarmed fault was last seen (wall clock), for the clear hold.
+    fault_seen: Vec<Option<Instant>>,
     prev_engine_alarm: Option<&'static str>,
     prev_stop: bool,
     input_alarms: crate::alarms::InputAlarms,
     bumpless: Bumpless,
     applied_um: [f64; MAX_AXES],
     /// Per axis: a valid offset exists (see [`OffsetOut::valid`]).
-    /// When each channel's alarmed fault was last seen (wall clock), for the clear hold.
-    fault_seen: Vec<Option<Instant>>,
     valid: [bool; MAX_AXES],
     /// Where the resume state is saved (None: not kept, e.g. benchmarks).
     persist: Option<Persist>,
+    /// The stop request as last published to the outputs.
+    published_stop: bool,
+    /// Steps run, shared with the heartbeat outputs (a stalled count = a dead cycle).
+    alive: Arc<std::sync::atomic::AtomicU64>,
     seq: u64,
     cycles: u64,
     samples: u64,
@@ -563,6 +578,7 @@ impl Cycle {
             safe_point: true,
             last_time_s: f64::NEG_INFINITY,
             prev_fault: vec![None; n],
+            fault_seen: vec![None; n],
             prev_engine_alarm: None,
             prev_stop: false,
             input_alarms: Default::default(),
@@ -570,10 +586,11 @@ impl Cycle {
             applied_um: [0.0; MAX_AXES],
             valid: [false; MAX_AXES],
             persist: None,
+            published_stop: false,
+            alive: Arc::new(std::sync::atomic::AtomicU64::new(0)),
             seq: 0,
             cycles: 0,
             samples: 0,
-            fault_seen: vec![None; n],
             scan_at: None,
             scan_time_s: None,
             last_step: Instant::now(),
@@ -581,6 +598,10 @@ impl Cycle {
             config: p.config,
             clock,
             records: p.records,
+            latency: match p.live.lock() {
+                Ok(l) => l.latency.clone(),
+                Err(e) => e.into_inner().latency.clone(),
+            },
             live: p.live,
             offsets: p.offsets,
             shutdown: p.shutdown,
@@ -596,6 +617,12 @@ impl Cycle {
             dirty: false,
             hash: config_hash(&self.config.to_toml_string().unwrap_or_default()),
         });
+    }
+
+    /// The count of steps run, for heartbeat outputs: it stops moving when the cycle is
+    /// dead, so the heartbeat stops and the PLC holds its last offset.
+    pub fn alive(&self) -> Arc<std::sync::atomic::AtomicU64> {
+        self.alive.clone()
     }
 
     /// Whether the machine is at a safe point before the source has said so (true unless
@@ -630,6 +657,7 @@ impl Cycle {
             offsets_um: self.applied_um,
             n_axes: n as u8,
             valid: self.valid,
+            stop: self.published_stop,
             scan_at: None,
         });
         if let Ok(mut live) = self.live.lock() {
@@ -824,6 +852,7 @@ impl Cycle {
         );
         let out = &self.out;
         self.cycles += 1;
+        self.alive.store(self.cycles, Ordering::Release);
 
         // Alarms on their edges only: a fault lasting an hour is one alarm. A fault is
         // raised at once but cleared only after the channel has been good for
@@ -832,7 +861,20 @@ impl Cycle {
         // row per step.
         for i in 0..self.prev_fault.len() {
             let f = self.engine.channel_fault(i);
+            if f.is_some() && f == self.prev_fault[i] {
+                self.fault_seen[i] = Some(self.last_step);
+            }
+            if f.is_none()
+                && self.prev_fault[i].is_some()
+                && self.fault_seen[i].is_some_and(|seen| {
+                    self.last_step.saturating_duration_since(seen)
+                        < crate::alarms::CHANNEL_CLEAR_HOLD
+                })
+            {
+                continue;
+            }
             if f != self.prev_fault[i] {
+                self.fault_seen[i] = f.map(|_| self.last_step);
                 let name = &self.engine.channel_names()[i];
                 if let Some(old) = self.prev_fault[i] {
                     self.record(Record::AlarmCleared {
@@ -855,20 +897,7 @@ impl Cycle {
                         )
                     } else {
                         format!(
-            if f.is_some() && f == self.prev_fault[i] {
-                self.fault_seen[i] = Some(self.last_step);
-            }
-            if f.is_none()
-                && self.prev_fault[i].is_some()
-                && self.fault_seen[i].is_some_and(|seen| {
-                    self.last_step.saturating_duration_since(seen)
-                        < crate::alarms::CHANNEL_CLEAR_HOLD
-                })
-            {
-                continue;
-            }
                             "channel {name}: {} (raw = {}, stamped {:.3} s at cycle {:.3} s; valid {range}); axes reading it are frozen",
-                self.fault_seen[i] = f.map(|_| self.last_step);
                             fault_name(new),
                             r.raw,
                             r.stamp_s,
@@ -947,8 +976,11 @@ impl Cycle {
             }
         }
         self.applied_um = next;
-        // Nothing leaves before an axis has a valid offset (no 0 meaning "no value yet").
-        if changed && self.valid[..n_axes].iter().any(|v| *v) {
+        // Nothing leaves before an axis has a valid offset (no 0 meaning "no value yet");
+        // a change of the stop request always does.
+        let stop_changed = stop != self.published_stop;
+        self.published_stop = stop;
+        if (changed && self.valid[..n_axes].iter().any(|v| *v)) || stop_changed {
             self.seq += 1;
             let o = OffsetOut {
                 time_s: t,
@@ -956,11 +988,17 @@ impl Cycle {
                 offsets_um: next,
                 n_axes: n_axes as u8,
                 valid: self.valid,
+                stop,
                 scan_at: self.scan_at,
             };
             self.offsets.send_replace(o);
         }
         let averaged = out.averaged;
+        if trigger {
+            if let Some(at) = self.scan_at {
+                self.latency.add(at.elapsed());
+            }
+        }
         if let Ok(mut live) = self.live.lock() {
             live.time_s = t;
             live.status = engine_status_name(out.status);

@@ -430,6 +430,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             cycle.set_safe_point(false);
         }
     }
+    let alive = cycle.alive();
     let cycle_thread = std::thread::Builder::new()
         .name("gearcomp-cycle".into())
         .spawn(move || cycle.run(in_rx))
@@ -504,6 +505,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 clock,
                 tx: in_tx.clone(),
                 offsets: off_rx.clone(),
+                alive: alive.clone(),
             };
             tasks.push(tokio::spawn(async move {
                 let _ = crate::sources::modbus::run(parts).await;

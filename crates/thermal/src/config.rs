@@ -133,6 +133,50 @@ pub struct ChannelConfig {
     /// Largest change still counted as "unchanged" by the stuck check (°C or µm).
     #[serde(default)]
     pub stuck_tolerance: f64,
+    /// Plausibility of single readings (rate of change, spikes); none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plausibility: Option<Plausibility>,
+}
+
+/// Checks of single readings inside the validity range: a reading that fails one is a
+/// fault (alarm; the axes reading the channel hold their value) and is not averaged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plausibility {
+    /// Largest credible rate of change against the last accepted reading, in the
+    /// channel's unit per s (°C/s or µm/s), > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_rate_per_s: Option<f64>,
+    /// Hampel test against the last readings.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spike: Option<SpikeTest>,
+}
+
+/// Hampel (median / MAD) test: a reading farther than `n_sigma`·1.4826·MAD from the
+/// median of the previous `window` readings is a spike; MAD is floored at `min_mad`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpikeTest {
+    /// Readings in the window, 3…31 (default 7).
+    #[serde(default = "default_spike_window")]
+    pub window: usize,
+    /// Threshold in robust standard deviations, 1…100 (default 3).
+    #[serde(default = "default_spike_sigma")]
+    pub n_sigma: f64,
+    /// Smallest MAD used, channel unit (°C or µm), ≥ 0 (default 0.1): keeps the
+    /// quantisation of a steady sensor from counting as a spike.
+    #[serde(default = "default_spike_min_mad")]
+    pub min_mad: f64,
+}
+
+fn default_spike_window() -> usize {
+    7
+}
+fn default_spike_sigma() -> f64 {
+    3.0
+}
+fn default_spike_min_mad() -> f64 {
+    0.1
 }
 
 /// One compensated axis.

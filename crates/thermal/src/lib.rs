@@ -57,8 +57,8 @@ pub mod sensor;
 pub mod units;
 
 pub use config::{
-    Application, AxisConfig, ChannelConfig, EngineConfig, SamplingConfig, Sign, TermConfig,
-    TimeFilterConfig, Trigger,
+    Application, AxisConfig, ChannelConfig, EngineConfig, Plausibility, SamplingConfig, Sign,
+    SpikeTest, TermConfig, TimeFilterConfig, Trigger,
 };
 pub use engine::{
     Alarm, AxisOutput, AxisStatus, Engine, EngineStatus, Fault, Inputs, Output, Reading,

@@ -103,6 +103,7 @@ fn channel(name: &str, sensor: SensorKind, valid: (f64, f64), limits: (f64, f64)
         stale_timeout_s: 60.0,
         stuck_timeout_s: Some(1800.0),
         stuck_tolerance: 0.0,
+        plausibility: None,
     }
 }
 

@@ -7,13 +7,18 @@
 //! retried with exponential back-off.
 
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::SyncSender;
+use std::sync::Arc;
 use std::time::Duration;
 
 use tokio::sync::watch;
 use tokio_modbus::prelude::*;
 
-use crate::config::{ModbusInput, ModbusModule, RegisterMap, RegisterTable};
+use crate::config::{
+    FlagTable, ModbusHeartbeat, ModbusInput, ModbusModule, ModbusStopOutput, RegisterMap,
+    RegisterTable,
+};
 use crate::cycle::{Clock, InputMsg, OffsetOut};
 
 /// Converts a register word into the engineering value.
@@ -69,6 +74,8 @@ pub struct ModbusParts {
     pub tx: SyncSender<InputMsg>,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
+    /// The cycle's step count (`Cycle::alive`), for the heartbeat output.
+    pub alive: Arc<AtomicU64>,
 }
 
 /// Checks that every mapped channel and the offset axis exist; returns the channel index
@@ -141,12 +148,19 @@ pub async fn run(p: ModbusParts) -> crate::error::Result<()> {
         } else {
             None
         };
+        let flags =
+            (i == 0 && (p.cfg.stop_output.is_some() || p.cfg.heartbeat.is_some())).then(|| Flags {
+                stop: p.cfg.stop_output.clone(),
+                heartbeat: p.cfg.heartbeat.clone(),
+                alive: p.alive.clone(),
+            });
         tasks.spawn(run_module(
             i,
             m,
             idx,
             p.cfg.clone(),
             out,
+            flags,
             p.clock,
             p.tx.clone(),
             p.offsets.clone(),
@@ -163,6 +177,7 @@ async fn run_module(
     index: Vec<u16>,
     cfg: ModbusInput,
     out: Option<(crate::config::ModbusOffsetOutput, usize)>,
+    flags: Option<Flags>,
     clock: Clock,
     tx: SyncSender<InputMsg>,
     mut offsets: watch::Receiver<OffsetOut>,
@@ -171,6 +186,7 @@ async fn run_module(
     let period = Duration::from_secs_f64(cfg.poll_period_s);
     let mut failures = 0u32;
     let mut held = Held::default();
+    let mut flag_state = FlagState::default();
     loop {
         let mut ctx = match connect(&m).await {
             Ok(c) => c,
@@ -194,6 +210,7 @@ async fn run_module(
         failures = 0;
         // A new connection (the device may have restarted): check and write at once.
         held.connected = true;
+        flag_state.stop_written = None;
         send(
             &tx,
             InputMsg::ClearAlarm {
@@ -295,10 +312,127 @@ async fn run_module(
                     break 'poll;
                 }
             }
+            if let Some(f) = &flags {
+                let snap = *offsets.borrow();
+                if write_flags(&mut ctx, f, &snap, &mut flag_state, &tx)
+                    .await
+                    .is_err()
+                {
+                    break 'poll;
+                }
+            }
         }
         failures = failures.saturating_add(1);
         tokio::time::sleep(Duration::from_secs_f64(cfg.reconnect.wait_s(failures))).await;
     }
+}
+
+/// The stop and heartbeat outputs of the first module.
+#[derive(Debug, Clone)]
+struct Flags {
+    stop: Option<ModbusStopOutput>,
+    heartbeat: Option<ModbusHeartbeat>,
+    alive: Arc<AtomicU64>,
+}
+
+#[derive(Debug, Default)]
+struct FlagState {
+    /// The stop flag last confirmed written (None: write at once).
+    stop_written: Option<bool>,
+    /// When the stop flag is written again regardless (a device that restarted).
+    next_stop_refresh: Option<tokio::time::Instant>,
+    /// The heartbeat counter last written.
+    beat: u16,
+    next_beat: Option<tokio::time::Instant>,
+    /// The cycle's step count at the last beat.
+    last_alive: u64,
+}
+
+const STOP_KEY: &str = "modbus.stop_output";
+const BEAT_KEY: &str = "modbus.heartbeat";
+
+/// Writes the stop / feed-hold flag when it changes, on a new connection and every
+/// second; counts the heartbeat register up every `period_s` while the cycle steps (a
+/// dead cycle stops the heartbeat, so the PLC holds its last offset). Err: the
+/// connection failed.
+async fn write_flags(
+    ctx: &mut client::Context,
+    f: &Flags,
+    snap: &OffsetOut,
+    st: &mut FlagState,
+    tx: &SyncSender<InputMsg>,
+) -> std::result::Result<(), ()> {
+    let now = tokio::time::Instant::now();
+    if let Some(so) = &f.stop {
+        let due = st.next_stop_refresh.is_none_or(|t| now >= t);
+        if st.stop_written != Some(snap.stop) || due {
+            let res = match so.table {
+                FlagTable::Coil => ctx.write_single_coil(so.address, snap.stop).await,
+                FlagTable::Holding => {
+                    ctx.write_single_register(so.address, u16::from(snap.stop))
+                        .await
+                }
+            };
+            match res {
+                Ok(Ok(())) => {
+                    st.stop_written = Some(snap.stop);
+                    st.next_stop_refresh = Some(now + Duration::from_secs(1));
+                    send(
+                        tx,
+                        InputMsg::ClearAlarm {
+                            key: STOP_KEY.into(),
+                        },
+                    );
+                }
+                Ok(Err(exc)) => send(
+                    tx,
+                    InputMsg::RaiseAlarm {
+                        key: STOP_KEY.into(),
+                        message: format!(
+                            "Modbus stop output ({:?} {}) = {}: exception {exc:?}; retrying",
+                            so.table,
+                            so.address,
+                            u8::from(snap.stop)
+                        ),
+                    },
+                ),
+                Err(_) => return Err(()),
+            }
+        }
+    }
+    if let Some(h) = &f.heartbeat {
+        if st.next_beat.is_none_or(|t| now >= t) {
+            st.next_beat = Some(now + Duration::from_secs_f64(h.period_s));
+            let a = f.alive.load(Ordering::Acquire);
+            if a != st.last_alive {
+                st.last_alive = a;
+                let beat = st.beat.wrapping_add(1);
+                match ctx.write_single_register(h.address, beat).await {
+                    Ok(Ok(())) => {
+                        st.beat = beat;
+                        send(
+                            tx,
+                            InputMsg::ClearAlarm {
+                                key: BEAT_KEY.into(),
+                            },
+                        );
+                    }
+                    Ok(Err(exc)) => send(
+                        tx,
+                        InputMsg::RaiseAlarm {
+                            key: BEAT_KEY.into(),
+                            message: format!(
+                                "Modbus heartbeat register {}: exception {exc:?}; retrying",
+                                h.address
+                            ),
+                        },
+                    ),
+                    Err(_) => return Err(()),
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// What the offset output knows about the device's register.

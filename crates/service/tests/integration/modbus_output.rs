@@ -220,3 +220,73 @@ async fn device_restart_and_lost_register_get_the_offset_again() {
         assert!(w.iter().all(|&(a, v)| a == 10 && v as i16 == -150), "{w:?}");
     }
 }
+
+/// Stop / feed-hold and heartbeat (issue 14 item 8) through Modbus: the coil follows the
+/// latched stop request (set when A exceeds its limit, kept while A is back in range,
+/// released by the operator's acknowledge); the heartbeat register counts up while the
+/// service runs and stops when it stops.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stop_coil_follows_the_latched_request_and_heartbeat_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    // Channel A has an upper limit of 30 °C (seed 000: an averaged value outside its
+    // limits requests a stop).
+    let engine = engine_ab(1.0).replacen(
+        "stale_timeout_s = 1\n",
+        "stale_timeout_s = 1\nlimit_max = 30.0\n",
+        1,
+    );
+    assert!(engine.contains("limit_max = 30.0"), "{engine}");
+    std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
+    let port = free_port();
+    let m = module_at(24.0, 20.0);
+    let _dev = Device::start(port, m.clone());
+    let run = start_with(
+        dir.path(),
+        &format!(
+            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+             [storage]\npath = \"st.db\"\n\
+             [input]\nkind = \"modbus\"\npoll_period_s = 0.05\nreconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+             offset_output = {{ axis = \"Z\", address = 10, um_per_count = 0.1 }}\n\
+             stop_output = {{ address = 3, table = \"coil\" }}\n\
+             heartbeat = {{ address = 11, period_s = 0.1 }}\n\
+             [[input.modules]]\nhost = \"127.0.0.1\"\nport = {port}\n\
+             registers = [{{ channel = \"A\", address = 0, scale = 0.1 }}, {{ channel = \"B\", address = 1, scale = 0.1 }}]\n"
+        ),
+    )
+    .await;
+    let op = run.generated.clone().unwrap().operator;
+    let api = Api::new(&run);
+    let coil = |m: &Module| m.coils.lock().unwrap()[3];
+    wait_until("offset", 15.0, || reg(&m, 10) == -150).await;
+    assert!(!coil(&m));
+    // Heartbeat: counts up while running.
+    let b0 = reg(&m, 11) as u16;
+    wait_until("heartbeat", 10.0, || {
+        (reg(&m, 11) as u16).wrapping_sub(b0) >= 3
+    })
+    .await;
+
+    // A at 35 °C: stop requested → coil set.
+    m.input.lock().unwrap()[0] = 350;
+    wait_until("stop coil set", 10.0, || coil(&m)).await;
+    // Back in range: the request stays latched, the coil stays set.
+    m.input.lock().unwrap()[0] = 240;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert!(coil(&m), "stop released without acknowledgement");
+    // The operator acknowledges: released.
+    let r = api
+        .client
+        .post(format!("{}/api/stop/ack", api.base))
+        .bearer_auth(&op)
+        .send()
+        .await
+        .unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    wait_until("stop coil released", 10.0, || !coil(&m)).await;
+
+    run.stop().await.unwrap();
+    // Dead compensator: the heartbeat no longer moves.
+    let b1 = reg(&m, 11);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(reg(&m, 11), b1);
+}
