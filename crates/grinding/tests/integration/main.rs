@@ -11,3 +11,4 @@ mod dressed_worm;
 mod envelope;
 mod issue13;
 mod topological_worm;
+mod prop_grind;
