@@ -225,9 +225,6 @@ pub struct Live {
     pub stop: Option<String>,
     /// Occurrences of each active input alarm (see [`crate::alarms`]).
     pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
-    /// Scan complete → offset in the output cell, per scan-triggered step.
-    #[serde(skip)]
-    pub latency: Arc<crate::latency::Histogram>,
 }
 
 impl Live {
@@ -262,7 +259,6 @@ impl Live {
                 .collect(),
             stop: None,
             input_alarm_counts: Default::default(),
-            latency: Default::default(),
         }
     }
 }
@@ -494,7 +490,6 @@ pub struct Cycle {
     bumpless_step_um: f64,
     records: SyncSender<Record>,
     live: Arc<Mutex<Live>>,
-    latency: Arc<crate::latency::Histogram>,
     offsets: tokio::sync::watch::Sender<OffsetOut>,
     readings: Vec<Reading>,
     /// Held axis positions, mm, NaN until received; the engine reads the first
@@ -598,10 +593,6 @@ impl Cycle {
             config: p.config,
             clock,
             records: p.records,
-            latency: match p.live.lock() {
-                Ok(l) => l.latency.clone(),
-                Err(e) => e.into_inner().latency.clone(),
-            },
             live: p.live,
             offsets: p.offsets,
             shutdown: p.shutdown,
@@ -994,11 +985,6 @@ impl Cycle {
             self.offsets.send_replace(o);
         }
         let averaged = out.averaged;
-        if trigger {
-            if let Some(at) = self.scan_at {
-                self.latency.add(at.elapsed());
-            }
-        }
         if let Ok(mut live) = self.live.lock() {
             live.time_s = t;
             live.status = engine_status_name(out.status);
