@@ -377,7 +377,12 @@ pub fn plan_with_options(
     let mut rows = Vec::with_capacity(spec.diameters_mm.len());
     let mut prev = AxisCorrection::default();
     for &d_s in &spec.diameters_mm {
-        let worn = design.worn(d_s)?;
+        // Which dressing failed, in the terms of `[plan]`.
+        let at_d = |e: DressError| DressError::NotProducible {
+            key: "[plan] diameters_mm".into(),
+            detail: format!("the dressing at d_S = {d_s} mm: {e}"),
+        };
+        let worn = design.worn(d_s).map_err(at_d)?;
         let alpha_keep = worn.profile_angle_at(d_s / 2.0);
         let worm = if options.zero_stretch {
             let (a, k) = zero_stretch_profile_angle(
@@ -388,18 +393,19 @@ pub fn plan_with_options(
                 d_s,
                 options.alpha_search_rad,
                 prev,
-            )?;
+            )
+            .map_err(at_d)?;
             prev = k;
             worn.with_profile_angle(a)?
         } else {
             worn
         };
-        let d = dress_once(worm, dresser, spec, &reference, prev)?;
+        let d = dress_once(worm, dresser, spec, &reference, prev).map_err(at_d)?;
         let (setup, (w_nf, w_na), wt, dk) = (&d.setup, d.active, d.targets, d.dk);
         prev = dk;
         let at = |q: f64| w_nf + q * (w_na - w_nf);
         let ws: Vec<f64> = (0..=20).map(|i| at(i as f64 / 20.0)).collect();
-        let f = setup.profile(spec.flank, &ws, &dk)?;
+        let f = setup.profile(spec.flank, &ws, &dk).map_err(at_d)?;
         let profile: Vec<(f64, f64)> = ws
             .iter()
             .zip(f.iter())
@@ -414,8 +420,9 @@ pub fn plan_with_options(
                 (a.min(p.1), b.max(p.1))
             });
         let (deviation_foot_um, deviation_tip_um) = (profile[0].1, profile[20].1);
-        let stretch = profile_stretch(setup, spec.flank, &reference, &dk, (w_nf, w_na))?;
-        let opposite_cut_mm = setup.opposite_flank_cut(spec.flank, &dk)?;
+        let stretch =
+            profile_stretch(setup, spec.flank, &reference, &dk, (w_nf, w_na)).map_err(at_d)?;
+        let opposite_cut_mm = setup.opposite_flank_cut(spec.flank, &dk).map_err(at_d)?;
         let jacket_depth_mm = setup.jacket_depth(&dk);
         let n = setup.nominal;
         let axes = setup.machine_axes(&dk)?;
