@@ -297,6 +297,27 @@ fn thin(points: Vec<(f64, f64)>, max: usize) -> Vec<(f64, f64)> {
     points.into_iter().step_by(step).collect()
 }
 
+/// Test rows, test rows outside the training envelope, mean 95 % interval half-width.
+fn extrapolation(
+    train: &[bool],
+    m: &gearcomp_identify::identify::TargetModel,
+) -> (usize, usize, f64) {
+    let mut n = 0;
+    let mut out = 0;
+    for (i, &tr) in train.iter().enumerate() {
+        if !tr {
+            n += 1;
+            out += usize::from(m.outside.get(i).copied().unwrap_or(false));
+        }
+    }
+    let half = if m.interval_um.is_empty() {
+        f64::NAN
+    } else {
+        m.interval_um.iter().sum::<f64>() / m.interval_um.len() as f64
+    };
+    (n, out, half)
+}
+
 /// A number for JSON: null when not finite.
 fn jnum(v: f64) -> serde_json::Value {
     if v.is_finite() {
@@ -331,6 +352,8 @@ fn fit_json(
                 "validation_folds_um": m.fold_rmse.iter().map(|v| jnum(*v)).collect::<Vec<_>>(),
                 "train_rmse_um": jnum(m.train_rmse),
                 "test_rmse_um": m.test_rmse.map_or(serde_json::Value::Null, jnum),
+                "test_rows_outside_envelope": extrapolation(&id.train, m).1,
+                "mean_interval_half_width_um": jnum(extrapolation(&id.train, m).2),
                 "plain_ls_all_inputs": {
                     "train_rmse_um": jnum(b.0),
                     "test_rmse_um": b.1.map_or(serde_json::Value::Null, jnum),
@@ -497,6 +520,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             },
         })
         .collect();
+    let axes_names: Vec<String> = axes.iter().map(|a| a.axis.clone()).collect();
     let file = ModelFile {
         format: MODEL_FORMAT.into(),
         name: args.name.clone(),
@@ -514,6 +538,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .filter(|v| v.is_finite())
                 .collect(),
         }),
+        envelopes: id
+            .targets
+            .iter()
+            .zip(&axes_names)
+            .filter_map(|(m, axis)| {
+                m.envelope.clone().map(|mut e| {
+                    e.axis = axis.clone();
+                    e
+                })
+            })
+            .collect(),
     };
     file.validate()?;
 
@@ -619,6 +654,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             names.len(),
             num(b.0, 3),
             fmt_opt(b.1)
+        );
+        let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
+        let _ = writeln!(
+            out,
+            "  extrapolation: {n_out} of {n_test} test rows outside the training envelope; 95 % prediction interval ± {} µm on average (validation RMSE × √(1 + leverage))",
+            num(mean_half, 3)
         );
         let _ = writeln!(
             out,
@@ -831,8 +872,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     "displacement / µm",
                 )
                 .with(Series::line("measured", meas))
-                .with(Series::line("predicted", pred)),
+                .with(Series::line("predicted", pred))
+                .with(Series::line(
+                    "95 % interval (upper)",
+                    thin(
+                        hours
+                            .iter()
+                            .zip(m.predicted.iter().zip(&m.interval_um))
+                            .map(|(h, (p, w))| (*h, p + w))
+                            .collect(),
+                        2500,
+                    ),
+                ))
+                .with(Series::line(
+                    "95 % interval (lower)",
+                    thin(
+                        hours
+                            .iter()
+                            .zip(m.predicted.iter().zip(&m.interval_um))
+                            .map(|(h, (p, w))| (*h, p - w))
+                            .collect(),
+                        2500,
+                    ),
+                ))
+                .with(Series::points(
+                    "outside the training envelope (extrapolating)",
+                    thin(
+                        hours
+                            .iter()
+                            .zip(m.predicted.iter().zip(&m.outside))
+                            .filter(|(_, (_, &o))| o)
+                            .map(|(h, (p, _))| (*h, *p))
+                            .collect(),
+                        1500,
+                    ),
+                )),
             )?;
+            let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
+            r.paragraph(&format!(
+                "{n_out} of {n_test} test rows are outside the training envelope (a channel outside its training range, or the regressors farther from the training mean than any training row: Mahalanobis bound); they are marked on the chart. 95 % prediction interval: ± {} µm on average.",
+                num(mean_half, 3)
+            ));
             r.chart(
                 &Chart::new(
                     format!("{}: residual (measured − predicted)", m.target),

@@ -53,6 +53,140 @@ pub struct ModelFile {
     /// How the model was made (data, split, errors), for the record.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
+    /// Training envelope of each axis's machine model (optional): live inputs outside it
+    /// mean the model is extrapolating (a warning, not a stop).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub envelopes: Vec<Envelope>,
+}
+
+/// The inputs a machine model was identified on (issue 12): per-channel ranges and a
+/// Mahalanobis bound on the model's regressors (its terms, transformed, in term order).
+///
+/// # Formula
+/// d² = ‖W·(x − x̄)‖², W = √(n − 1)·R⁻ᵀ with R the QR factor of the centred training
+/// regressors (so d² = (x − x̄)ᵀ S⁻¹ (x − x̄), S the sample covariance); leverage
+/// h = 1/n + d²/(n − 1). Outside: a channel below `min` or above `max`, or d² > `max_d2`.
+/// # Source
+/// Mahalanobis distance / hat-matrix leverage of least squares (Hoaglin & Welsch 1978)
+/// [STANDARD]; the stored form is this project's [PROJECT CONVENTION].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Envelope {
+    /// The axis whose machine model this envelope belongs to.
+    pub axis: String,
+    /// Range of each channel the model reads over the training rows.
+    pub ranges: Vec<ChannelRange>,
+    /// Mean of each term's regressor over the training rows (term order).
+    #[serde(default)]
+    pub feature_mean: Vec<f64>,
+    /// W, row-major, p × p (p = number of terms); empty: no Mahalanobis bound.
+    #[serde(default)]
+    pub whitening: Vec<f64>,
+    /// Largest d² over the training rows.
+    #[serde(default)]
+    pub max_d2: f64,
+    /// Number of training rows.
+    #[serde(default)]
+    pub rows: u64,
+}
+
+/// The range of one channel over the training rows, in the channel's unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelRange {
+    /// Channel name.
+    pub channel: String,
+    /// Smallest training value.
+    pub min: f64,
+    /// Largest training value.
+    pub max: f64,
+}
+
+/// Why live inputs are outside an [`Envelope`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outside {
+    /// The channel (index into `ranges`) is outside its training range.
+    Range {
+        /// Index into [`Envelope::ranges`].
+        channel: usize,
+        /// The live value.
+        value: f64,
+    },
+    /// The regressors are farther from the training mean than any training row.
+    Mahalanobis {
+        /// The live d².
+        d2: f64,
+    },
+}
+
+impl Envelope {
+    /// d² of a regressor vector (term order); 0 without a Mahalanobis bound.
+    pub fn d2(&self, features: &[f64]) -> f64 {
+        let p = self.feature_mean.len();
+        if p == 0 || self.whitening.len() != p * p || features.len() != p {
+            return 0.0;
+        }
+        let dx: Vec<f64> = features
+            .iter()
+            .zip(&self.feature_mean)
+            .map(|(x, m)| x - m)
+            .collect();
+        self.whitening
+            .chunks(p)
+            .map(|row| row.iter().zip(&dx).map(|(w, d)| w * d).sum::<f64>().powi(2))
+            .sum()
+    }
+
+    /// Leverage h = 1/n + d²/(n − 1) of a regressor vector.
+    pub fn leverage(&self, features: &[f64]) -> f64 {
+        let n = self.rows.max(2) as f64;
+        1.0 / n + self.d2(features) / (n - 1.0)
+    }
+
+    /// The first reason live inputs are outside: `channels` are the values of
+    /// [`Envelope::ranges`]' channels in that order, `features` the model's regressors.
+    pub fn check(&self, channels: &[f64], features: &[f64]) -> Option<Outside> {
+        for (k, (r, &v)) in self.ranges.iter().zip(channels).enumerate() {
+            if v < r.min || v > r.max {
+                return Some(Outside::Range {
+                    channel: k,
+                    value: v,
+                });
+            }
+        }
+        let d2 = self.d2(features);
+        (d2 > self.max_d2 && !self.whitening.is_empty()).then_some(Outside::Mahalanobis { d2 })
+    }
+
+    /// Checks sizes and finiteness against the axis model's `terms` count.
+    pub fn validate(&self, path: &str, terms: usize) -> Result<()> {
+        for (i, r) in self.ranges.iter().enumerate() {
+            finite(format!("{path}.ranges[{i}].min"), r.min)?;
+            finite(format!("{path}.ranges[{i}].max"), r.max)?;
+            if r.min > r.max {
+                return Err(invalid(
+                    format!("{path}.ranges[{i}]"),
+                    format!("{} … {}", r.min, r.max),
+                    "min ≤ max",
+                ));
+            }
+        }
+        let p = self.feature_mean.len();
+        if p != 0 && (p != terms || self.whitening.len() != p * p) {
+            return Err(invalid(
+                format!("{path}.whitening"),
+                format!("{} mean(s), {} entries", p, self.whitening.len()),
+                &format!("{terms} means and {terms}×{terms} entries (one per term)"),
+            ));
+        }
+        for (i, v) in self.feature_mean.iter().chain(&self.whitening).enumerate() {
+            finite(format!("{path}.feature_mean/whitening[{i}]"), *v)?;
+        }
+        if !(self.max_d2.is_finite() && self.max_d2 >= 0.0) {
+            return Err(invalid(format!("{path}.max_d2"), self.max_d2, "d² ≥ 0"));
+        }
+        Ok(())
+    }
 }
 
 /// The offset model of one axis: machine error plus optional workpiece shrink.
@@ -275,12 +409,26 @@ impl ModelFile {
         if self.axes.is_empty() {
             return Err(invalid("axes".into(), "[]", "at least one axis model"));
         }
+        for (k, e) in self.envelopes.iter().enumerate() {
+            if !self.axes.iter().any(|a| a.axis == e.axis) {
+                return Err(invalid(
+                    format!("envelopes[{k}].axis"),
+                    &e.axis,
+                    "the name of an axis of this file",
+                ));
+            }
+        }
         for (i, a) in self.axes.iter().enumerate() {
             let p = format!("axes[{i}]");
             if a.axis.trim().is_empty() {
                 return Err(invalid(format!("{p}.axis"), "\"\"", "an axis name"));
             }
             a.machine.validate(&format!("{p}.machine"))?;
+            for (k, e) in self.envelopes.iter().enumerate() {
+                if e.axis == a.axis {
+                    e.validate(&format!("envelopes[{k}]"), a.machine.terms.len())?;
+                }
+            }
             if let Some(w) = &a.workpiece {
                 let p = format!("{p}.workpiece");
                 w.temperature.validate(&format!("{p}.temperature"))?;
@@ -405,6 +553,54 @@ channel = "wheelhead_c"
 coefficient = 3.75
 transform = { kind = "first_order_lag", tau_s = 600.0 }
 "#;
+
+    #[test]
+    fn envelope_checks_ranges_and_the_mahalanobis_bound() {
+        let mut m = ModelFile::from_toml_str(EXAMPLE).unwrap();
+        // W = diag(2, 0.5) with an off-diagonal 1: d² = (2·a)² + (1·a + 0.5·b)² by hand.
+        let e = Envelope {
+            axis: "Z".into(),
+            ranges: vec![ChannelRange {
+                channel: "bed_c".into(),
+                min: 18.0,
+                max: 25.0,
+            }],
+            feature_mean: vec![20.0, 21.0],
+            whitening: vec![2.0, 0.0, 1.0, 0.5],
+            max_d2: 4.0,
+            rows: 101,
+        };
+        let (a, b) = (0.5, -2.0);
+        let d2 = e.d2(&[20.0 + a, 21.0 + b]);
+        assert!((d2 - ((2.0 * a).powi(2) + (a + 0.5 * b).powi(2))).abs() < 1e-12);
+        assert!((e.leverage(&[20.0 + a, 21.0 + b]) - (1.0 / 101.0 + d2 / 100.0)).abs() < 1e-15);
+        assert_eq!(e.check(&[20.0], &[20.5, 19.0]), None);
+        assert_eq!(
+            e.check(&[25.5], &[20.0, 21.0]),
+            Some(Outside::Range {
+                channel: 0,
+                value: 25.5
+            })
+        );
+        assert_eq!(
+            e.check(&[20.0], &[21.5, 21.0]),
+            Some(Outside::Mahalanobis { d2: 11.25 })
+        );
+        m.envelopes.push(e.clone());
+        let back = ModelFile::from_toml_str(&m.to_toml_string().unwrap()).unwrap();
+        assert_eq!(back.envelopes, vec![e.clone()]);
+        let mut bad = m.clone();
+        bad.envelopes[0].whitening.pop();
+        let err = bad.validate().unwrap_err().to_string();
+        assert!(err.contains("envelopes[0].whitening"), "{err}");
+        let mut bad = m;
+        bad.envelopes[0].axis = "Q".into();
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("envelopes[0].axis"));
+    }
 
     #[test]
     fn parses_round_trips_and_lists_channels() {

@@ -139,6 +139,12 @@ pub struct TargetModel {
     pub family: String,
     /// Every family compared by the deployment validation (empty for a fixed kind).
     pub comparison: Vec<crate::select::FamilyScore>,
+    /// Training envelope of the model's inputs (axis = the target name).
+    pub envelope: Option<gearcomp_core::model::Envelope>,
+    /// Per row: inputs outside the training envelope.
+    pub outside: Vec<bool>,
+    /// Per row: 95 % prediction-interval half-width (target unit).
+    pub interval_um: Vec<f64>,
     /// RMSE on the training rows.
     pub train_rmse: f64,
     /// RMSE on the test rows (None without a test set).
@@ -416,6 +422,19 @@ pub(crate) fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
 /// dynamic Value + Rate model and its cross-validated selection are this project's
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
+    let mut id = identify_models(table, opts)?;
+    for m in &mut id.targets {
+        let env = crate::envelope::training_envelope(table, &id.train, &m.target, &m.model)?;
+        let (outside, half) =
+            crate::envelope::rows_outside_and_intervals(table, &m.model, &env, m.cv_rmse)?;
+        m.envelope = Some(env);
+        m.outside = outside;
+        m.interval_um = half;
+    }
+    Ok(id)
+}
+
+fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
     if table.targets.is_empty() {
         return Err(invalid("targets", "none", "at least one target column"));
     }
@@ -870,6 +889,9 @@ fn finish(
             (None, None) => "static least squares".into(),
         },
         comparison: Vec::new(),
+        envelope: None,
+        outside: Vec::new(),
+        interval_um: Vec::new(),
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
     })

@@ -29,6 +29,7 @@
 pub mod cluster;
 pub mod data;
 pub mod dendrogram;
+pub mod envelope;
 pub mod error;
 pub mod identify;
 pub mod regress;

@@ -961,6 +961,9 @@ fn finish(
             format!("{} ({})", b.family.name(), b.detail)
         },
         comparison,
+        envelope: None,
+        outside: Vec::new(),
+        interval_um: Vec::new(),
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
     })

@@ -108,6 +108,7 @@ pub fn workpiece_shrink(
             workpiece: Some(w.clone()),
         }],
         provenance: None,
+        envelopes: Vec::new(),
     };
     probe.validate()?;
     shrink_offset_um(&w, design_temp_c + 10.0)?;

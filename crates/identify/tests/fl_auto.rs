@@ -63,4 +63,27 @@ fn fl_thermal_default_uses_training_rows_only_and_at_most_8_sensors() {
         assert!(m.fold_rmse.len() == 3 && m.fold_rmse.iter().all(|v| v.is_finite()));
     }
     assert!(id.method.contains("rolling origin"), "{}", id.method);
+
+    // Extrapolation: no training row is outside the envelope; the 5000 rpm period
+    // (24 h … 28 h, above the 3750 rpm of training) is flagged.
+    for m in &id.targets {
+        let (mut tr_out, mut hot, mut hot_out) = (0, 0, 0);
+        for (i, &o) in m.outside.iter().enumerate() {
+            let h = t.time_s[i] / 3600.0;
+            if h < 24.0 && o {
+                tr_out += 1;
+            }
+            if (24.0..28.0).contains(&h) {
+                hot += 1;
+                hot_out += usize::from(o);
+            }
+        }
+        println!(
+            "{}: outside on training {tr_out}, 5000 rpm {hot_out}/{hot}",
+            m.target
+        );
+        assert_eq!(tr_out, 0, "{}", m.target);
+        assert!(hot_out * 2 > hot, "{}: {hot_out}/{hot}", m.target);
+        assert!(m.interval_um.iter().all(|v| v.is_finite() && *v > 0.0));
+    }
 }

@@ -160,6 +160,7 @@ fn every_family_runs_in_the_engine_as_fitted() {
                 workpiece: None,
             }],
             provenance: None,
+            envelopes: Vec::new(),
         };
         let file = gearcomp_core::model::ModelFile::from_toml_str(&file.to_toml_string().unwrap())
             .unwrap();

@@ -355,6 +355,7 @@ pub fn hobbing_model(t0_c: f64) -> ModelFile {
             workpiece: None,
         }],
         provenance: None,
+        envelopes: Vec::new(),
     }
 }
 
