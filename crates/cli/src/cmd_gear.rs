@@ -325,7 +325,13 @@ struct Output {
 
 /// The command-line option (and TOML key) a library parameter name comes from.
 fn flag_of(name: &str) -> Option<&'static str> {
-    let table: [(&str, &str); 13] = [
+    let table: [(&str, &str); 19] = [
+        ("tip diameter d_a (internal", "--shift"),
+        ("root diameter d_f", "--teeth"),
+        ("teeth of the internal gear", "--teeth/--mate-teeth"),
+        ("shift_sum", "--shift/--mate-shift/--centre-distance"),
+        ("centre_distance_mm", "--centre-distance"),
+        ("span axial", "--width"),
         ("normal_module_mm", "--module"),
         ("normal_pressure_angle", "--pressure-angle"),
         ("helix_angle", "--helix"),
@@ -358,6 +364,32 @@ fn flagged(e: GeometryError, what: &str) -> anyhow::Error {
         _ => None,
     };
     match name.and_then(flag_of) {
+        Some(flag) => anyhow::anyhow!("{what}: {flag}: {e}"),
+        None => anyhow::anyhow!("{what}: {e}"),
+    }
+}
+
+/// [`flagged`] for the mating gear: its own options are --mate-shift, --mate-teeth and
+/// --mate-width; the rest it shares with this gear.
+fn flagged_mate(e: GeometryError, what: &str) -> anyhow::Error {
+    let name = match e {
+        GeometryError::OutOfRange { name, .. } | GeometryError::PointedTooth { name, .. } => {
+            Some(name)
+        }
+        _ => None,
+    };
+    let flag = name.and_then(|n| {
+        if n.starts_with("profile_shift") || n.starts_with("tip diameter d_a (internal") {
+            Some("--mate-shift")
+        } else if n.starts_with("teeth") || n.starts_with("root diameter d_f") {
+            Some("--mate-teeth")
+        } else if n.starts_with("face_width_mm") {
+            Some("--mate-width")
+        } else {
+            flag_of(n)
+        }
+    });
+    match flag {
         Some(flag) => anyhow::anyhow!("{what}: {flag}: {e}"),
         None => anyhow::anyhow!("{what}: {e}"),
     }
@@ -575,13 +607,17 @@ fn compute_pair(
         (Some(x2), _) => x2,
         (None, Some(a_w)) => {
             let (s1, s2) = order(spec, mate_spec);
-            let sum = shift_sum_for_centre_distance(&s1, &s2, a_w).context("the pair")?;
+            let sum =
+                shift_sum_for_centre_distance(&s1, &s2, a_w).map_err(|e| flagged(e, "the pair"))?;
             sum - spec.profile_shift
         }
         (None, None) => 0.0,
     };
     mate_spec.profile_shift = x2;
-    let mate = Gear::new(mate_spec).context("the mating gear")?;
+    let mate = Gear::new(mate_spec).map_err(|e| flagged_mate(e, "the mating gear"))?;
+    if let Some(u) = mate.undercut("--mate-shift", x2) {
+        warnings.push(format!("mating gear: {u}"));
+    }
     let (g1, g2) = if internal {
         (&mate, gear)
     } else {
@@ -594,9 +630,9 @@ fn compute_pair(
             g2.spec(),
             g1.spec().profile_shift + g2.spec().profile_shift,
         )
-        .context("the pair")?,
+        .map_err(|e| flagged(e, "the pair"))?,
     };
-    let pair = GearPair::new(g1, g2, a_w).context("the pair")?;
+    let pair = GearPair::new(g1, g2, a_w).map_err(|e| flagged(e, "the pair"))?;
     let p: &PairGeometry = pair.geometry();
 
     let this_cases = allowance_cases(args.allowances.as_deref(), "--allowances")?;
@@ -616,7 +652,7 @@ fn compute_pair(
         };
         let b = pair
             .backlash(a1, a2)
-            .with_context(|| format!("backlash, {case}"))?;
+            .map_err(|e| flagged(e, &format!("backlash, {case}")))?;
         if b.normal_mm < -1e-9 {
             warnings.push(format!(
                 "{case} backlash j_bn = {:.4} mm is negative: the teeth would jam at a_w = {a_w} mm",

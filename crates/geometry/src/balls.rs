@@ -275,20 +275,23 @@ impl Gear {
         // A target clamped to an end of the flank is met to 1e-13·m_n, on either side:
         // keep the ball inside the accepted range so it is always measurable.
         let (b_lo, b_hi) = self.ball_range_mm(shift);
-        self.ball_for_contact_mm(shift, target)
-            .map(|b| {
-                if b_lo.is_finite() && b_hi >= b_lo {
-                    b.clamp(b_lo, b_hi)
-                } else {
-                    b
-                }
-            })
-            .ok_or(GeometryError::OffFlank {
-                name: "recommended ball_mm (no ball up to 5·m_n touches at the target circle)",
+        let on_range = b_lo.is_finite() && b_hi >= b_lo;
+        match self.ball_for_contact_mm(shift, target) {
+            Some(b) if on_range => Ok(b.clamp(b_lo, b_hi)),
+            Some(b) => Ok(b),
+            // The target circle cannot be reached (e.g. an undercut gear whose flank is taken
+            // from the base circle): the ball of the accepted range touching nearest to it.
+            None if on_range => {
+                let dist = |b: f64| (self.ball_geometry(b, shift).1 - target).abs();
+                Ok(if dist(b_lo) <= dist(b_hi) { b_lo } else { b_hi })
+            }
+            None => Err(GeometryError::OffFlank {
+                name: "ball_mm (no ball up to 5·m_n touches the usable flank)",
                 value: 5.0 * m_n,
                 contact_diameter_mm: target,
                 min_mm: lo,
                 max_mm: hi,
-            })
+            }),
+        }
     }
 }

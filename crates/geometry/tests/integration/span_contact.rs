@@ -164,6 +164,21 @@ fn undercut_is_computed_and_reported() {
         (m.dimension_mm - c.dimension_mm).abs() < 1e-6,
         "{m:?} {c:?}"
     );
+    // Heavily undercut helical pinion (z = 8, β = 30.78°, x = −0.379): the target circle
+    // lies below the usable flank; the recommended ball is the accepted one nearest to it,
+    // and it measures (this refused the whole `gear` command before).
+    let mut s = GearSpec::spur(1.411, 20f64.to_radians(), 8);
+    s.helix_angle_rad = 30.78f64.to_radians();
+    s.profile_shift = -0.379;
+    let g = Gear::new(s).unwrap();
+    assert!(g.undercut("profile_shift", -0.379).is_some());
+    let b = g.recommended_ball_mm(-0.379).unwrap();
+    let m = g.ball_dimension(b, -0.379).unwrap();
+    let c = construct::ball(&g3(&g, -0.379), b).unwrap();
+    assert!(
+        (m.dimension_mm - c.dimension_mm).abs() < 1e-6,
+        "{m:?} {c:?}"
+    );
     // A gear without undercut reports none.
     let g = Gear::new(GearSpec::spur(1.0, 20f64.to_radians(), 20)).unwrap();
     assert!(g.undercut("profile_shift", 0.0).is_none());
