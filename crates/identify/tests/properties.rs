@@ -62,3 +62,68 @@ proptest! {
         }
     }
 }
+
+/// Three runs of random sinusoidal inputs and a known lagged linear truth
+/// y = c0 + a·x1 + b·lag(x2, τ), the lag restarted in each run (built here, not by the crate).
+fn lagged_runs(c0: f64, a: f64, b: f64, tau: f64, seed: u64) -> String {
+    let mut s = String::from("run,time_s,x1_c,x2_c,x3_c,y_um\n");
+    for r in 0..3u64 {
+        let mut lag = f64::NAN;
+        let ph = (seed + 3 * r) as f64;
+        for i in 0..200 {
+            let t = 60.0 * i as f64;
+            let x1 = 20.0 + 3.0 * (t / (1100.0 + 37.0 * ph) + ph).sin();
+            let x2 = 25.0 + 4.0 * (t / (2300.0 + 11.0 * ph) + 0.3 * ph).cos();
+            let x3 = 22.0 + 2.0 * (t / 700.0 + 0.7 * ph).sin();
+            lag = if i == 0 {
+                x2
+            } else {
+                lag + (1.0 - (-60.0 / tau).exp()) * (x2 - lag)
+            };
+            s += &format!("{r},{t},{x1},{x2},{x3},{}\n", c0 + a * x1 + b * lag);
+        }
+    }
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+
+    #[test]
+    fn default_recovers_a_random_lagged_truth_on_held_out_runs(
+        c0 in -20.0..20.0f64, a in 0.5..5.0f64, b in 0.5..5.0f64,
+        ti in 0usize..8, seed in 0u64..1000,
+    ) {
+        use gearcomp_identify::identify::{identify, IdentifyOptions, Split};
+        let tau = IdentifyOptions::default().taus_s[ti];
+        let text = lagged_runs(c0, a, b, tau, seed);
+        let sel = Selection { targets: vec!["y_um".into()], run: Some("run".into()), ..Selection::default() };
+        let t = read_csv(&text, "lagged", &sel, ReadOptions::default()).unwrap();
+        let id = identify(&t, &IdentifyOptions { split: Split::TestRuns(vec!["2".into()]), ..IdentifyOptions::default() }).unwrap();
+        let m = &id.targets[0];
+        prop_assert!(m.test_rmse.unwrap() < 1e-6 * (1.0 + b), "{} {:?}", m.family, m.test_rmse);
+        prop_assert!(m.sensors.len() <= 3);
+    }
+
+    #[test]
+    fn invalid_splits_and_inputs_give_clear_errors(
+        which in 0usize..4, run in "[a-z]{1,4}", hours in 1.0e3..1.0e5f64, seed in 0u64..100,
+    ) {
+        use gearcomp_identify::identify::{identify, IdentifyOptions, Split};
+        let text = lagged_runs(1.0, 1.0, 1.0, 600.0, seed);
+        let sel = Selection { targets: vec!["y_um".into()], run: Some("run".into()), ..Selection::default() };
+        let t = read_csv(&text, "lagged", &sel, ReadOptions::default()).unwrap();
+        let (split, expect) = match which {
+            0 => (Split::TestRuns(vec![run.clone()]), "--test-runs"),
+            1 => (Split::TimeBefore(hours * 3600.0), "--train-before-h"),
+            2 => (Split::TestRuns(vec!["0".into(), "1".into(), "2".into()]), "training rows"),
+            _ => (Split::None, "inputs"),
+        };
+        let mut t = t;
+        if which == 3 {
+            for x in &mut t.inputs { x.iter_mut().for_each(|v| *v = 21.0); }
+        }
+        let e = identify(&t, &IdentifyOptions { split, ..IdentifyOptions::default() }).unwrap_err();
+        prop_assert!(e.to_string().contains(expect), "{e}");
+    }
+}
