@@ -587,3 +587,128 @@ fn gear_refuses_random_invalid_input_naming_the_option() {
     r.run(&strategy, check).unwrap();
     TestRunner::new(cfg).run(&strategy, check).unwrap();
 }
+
+/// Random option sets over the whole command (internal gears, mates, centre distances,
+/// face widths, allowances, diameters, balls): exit 0 ⇒ no NaN anywhere (serde writes NaN as
+/// null, so every field that is not optional must be a finite number); exit ≠ 0 ⇒ exit 2 and a
+/// message naming an option, never NaN or a panic.
+#[test]
+fn gear_random_option_sets_never_print_nan() {
+    type Opts = (
+        (f64, u32, f64, f64, bool),
+        (Option<(u32, Option<f64>, Option<f64>)>, Option<f64>),
+        (Option<(f64, f64)>, Option<f64>, Option<f64>),
+    );
+    let strategy = (
+        (
+            0.3..10.0f64,
+            5u32..200,
+            -45.0..45.0f64,
+            -0.6..1.2f64,
+            prop::bool::weighted(0.3),
+        ),
+        (
+            prop::option::weighted(
+                0.5,
+                (
+                    5u32..120,
+                    prop::option::of(-0.6..1.2f64),
+                    prop::option::weighted(0.3, 10.0..600.0f64),
+                ),
+            ),
+            prop::option::weighted(0.3, 1.0..100.0f64),
+        ),
+        (
+            prop::option::weighted(0.3, (-0.2..0.0f64, -0.1..0.0f64)),
+            prop::option::weighted(0.2, 5.0..300.0f64),
+            prop::option::weighted(0.2, 0.5..20.0f64),
+        ),
+    );
+    let check = |((m, z, b, x, internal), (mate, w), (al, at, ball)): Opts| {
+        let mut a = vec![
+            format!("--module={m}"),
+            format!("--teeth={z}"),
+            format!("--helix={b}"),
+            format!("--shift={x}"),
+            "--json".to_string(),
+        ];
+        if internal {
+            a.push("--internal".into());
+        }
+        if let Some((z2, x2, cd)) = mate {
+            a.push(format!("--mate-teeth={z2}"));
+            if let Some(x2) = x2 {
+                a.push(format!("--mate-shift={x2}"));
+            } else if let Some(cd) = cd {
+                a.push(format!("--centre-distance={cd}"));
+            }
+        }
+        if let Some(w) = w {
+            a.push(format!("--width={w}"));
+        }
+        if let Some((l, u)) = al {
+            a.push(format!("--allowances={l},{u}"));
+        }
+        if let Some(d) = at {
+            a.push(format!("--at-diameter={d}"));
+        }
+        if let Some(d) = ball {
+            a.push(format!("--ball={d}"));
+        }
+        let out = run(&a);
+        if out.status.success() {
+            let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+            prop_assert!(all_finite(&v), "{a:?}");
+            for t in v["tooth"].as_array().unwrap() {
+                for (key, val) in t.as_object().unwrap() {
+                    if key == "root_form_diameter_mm" {
+                        continue;
+                    }
+                    prop_assert!(!val.is_null(), "{a:?}: tooth.{key} is null");
+                }
+                for key in ["span", "ball"] {
+                    for (k2, v2) in t[key].as_object().unwrap() {
+                        prop_assert!(!v2.is_null(), "{a:?}: tooth.{key}.{k2} is null");
+                    }
+                }
+            }
+            for d in v["at_diameter"].as_array().unwrap() {
+                for (k2, v2) in d.as_object().unwrap() {
+                    prop_assert!(!v2.is_null(), "{a:?}: at_diameter.{k2} is null");
+                }
+            }
+            if let Some(p) = v["pair"].as_object() {
+                for key in [
+                    "centre_distance_mm",
+                    "working_pressure_angle_deg",
+                    "shift_sum",
+                    "transverse_contact_ratio",
+                    "working_diameter_1_mm",
+                    "working_diameter_2_mm",
+                ] {
+                    prop_assert!(
+                        p[key].as_f64().is_some_and(f64::is_finite),
+                        "{a:?}: pair.{key}"
+                    );
+                }
+            }
+        } else {
+            prop_assert_eq!(out.status.code(), Some(2), "{:?}", a);
+            let err = String::from_utf8_lossy(&out.stderr);
+            let msg = err.split("error:").last().unwrap_or("");
+            prop_assert!(msg.contains("--") && !err.contains("NaN"), "{a:?}: {err}");
+        }
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 20,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    for seed in [[31u8; 32], [32u8; 32]] {
+        let mut r =
+            TestRunner::new_with_rng(cfg.clone(), TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
+        r.run(&strategy, check).unwrap();
+    }
+    TestRunner::new(cfg).run(&strategy, check).unwrap();
+}
