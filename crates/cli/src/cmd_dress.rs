@@ -33,7 +33,9 @@ pub struct Args {
 enum DressCmd {
     /// Design the dresser for the new worm and show its geometry.
     Design(Common),
-    /// Solve the axis corrections ΔK for the modification in [solve].
+    /// Solve the axis corrections ΔK for the modification in [solve]; a solution whose
+    /// opposite-flank cut or jacket depth exceeds [solve] budget_mm (default 0.1 mm) is
+    /// refused with the producible range unless [solve] accept_penetration = true.
     Solve(Common),
     /// Plan every dressing of the worm's life from [plan].
     Plan(Common),
@@ -838,7 +840,8 @@ fn run_solve_topological(
                     w0_mm: w0,
                 };
                 solve_topological_three_point(setup, &p, b0, start, &opts)
-            })?;
+            })
+            .context("not producible ([solve.topological]): the program over b_range_mm")?;
             (prog, ws.to_vec(), Some(cw))
         }
         Method::FourPoint => {
@@ -868,7 +871,8 @@ fn run_solve_topological(
                     w0_mm: w0,
                 };
                 solve_topological_four_point(setup, &p, b0, start, &opts)
-            })?;
+            })
+            .context("not producible ([solve.topological]): the program over b_range_mm")?;
             (prog, ws, None)
         }
     };
