@@ -545,7 +545,23 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
     }
 
     let mut at_diameter = Vec::new();
+    // The tooth exists between the base circle (external; inside it there is no involute)
+    // or the tip circle (internal) and the tip (external) or root (internal) circle.
+    let (d_lo, d_hi) = match spec.mesh {
+        Mesh::External => (gear.dims().base_diameter_mm, gear.dims().tip_diameter_mm),
+        Mesh::Internal => (gear.dims().tip_diameter_mm, gear.dims().root_diameter_mm),
+    };
     for &d_y in args.at_diameter.as_deref().unwrap_or(&[]) {
+        if !(d_y.is_finite() && d_y >= d_lo - 1e-9 && d_y <= d_hi + 1e-9) {
+            bail!(
+                "thickness at diameter: --at-diameter {d_y} mm is outside the tooth: allowed \
+                 {d_lo:.4} … {d_hi:.4} mm ({})",
+                match spec.mesh {
+                    Mesh::External => "base circle d_b to tip circle d_a",
+                    Mesh::Internal => "tip circle d_a to root circle d_f",
+                }
+            );
+        }
         at_diameter.push(AtDiameterOut {
             diameter_mm: d_y,
             transverse_thickness_mm: gear

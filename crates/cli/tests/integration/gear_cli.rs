@@ -556,7 +556,7 @@ fn gear_refuses_random_invalid_input_naming_the_option() {
             ],
             "--shift"
         )),
-        (1.0..15.0f64).prop_map(|d| (
+        prop_oneof![1.0..37.5f64, 44.01..300.0f64].prop_map(|d| (
             vec![
                 "--module=2".to_string(),
                 "--teeth=20".to_string(),
@@ -711,4 +711,19 @@ fn gear_random_option_sets_never_print_nan() {
         r.run(&strategy, check).unwrap();
     }
     TestRunner::new(cfg).run(&strategy, check).unwrap();
+}
+
+/// `--at-diameter` above the tip printed a negative thickness: the tooth is not there.
+#[test]
+fn at_diameter_outside_the_tooth_is_refused() {
+    let out = gearcomp(&["--module", "1", "--teeth", "20", "--at-diameter", "30"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--at-diameter 30 mm") && err.contains("18.7939 … 22.0000 mm"),
+        "{err}"
+    );
+    // At the tip circle itself: the tip thickness s_an of TV1 (0.6949 mm).
+    let v = json(&["--module", "1", "--teeth", "20", "--at-diameter", "22"]);
+    close(&v, "at_diameter.0.transverse_thickness_mm", 0.6949, 5e-5);
 }
