@@ -2,7 +2,10 @@
 //!
 //! The log is CSV with a header: `time_s` (s, strictly increasing), one column per
 //! configured channel (named as the channel, raw units), and optionally `trigger` and
-//! `safe_point` (0/1; both default to 1). An empty cell means "no new reading": the
+//! `safe_point` (0/1; both default to 1), and `ack_stop` (0/1, default 0: a 1 acknowledges
+//! a latched stop request before the row is stepped, as an operator would, so one spike
+//! past a limit does not stop the compensation for the rest of the log). An empty cell
+//! in a channel column means "no new reading": the
 //! channel keeps its last value and stamp, so a long gap shows as a stale channel. A cell
 //! that is not a number is reported with its line and fed to the engine as NaN (the
 //! engine then raises its NaN alarm); a row with the wrong number of fields is reported
@@ -118,6 +121,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
         })?);
     }
     let (trig_col, safe_col) = (col("trigger"), col("safe_point"));
+    let ack_col = col("ack_stop");
     let mut out = Replay {
         axes: axes.clone(),
         ..Default::default()
@@ -200,6 +204,16 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
         };
         let trigger = flag(trig_col, "trigger");
         let safe_point = flag(safe_col, "safe_point");
+        if let Some(c) = ack_col {
+            match record[c].trim() {
+                "" | "0" | "false" => {}
+                "1" | "true" => engine.acknowledge_stop(),
+                other => out.bad_rows.push(BadRow {
+                    line,
+                    message: format!("column ack_stop: {other:?} is not 0/1 (taken as 0)"),
+                }),
+            }
+        }
         let o = engine.step(&Inputs {
             time_s,
             readings: &readings,
@@ -295,6 +309,50 @@ channel = "A"
 kd_um_per_c = 2.0
 alpha_um = 0.0
 "#;
+
+    /// Issue 14 item 10: one reading past the stop limit (A ≤ 30 °C) stops the
+    /// compensation for the rest of the log; an `ack_stop` row resumes it, and from
+    /// there the offset is the law again, 2·A µm (by hand).
+    #[test]
+    fn ack_stop_column_resumes_after_one_spike() {
+        let cfg = EngineConfig::from_toml_str(&CONFIG.replace(
+            "stale_timeout_s = 5.0",
+            "stale_timeout_s = 5.0\nlimit_max = 30.0",
+        ))
+        .unwrap();
+        let log = |ack: &str| {
+            format!(
+                "time_s,A{}\n0,20{}\n1,21{}\n2,45{}\n3,22{}\n4,23{}\n5,24{}\n",
+                if ack.is_empty() { "" } else { ",ack_stop" },
+                if ack.is_empty() { "" } else { "," },
+                if ack.is_empty() { "" } else { "," },
+                if ack.is_empty() { "" } else { "," },
+                if ack.is_empty() { "" } else { "," },
+                if ack.is_empty() { "" } else { ",1" },
+                if ack.is_empty() { "" } else { "," },
+            )
+        };
+        let mut e = Engine::new(&cfg).unwrap();
+        let without = replay_csv(&mut e, &log("")).unwrap();
+        let stopped: Vec<bool> = without.rows.iter().map(|r| !r.stop.is_empty()).collect();
+        assert_eq!(stopped, vec![false, false, true, true, true, true]);
+        let mut e = Engine::new(&cfg).unwrap();
+        let with = replay_csv(&mut e, &log("ack")).unwrap();
+        assert!(with.bad_rows.is_empty(), "{:?}", with.bad_rows);
+        let stopped: Vec<bool> = with.rows.iter().map(|r| !r.stop.is_empty()).collect();
+        assert_eq!(stopped, vec![false, false, true, true, false, false]);
+        // Stopped rows hold 42 µm (the last offset before the spike); then 2·23, 2·24.
+        let y: Vec<f64> = with.rows.iter().map(|r| r.offset_um[0]).collect();
+        assert_eq!(y, vec![40.0, 42.0, 42.0, 42.0, 46.0, 48.0]);
+        // A cell that is not 0/1 is reported, not skipped silently.
+        let mut e = Engine::new(&cfg).unwrap();
+        let bad = replay_csv(&mut e, "time_s,A,ack_stop\n0,20,yes\n").unwrap();
+        assert!(
+            bad.bad_rows[0].message.contains("ack_stop"),
+            "{:?}",
+            bad.bad_rows
+        );
+    }
 
     /// The bad cell is on line 4 of the file (header = line 1) whatever the line ends.
     #[test]

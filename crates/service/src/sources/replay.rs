@@ -75,6 +75,9 @@ pub struct Row {
     pub targets: Vec<f64>,
     /// The `safe_point` column (absent: every row is a safe point).
     pub safe_point: bool,
+    /// The `ack_stop` column: 1 acknowledges a latched stop request before the row
+    /// (absent or empty: 0).
+    pub ack_stop: bool,
 }
 
 /// A checked log: where each column is, how many rows, which times.
@@ -86,6 +89,7 @@ pub struct ReplayPlan {
     channel_cols: Vec<(usize, String)>,
     target_cols: Vec<(usize, String)>,
     safe_col: Option<usize>,
+    ack_col: Option<usize>,
     /// Data rows.
     pub rows: u64,
     /// Time of the first row, s.
@@ -171,6 +175,7 @@ impl ReplayPlan {
             .map(|c| Ok((col(c)?, c.clone())))
             .collect::<Result<Vec<_>>>()?;
         let safe_col = headers.iter().position(|h| h == "safe_point");
+        let ack_col = headers.iter().position(|h| h == "ack_stop");
         let mut plan = Self {
             path: path.clone(),
             n_fields: headers.len(),
@@ -178,6 +183,7 @@ impl ReplayPlan {
             channel_cols,
             target_cols,
             safe_col,
+            ack_col,
             rows: 0,
             first_time_s: f64::NAN,
             last_time_s: f64::NAN,
@@ -225,6 +231,7 @@ impl ReplayPlan {
             channels: vec![f64::NAN; self.channel_cols.len()],
             targets: vec![f64::NAN; self.target_cols.len()],
             safe_point: true,
+            ack_stop: false,
         }
     }
 
@@ -302,6 +309,21 @@ impl ReplayPlan {
                         "safe_point",
                         other,
                         "0, 1, true, false or empty (= 1)",
+                    ))
+                }
+            };
+        }
+        if let Some(c) = self.ack_col {
+            row.ack_stop = match &record[c] {
+                "1" | "true" => true,
+                "" | "0" | "false" => false,
+                other => {
+                    return Err(row_error(
+                        path,
+                        line,
+                        "ack_stop",
+                        other,
+                        "0, 1, true, false or empty (= 0)",
                     ))
                 }
             };
@@ -403,7 +425,13 @@ pub fn run(p: ReplayParts) {
             if !wait_until(&clock, t, &shutdown) {
                 return;
             }
-            let mut ok = tx.send(InputMsg::ScanTime { time_s: t }).is_ok();
+            let mut ok = true;
+            if row.ack_stop {
+                // As an operator would: the stop request latched by an earlier row is
+                // acknowledged before this row is stepped.
+                ok &= tx.send(InputMsg::AckStop).is_ok();
+            }
+            ok &= tx.send(InputMsg::ScanTime { time_s: t }).is_ok();
             ok &= tx
                 .send(InputMsg::MachineState {
                     safe_point: row.safe_point,

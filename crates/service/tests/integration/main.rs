@@ -22,5 +22,6 @@ mod postgres_kill;
 mod postgres_spill;
 mod postgres_tls;
 mod replay;
+mod replay_ack;
 mod restart;
 mod storage;
