@@ -225,6 +225,9 @@ pub struct Live {
     pub stop: Option<String>,
     /// Occurrences of each active input alarm (see [`crate::alarms`]).
     pub input_alarm_counts: std::collections::BTreeMap<String, u64>,
+    /// Scan complete → offset in the output cell, per scan-triggered step.
+    #[serde(skip)]
+    pub latency: Arc<crate::latency::Histogram>,
 }
 
 impl Live {
@@ -259,6 +262,7 @@ impl Live {
                 .collect(),
             stop: None,
             input_alarm_counts: Default::default(),
+            latency: Default::default(),
         }
     }
 }
@@ -490,6 +494,7 @@ pub struct Cycle {
     bumpless_step_um: f64,
     records: SyncSender<Record>,
     live: Arc<Mutex<Live>>,
+    latency: Arc<crate::latency::Histogram>,
     offsets: tokio::sync::watch::Sender<OffsetOut>,
     readings: Vec<Reading>,
     /// Held axis positions, mm, NaN until received; the engine reads the first
@@ -549,6 +554,12 @@ pub struct CycleParts {
     pub shutdown: Arc<AtomicBool>,
 }
 
+/// The latency histogram the API reads (kept in the live snapshot).
+fn latency_of(live: &Mutex<Live>) -> Arc<crate::latency::Histogram> {
+    let guard = live.lock().unwrap_or_else(|e| e.into_inner());
+    guard.latency.clone()
+}
+
 impl Cycle {
     /// Builds the cycle with all its buffers.
     pub fn new(p: CycleParts) -> Self {
@@ -593,6 +604,7 @@ impl Cycle {
             config: p.config,
             clock,
             records: p.records,
+            latency: latency_of(&p.live),
             live: p.live,
             offsets: p.offsets,
             shutdown: p.shutdown,
@@ -985,6 +997,11 @@ impl Cycle {
             self.offsets.send_replace(o);
         }
         let averaged = out.averaged;
+        if trigger {
+            if let Some(at) = self.scan_at {
+                self.latency.add(at.elapsed());
+            }
+        }
         if let Ok(mut live) = self.live.lock() {
             live.time_s = t;
             live.status = engine_status_name(out.status);

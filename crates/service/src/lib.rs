@@ -22,6 +22,7 @@ pub mod config;
 pub mod cycle;
 pub mod error;
 pub mod http;
+pub mod latency;
 pub mod service;
 pub mod sources;
 pub mod storage;

@@ -10,7 +10,7 @@ use crate::common;
 
 use std::time::{Duration, Instant};
 
-use common::start_with;
+use common::{start_with, Api};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_flickering_fault_is_one_alarm_per_hold_not_one_per_step() {
@@ -22,6 +22,21 @@ async fn a_flickering_fault_is_one_alarm_per_hold_not_one_per_step() {
     .await;
     let t0 = Instant::now();
     tokio::time::sleep(Duration::from_secs(4)).await;
+    // Sample→offset latency in /api/status: counted for the scans, p50 ≤ p99, both
+    // positive and far below a second (the step itself takes microseconds).
+    let ro = run.generated.clone().unwrap().read_only;
+    let (_, st) = Api::new(&run).get("/api/status", Some(&ro)).await;
+    let lat = &st["latency"];
+    let (p50, p99) = (
+        lat["p50_s"].as_f64().unwrap(),
+        lat["p99_s"].as_f64().unwrap(),
+    );
+    eprintln!(
+        "latency over {} scans: p50 {p50:.2e} s, p99 {p99:.2e} s",
+        lat["scans"]
+    );
+    assert!(lat["scans"].as_u64().unwrap() > 100, "{st}");
+    assert!(0.0 < p50 && p50 <= p99 && p99 < 1.0, "{st}");
     let db = run.db.clone();
     run.stop().await.unwrap();
     let wall_s = t0.elapsed().as_secs_f64();
