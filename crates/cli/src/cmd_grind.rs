@@ -35,6 +35,7 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
 use gearcomp_dressing::solve::{solve_three_point, NewtonOptions, ThreePoint};
 use gearcomp_dressing::worm::{Flank as DressFlank, Worm as DressWorm};
+use gearcomp_geometry::GeometryError;
 use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{
     equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
@@ -43,15 +44,15 @@ use gearcomp_grinding::conical_lines;
 use gearcomp_grinding::conical_sim::{EnvelopeGrinder, MeshKinematics};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
-    diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad,
-    worm_modification_for_gear, LineMap,
+    diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad, LineMap,
 };
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
-use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation};
+use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
 use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, GroundFlank};
+use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
@@ -114,6 +115,17 @@ struct SetupArgs {
     /// Worm reference (pitch) radius in mm.
     #[arg(long, default_value_t = 130.0)]
     worm_radius_mm: f64,
+    /// Worm tip radius in mm: the thread grinds only between root and tip
+    /// [default: worm radius + 1.25·m_n; with --dress the dressed worm's tip].
+    #[arg(long)]
+    worm_tip_radius_mm: Option<f64>,
+    /// Worm root radius in mm [default: worm radius − 1.25·m_n; with --dress the dressed
+    /// worm's root].
+    #[arg(long)]
+    worm_root_radius_mm: Option<f64>,
+    /// Profile shift coefficient x of the gear (the worm runs at d = r1 + r2 + x·m_n).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    profile_shift: f64,
     /// Worm hand.
     #[arg(long, value_enum, default_value_t = HandArg::Right)]
     worm_hand: HandArg,
@@ -249,6 +261,8 @@ struct Setup {
     pair: WormGearPair,
     gear: InvoluteGear,
     grid: FlankGrid,
+    /// Worm root and tip radii in mm.
+    worm_radii_mm: (f64, f64),
 }
 
 /// Cone angles of worm (ϑ1) and workpiece (ϑ2), rad, in the library's convention: ϑ > 0 when
@@ -317,15 +331,43 @@ fn hand_arg(a: &SetupArgs) -> Hand {
 fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
     let alpha_r = deg_to_rad(a.pressure_angle_deg);
     let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
-    InvoluteGear::asymmetric(
+    let gear = InvoluteGear::asymmetric(
         a.teeth,
         a.module_mm,
         alpha_r,
         alpha_l,
         deg_to_rad(a.helix_angle_deg),
-        0.0,
+        a.profile_shift,
     )
-    .context("gear")
+    .map_err(|e| gear_error(&e))?;
+    // a gear as the geometry crate defines one (3 ≤ z, no pointed tooth, root above 0, ...)
+    for f in [Flank::Right, Flank::Left] {
+        gear.flank_limits(f).map_err(|e| gear_error(&e))?;
+    }
+    Ok(gear)
+}
+
+/// A gear error with the option the user wrote.
+fn gear_error(e: &GrindError) -> anyhow::Error {
+    let field = match e {
+        GrindError::OutOfRange { field, .. } => *field,
+        GrindError::Geometry(g) => match g {
+            GeometryError::OutOfRange { name, .. } => name,
+            GeometryError::Undercut { .. } | GeometryError::PointedTooth { .. } => "profile_shift",
+            _ => "",
+        },
+        _ => "",
+    };
+    let opt = match field {
+        "teeth" => "--teeth",
+        "m_n_mm" | "normal_module_mm" => "--module-mm",
+        "alpha_n_right_rad" | "normal_pressure_angle" => "--pressure-angle-deg",
+        "alpha_n_left_rad" => "--pressure-angle-left-deg",
+        "beta_rad" | "helix_angle" => "--helix-angle-deg",
+        "x_shift" | "profile_shift" => "--profile-shift",
+        _ => "--teeth/--module-mm/--pressure-angle-deg/--helix-angle-deg/--profile-shift",
+    };
+    anyhow::anyhow!("gear ({opt}): {e}")
 }
 
 /// The worm body from the set-up options; its rack has the gear's profile angles (93).
@@ -343,20 +385,43 @@ fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
     InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0).context("worm")
 }
 
-/// The (w, z) grid of the gear flank `f2` whose tip circle (smallest over the face) is `r_tip`.
-fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, r_tip_mm: f64) -> Result<FlankGrid> {
-    let w_tip = (r_tip_mm * r_tip_mm - f2.r_b_mm * f2.r_b_mm)
-        .max(0.0)
-        .sqrt();
-    let w_start = a
-        .roll_start_mm
-        .unwrap_or((f2.w_ref_mm - 2.0 * a.module_mm).max(0.1 * f2.w_ref_mm));
+/// The usable roll range of the gear flank [lo, hi] in mm and what bounds each end.
+struct RollLimits {
+    lo_mm: f64,
+    hi_mm: f64,
+    lo_what: String,
+    hi_what: String,
+    /// Cap of the default roll end (below hi on a conical gear: the narrow end's tip).
+    default_hi_mm: f64,
+}
+
+/// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`.
+fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) -> Result<FlankGrid> {
+    let expected = format!(
+        "expected {:.4} ≤ --roll-start-mm < --roll-end-mm ≤ {:.4} mm (from {} to {})",
+        lim.lo_mm, lim.hi_mm, lim.lo_what, lim.hi_what
+    );
+    if let Some(ws) = a.roll_start_mm {
+        if !(ws >= lim.lo_mm - 1e-9 && ws < lim.hi_mm) {
+            anyhow::bail!("--roll-start-mm = {ws} mm is outside the usable flank: {expected}");
+        }
+    }
+    if let Some(we) = a.roll_end_mm {
+        if !(we <= lim.hi_mm + 1e-9 && we > lim.lo_mm) {
+            anyhow::bail!("--roll-end-mm = {we} mm is outside the usable flank: {expected}");
+        }
+    }
+    let w_start = a.roll_start_mm.unwrap_or(
+        (f2.w_ref_mm - 2.0 * a.module_mm)
+            .max(0.1 * f2.w_ref_mm)
+            .max(lim.lo_mm),
+    );
     let w_end = a
         .roll_end_mm
-        .unwrap_or((f2.w_ref_mm + 2.0 * a.module_mm).min(w_tip));
+        .unwrap_or((f2.w_ref_mm + 2.0 * a.module_mm).min(lim.default_hi_mm));
     if !(a.face_width_mm.is_finite() && a.face_width_mm > 0.0 && a.face_width_mm <= 2000.0) {
         anyhow::bail!(
-            "face_width_mm = {} is out of range: expected 0 < b ≤ 2000 mm",
+            "--face-width-mm = {} is out of range: expected 0 < b ≤ 2000 mm",
             a.face_width_mm
         );
     }
@@ -365,20 +430,149 @@ fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, r_tip_mm: f64) -> Result<FlankG
         .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")
 }
 
+/// Worm root and tip radii: the options, else the dressed worm's, else r1 ∓ 1.25·m_n.
+fn worm_radii(a: &SetupArgs, r1_mm: f64, dressed: Option<&DressWorm>) -> Result<(f64, f64)> {
+    let (root0, tip0) = dressed.map_or(
+        (r1_mm - 1.25 * a.module_mm, r1_mm + 1.25 * a.module_mm),
+        |d| (d.r_f_mm, d.r_a_mm),
+    );
+    let root = a.worm_root_radius_mm.unwrap_or(root0);
+    let tip = a.worm_tip_radius_mm.unwrap_or(tip0);
+    if !(root.is_finite() && tip.is_finite() && root >= 0.0 && root < r1_mm && tip > r1_mm) {
+        anyhow::bail!(
+            "--worm-root-radius-mm = {root} / --worm-tip-radius-mm = {tip}: expected \
+             0 ≤ root < worm radius {r1_mm} mm < tip"
+        );
+    }
+    Ok((root, tip))
+}
+
+/// Usable roll range of the gear flank on a cylindrical chain: the gear's root form and tip
+/// circles, and the gear roll distances the worm thread reaches between its root and tip
+/// ((R7): w1 = a·w2 + b, exact on the cylindrical chain).
+fn roll_limits(
+    gear: &InvoluteGear,
+    flank: Flank,
+    pair: &WormGearPair,
+    radii: (f64, f64),
+) -> Result<RollLimits> {
+    let lim = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
+    let rb1 = pair.worm.r_b_mm;
+    let w1 = |r: f64| (r * r - rb1 * rb1).max(0.0).sqrt();
+    let (a, b) = (pair.path.a, pair.path.b_mm);
+    let w2_root = (w1(radii.0) - b) / a;
+    let w2_tip = (w1(radii.1) - b) / a;
+    let (w2_lo_worm, lo_worm_what, w2_hi_worm, hi_worm_what) = if w2_tip < w2_root {
+        (w2_tip, "worm tip", w2_root, "worm root")
+    } else {
+        (w2_root, "worm root", w2_tip, "worm tip")
+    };
+    if w2_lo_worm.is_nan() || w2_lo_worm <= 0.0 {
+        anyhow::bail!(
+            "the {lo_worm_what} (r = {:.4} mm, --worm-root-radius-mm/--worm-tip-radius-mm) \
+             reaches below the gear's base circle: it undercuts the involute, which the \
+             envelope simulation does not model; raise --profile-shift or --teeth, or lower \
+             the worm tip",
+            if lo_worm_what == "worm tip" {
+                radii.1
+            } else {
+                radii.0
+            }
+        );
+    }
+    let (lo, lo_what) = if lim.w_root_form_mm >= w2_lo_worm {
+        (
+            lim.w_root_form_mm,
+            match lim.root_form_diameter_mm {
+                Some(d) => format!("the root form circle d_Ff = {d:.4} mm"),
+                None => "the base circle (undercut)".to_string(),
+            },
+        )
+    } else {
+        (
+            w2_lo_worm,
+            format!(
+                "the reach of the {lo_worm_what} (r = {:.4} mm)",
+                if lo_worm_what == "worm tip" {
+                    radii.1
+                } else {
+                    radii.0
+                }
+            ),
+        )
+    };
+    let (hi, hi_what) = if lim.w_tip_mm <= w2_hi_worm {
+        (
+            lim.w_tip_mm,
+            format!("the tip circle d_a = {:.4} mm", lim.tip_diameter_mm),
+        )
+    } else {
+        (
+            w2_hi_worm,
+            format!(
+                "the reach of the {hi_worm_what} (r = {:.4} mm)",
+                if hi_worm_what == "worm tip" {
+                    radii.1
+                } else {
+                    radii.0
+                }
+            ),
+        )
+    };
+    if !(hi > lo && lo.is_finite()) {
+        anyhow::bail!(
+            "the worm (--worm-root-radius-mm {} / --worm-tip-radius-mm {}) does not reach the \
+             gear flank between {lo_what} and {hi_what}",
+            radii.0,
+            radii.1
+        );
+    }
+    Ok(RollLimits {
+        lo_mm: lo.max(1e-6),
+        hi_mm: hi,
+        lo_what,
+        hi_what,
+        default_hi_mm: hi,
+    })
+}
+
 fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
     let gear = gear_body(a)?;
     let flank = flank_arg(a);
-    let pair = match dressed {
+    let (pair, r1) = match dressed {
         None => {
             let worm = worm_body(a)?;
-            WormGearPair::reference(&worm, &gear, flank).context("worm/gear mesh")?
+            let pair = if a.profile_shift == 0.0 {
+                WormGearPair::reference(&worm, &gear, flank)
+            } else {
+                // the shifted gear's rack datum is x·m_n outside its reference circle
+                WormGearPair::new(
+                    &worm,
+                    &gear,
+                    flank,
+                    worm.reference_radius_mm()
+                        + gear.reference_radius_mm()
+                        + a.profile_shift * a.module_mm,
+                    -(worm.beta_rad + gear.beta_rad),
+                )
+            };
+            (pair.context("worm/gear mesh")?, worm.reference_radius_mm())
         }
-        Some(dw) => dressed_pair(a, dw, &gear, flank, hand_arg(a))?,
+        Some(dw) => (
+            dressed_pair(a, dw, &gear, flank, hand_arg(a))?,
+            0.5 * dw.d_s_mm,
+        ),
     };
+    let radii = worm_radii(a, r1, dressed)?;
+    let lim = roll_limits(&gear, flank, &pair, radii)?;
     let f2 = gear.flank(flank);
-    let r_tip = gear.reference_radius_mm() + a.module_mm;
-    let grid = flank_grid(a, &f2, r_tip)?;
-    Ok(Setup { pair, gear, grid })
+    let grid = flank_grid(a, &f2, &lim)?;
+    Ok(Setup {
+        pair,
+        gear,
+        grid,
+        worm_radii_mm: radii,
+    })
 }
 
 /// Conical worm and/or workpiece at the reference setting (pivots coincide, γ = −(β1 + β2)).
@@ -408,9 +602,23 @@ fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
         .with_context(|| format!("--worm-cone-deg = {}", a.worm_cone_deg))?;
     let pair = ConicalPair::reference(&bev1, &bev2, flank)
         .context("conical worm/gear mesh (chains (29)–(31))")?;
-    let r_tip =
-        gear.reference_radius_mm() + a.module_mm - 0.5 * a.face_width_mm * c.gear_rad.tan().abs();
-    let grid = flank_grid(a, &pair.gear, r_tip)?;
+    let r_tip = gear.reference_radius_mm() + a.module_mm * (1.0 + a.profile_shift)
+        - 0.5 * a.face_width_mm * c.gear_rad.tan().abs();
+    let f2 = &pair.gear;
+    let body = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
+    // the tip and root form of the body at z = 0 bound the options; the default end stays on
+    // the flank over the whole face (the tip at the narrow end)
+    let lim = RollLimits {
+        lo_mm: body.w_root_form_mm.max(1e-6),
+        hi_mm: body.w_tip_mm,
+        lo_what: "the root form circle at z = 0".to_string(),
+        hi_what: format!(
+            "the tip circle d_a = {:.4} mm at z = 0",
+            body.tip_diameter_mm
+        ),
+        default_hi_mm: (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt(),
+    };
+    let grid = flank_grid(a, f2, &lim)?;
     Ok(ConeSetup { pair, gear, grid })
 }
 
@@ -457,7 +665,7 @@ fn dressed_pair(
         &worm,
         gear,
         flank,
-        r + gear.reference_radius_mm(),
+        r + gear.reference_radius_mm() + gear.x_shift * gear.m_n_mm,
         -(beta1 + gear.beta_rad),
     )
     .context("dressed worm/gear mesh")
@@ -553,7 +761,75 @@ struct Output {
     max_abs_deviation_um: f64,
     deviation_reference: &'static str,
     iso1328: FlankEvaluation,
+    /// ISO 1328-1 over three profile and three helix traces, against the design and against
+    /// the unmodified flank, with the class achieved.
+    iso1328_traces: TracesOut,
+    /// Gear profile shift coefficient x.
+    profile_shift: f64,
+    /// Worm root and tip radii (mm) that bound the grinding thread (None on conical chains,
+    /// where only the thread-turn bound applies).
+    worm_radii_mm: Option<(f64, f64)>,
+    /// Points whose envelope value is not explained by the analytic map and its second-order
+    /// correction, or that the worm grinds with its tip or root edge.
+    flagged_points: Vec<FlaggedPoint>,
+    /// Warnings (also printed to stderr).
+    warnings: Vec<String>,
+    /// The iterated solve (solve on a cylindrical chain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    solve: Option<SolveOut>,
     map: MapOut,
+}
+
+#[derive(Debug, Serialize)]
+struct TracesOut {
+    /// What "design" is: the wanted modification (solve) or the analytic worm → gear map of
+    /// the given worm (simulate).
+    design_reference: &'static str,
+    /// Deviation from the design (intended modification removed).
+    from_design: MultiTraceEvaluation,
+    /// Deviation from the unmodified flank (involute helicoid / nominal beveloid flank).
+    from_involute: MultiTraceEvaluation,
+}
+
+#[derive(Debug, Serialize)]
+struct FlaggedPoint {
+    w_mm: f64,
+    z_mm: f64,
+    ground_um: f64,
+    analytic_um: f64,
+    /// Second-order model (analytic state's cut plus −½·gᵀH⁻¹g); None if it has no minimum.
+    second_order_um: Option<f64>,
+    reason: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+struct SolveIterationOut {
+    iteration: usize,
+    max_abs_deviation_um: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct SolveOut {
+    /// Every envelope simulation; 1 = the first-order worm.
+    iterations: Vec<SolveIterationOut>,
+    wish_max_abs_um: f64,
+    /// Remaining max |ground − wish| with the reported worm.
+    remaining_um: f64,
+    remaining_percent_of_wish: f64,
+    /// Stopping rule: max(0.5 % of the wish, 0.01 µm).
+    tolerance_um: f64,
+    converged: bool,
+    /// The first-order worm (before the iteration).
+    first_order_worm: LineModOut,
+}
+
+/// What `grind_and_report` takes beyond the mesh and the worm.
+#[derive(Default)]
+struct Extras {
+    worm_radii_mm: Option<(f64, f64)>,
+    /// A flank already ground with this worm (the iterated solve's last simulation).
+    pre_ground: Option<GroundFlank>,
+    solve: Option<SolveOut>,
 }
 
 /// What `grind_and_report` needs of a worm–workpiece mesh beyond the simulation kinematics.
@@ -673,17 +949,35 @@ fn grind_and_report<M: GrindMesh>(
     lm: Option<LineMap>,
     worm: WormUsed<'_>,
     wanted: Option<&LineModification>,
+    extras: Extras,
 ) -> Result<Output> {
     let (worm_mod, worm_out, dressed_out): (&dyn FlankModification, _, _) = match worm {
         WormUsed::Line(m) => (m, Some(LineModOut::from(m)), None),
         WormUsed::Dressed(d, o) => (d, None, Some(*o)),
     };
     let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
-    let grinder = EnvelopeGrinder::new(mesh, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
-    let mut ground = GroundFlank::new(g);
-    grinder
-        .grind_flank(&mut ground)
-        .context("grinding simulation")?;
+    let ground = match extras.pre_ground {
+        Some(pre) => pre,
+        None => {
+            let mut grinder =
+                EnvelopeGrinder::new(mesh, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
+            if let Some((root, tip)) = extras.worm_radii_mm {
+                grinder = grinder
+                    .with_worm_radii(root, tip)
+                    .context("--worm-root-radius-mm/--worm-tip-radius-mm")?;
+            }
+            let mut ground = GroundFlank::new(g);
+            grinder.grind_flank(&mut ground).context(
+                "grinding simulation (check --roll-start-mm/--roll-end-mm against the worm's \
+                 --worm-root-radius-mm/--worm-tip-radius-mm, --shift-offset-mm and the worm \
+                 modification)",
+            )?;
+            ground
+        }
+    };
+    let mut flagged = Vec::new();
+    let mut design_mm = Vec::with_capacity(g.len());
+    let mut ground_mm = Vec::with_capacity(g.len());
     let mut map = MapOut {
         w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
         z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
@@ -701,6 +995,23 @@ fn grind_and_report<M: GrindMesh>(
             let an = mesh.analytic_f_ft_mm(&cpl, worm_mod, w, z)?;
             let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
             dev_mm.push(f - design);
+            design_mm.push(f - wanted.map_or(an, |m| m.f_ft_mm(w, z)));
+            ground_mm.push(f);
+            let gp = ground.at(i, j);
+            if !gp.explained {
+                flagged.push(FlaggedPoint {
+                    w_mm: w,
+                    z_mm: z,
+                    ground_um: mm_to_um(f),
+                    analytic_um: mm_to_um(an),
+                    second_order_um: gp.second_order_f_ft_mm.map(mm_to_um),
+                    reason: if gp.worm_edge {
+                        "the worm grinds this point with its tip or root edge"
+                    } else {
+                        "envelope and analytic map differ beyond their second-order terms"
+                    },
+                });
+            }
             max_g = max_g.max(f.abs());
             max_ga = max_ga.max((f - an).abs());
             max_d = max_d.max((f - design).abs());
@@ -722,6 +1033,49 @@ fn grind_and_report<M: GrindMesh>(
     let iso = DeviationMap::new(g, dev_mm)?
         .evaluate(tol, gear.m_n_mm)
         .context("ISO 1328-1 evaluation")?;
+    let d_mm = 2.0 * gear.reference_radius_mm();
+    let traces = |v: Vec<f64>| -> Result<MultiTraceEvaluation> {
+        DeviationMap::new(g, v)?
+            .evaluate_traces(d_mm, gear.m_n_mm, a.face_width_mm, a.class, 3)
+            .context("ISO 1328-1 evaluation (three traces)")
+    };
+    let iso_traces = TracesOut {
+        design_reference: if wanted.is_some() {
+            "wanted gear modification"
+        } else {
+            "analytic worm → gear map of the given worm"
+        },
+        from_design: traces(design_mm)?,
+        from_involute: traces(ground_mm)?,
+    };
+    let mut warnings = Vec::new();
+    for reason in [
+        "the worm grinds this point with its tip or root edge",
+        "envelope and analytic map differ beyond their second-order terms",
+    ] {
+        let pts: Vec<&FlaggedPoint> = flagged.iter().filter(|p| p.reason == reason).collect();
+        if let Some(p) = pts.first() {
+            warnings.push(format!(
+                "{} of {} points: {reason} (first at w = {:.4} mm, z = {:.4} mm: envelope {:.4} \
+                 µm, analytic {:.4} µm); see flagged_points",
+                pts.len(),
+                g.len(),
+                p.w_mm,
+                p.z_mm,
+                p.ground_um,
+                p.analytic_um
+            ));
+        }
+    }
+    if let Some(sv) = &extras.solve {
+        if !sv.converged {
+            warnings.push(format!(
+                "the iterated solve stopped at {:.4} µm remaining deviation ({:.3} % of the \
+                 wish), above its tolerance {:.4} µm",
+                sv.remaining_um, sv.remaining_percent_of_wish, sv.tolerance_um
+            ));
+        }
+    }
     Ok(Output {
         mode,
         worm_cone_deg: cones.worm_deg,
@@ -744,6 +1098,12 @@ fn grind_and_report<M: GrindMesh>(
             "unmodified involute flank"
         },
         iso1328: iso,
+        iso1328_traces: iso_traces,
+        profile_shift: a.profile_shift,
+        worm_radii_mm: extras.worm_radii_mm,
+        flagged_points: flagged,
+        warnings,
+        solve: extras.solve,
         map,
     })
 }
@@ -790,6 +1150,10 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         lm,
         WormUsed::Line(&worm_mod),
         None,
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            ..Extras::default()
+        },
     )?;
     emit(&out, &a.setup)
 }
@@ -840,6 +1204,7 @@ fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
         lm,
         WormUsed::Line(&worm_mod),
         None,
+        Extras::default(),
     )?;
     emit(&out, &a.setup)
 }
@@ -1131,6 +1496,10 @@ fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
         lm,
         WormUsed::Dressed(&worm, Box::new(dout)),
         None,
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            ..Extras::default()
+        },
     )?;
     emit(&out, &a.setup)
 }
@@ -1152,11 +1521,45 @@ fn solve(a: SolveArgs) -> Result<()> {
         poly_um(&a.gear_q),
     )
     .context("wanted gear modification")?;
-    let (lm, worm_mod) =
-        worm_modification_for_gear(&s.pair, &wanted, rho1, a.setup.shift_offset_mm)
-            .context("worm modification for the wanted gear modification")?;
+    let opts = IterationOptions::default();
+    let it = solve_iterated(
+        &s.pair,
+        &wanted,
+        rho1,
+        a.setup.shift_offset_mm,
+        s.grid,
+        s.worm_radii_mm,
+        &opts,
+    )
+    .context(
+        "worm modification for the wanted gear modification (iterated on the envelope; check \
+         --gear-c/--gear-l/--gear-q, --worm-rho-deg, --roll-start-mm/--roll-end-mm and \
+         --worm-root-radius-mm/--worm-tip-radius-mm)",
+    )?;
+    let (lm, worm_mod) = (it.line_map, it.worm.clone());
     // the same K from the closed form, as a cross-check of the line map
     let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
+    let tol_mm = (opts.rel_tol * it.wish_max_abs_mm).max(opts.abs_tol_mm);
+    let solve_out = SolveOut {
+        iterations: it
+            .iterations
+            .iter()
+            .map(|i| SolveIterationOut {
+                iteration: i.iteration,
+                max_abs_deviation_um: mm_to_um(i.max_abs_deviation_mm),
+            })
+            .collect(),
+        wish_max_abs_um: mm_to_um(it.wish_max_abs_mm),
+        remaining_um: mm_to_um(it.remaining_mm),
+        remaining_percent_of_wish: if it.wish_max_abs_mm > 0.0 {
+            100.0 * it.remaining_mm / it.wish_max_abs_mm
+        } else {
+            0.0
+        },
+        tolerance_um: mm_to_um(tol_mm),
+        converged: it.converged,
+        first_order_worm: LineModOut::from(&it.first_order_worm),
+    };
     let out = grind_and_report(
         "solve",
         &s.pair,
@@ -1168,6 +1571,11 @@ fn solve(a: SolveArgs) -> Result<()> {
         Some(lm),
         WormUsed::Line(&worm_mod),
         Some(&wanted),
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            pre_ground: Some(it.ground),
+            solve: Some(solve_out),
+        },
     )?;
     emit(&out, &a.setup)
 }
@@ -1206,6 +1614,7 @@ fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
         Some(lm.line),
         WormUsed::Line(&worm_mod),
         Some(&wanted),
+        Extras::default(),
     )?;
     emit(&out, &a.setup)
 }
@@ -1353,6 +1762,70 @@ fn table(out: &Output) -> String {
             "OUT of tolerance"
         }
     );
+    let tr = &out.iso1328_traces;
+    for (what, m) in [
+        (
+            format!("from the design ({})", tr.design_reference),
+            &tr.from_design,
+        ),
+        ("from the unmodified flank".to_string(), &tr.from_involute),
+    ] {
+        let _ = writeln!(
+            t,
+            "  ISO 1328-1, 3 profile traces (z {}) and 3 helix traces (w {}), deviation {what}:",
+            m.profiles
+                .iter()
+                .map(|p| format!("{:.2}", p.at_mm))
+                .collect::<Vec<_>>()
+                .join("/"),
+            m.helices
+                .iter()
+                .map(|p| format!("{:.2}", p.at_mm))
+                .collect::<Vec<_>>()
+                .join("/")
+        );
+        let _ = writeln!(
+            t,
+            "    F_α {:.3}  f_fα {:.3}  f_Hα {:.3}  F_β {:.3}  f_fβ {:.3}  f_Hβ {:.3} µm; class {}: {}; \
+             class achieved: {}",
+            m.profile_worst.total_um,
+            m.profile_worst.form_um,
+            m.profile_worst.slope_um,
+            m.helix_worst.total_um,
+            m.helix_worst.form_um,
+            m.helix_worst.slope_um,
+            m.tolerances.class,
+            if m.within_tolerance { "within" } else { "OUT" },
+            m.class_achieved
+                .map_or("worse than 11".to_string(), |c| c.to_string())
+        );
+    }
+    let _ = writeln!(t, "  {}", tr.from_design.pitch);
+    if let Some(sv) = &out.solve {
+        let _ =
+            writeln!(
+            t,
+            "  iterated solve: {} simulation(s), max |ground − wish| {} µm; remaining {:.4} µm \
+             = {:.3} % of the wish {:.4} µm (tolerance {:.4} µm){}",
+            sv.iterations.len(),
+            sv.iterations
+                .iter()
+                .map(|i| format!("{:.4}", i.max_abs_deviation_um))
+                .collect::<Vec<_>>()
+                .join(" → "),
+            sv.remaining_um,
+            sv.remaining_percent_of_wish,
+            sv.wish_max_abs_um,
+            sv.tolerance_um,
+            if sv.converged { "" } else { " — NOT converged" }
+        );
+    }
+    if let Some((root, tip)) = out.worm_radii_mm {
+        let _ = writeln!(t, "  worm thread between r = {root:.4} and {tip:.4} mm");
+    }
+    for w in &out.warnings {
+        let _ = writeln!(t, "  WARNING: {w}");
+    }
     t
 }
 
@@ -1441,6 +1914,9 @@ fn emit(out: &Output, a: &SetupArgs) -> Result<()> {
         write_report(out, path)?;
     }
     if a.json {
+        for w in &out.warnings {
+            eprintln!("warning: {w}");
+        }
         println!("{}", serde_json::to_string_pretty(out)?);
     } else {
         print!("{}", table(out));

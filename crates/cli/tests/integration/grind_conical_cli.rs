@@ -430,7 +430,9 @@ fn solve_grinds_wanted_lead_crowning_on_conical_chains() {
             "11",
         ])
     };
-    let cyl = f(&run("0", "0", "-0.02")["max_abs_deviation_um"]);
+    // the cylindrical solve iterates on the envelope (issue 13 item 4); its first-order gap is
+    // the first simulation of the iteration
+    let cyl = f(&run("0", "0", "-0.02")["solve"]["iterations"][0]["max_abs_deviation_um"]);
     assert!(cyl > 0.01 && cyl < 0.1, "cylindrical gap {cyl}");
     for (wc, gc) in [("6", "0"), ("0", "-5"), ("4", "7")] {
         let v = run(wc, gc, "-0.02");

@@ -132,7 +132,10 @@ fn dphi_gives_the_closed_form_offset_through_the_chain() {
 /// (c) 3-point crowning c = 0.2 µm on G1-Z5 (ERRATA §1 replacement D3: active profile
 /// [74.17113, 80.56555] mm, targets at 74.49085 / 77.36834 / 80.24583 mm). The gear points
 /// associated (R7) with the three targets get f_n2 = −(0, −c, 0) = (0, +c, 0): profile crowning
-/// +c on the gear, within 1 % of c; envelope and analytic map agree within 1 % of c.
+/// +c on the gear, within 1 % of c; envelope and analytic map agree within 1 % of c. The 5 %
+/// target maps to w2 = 30.09 mm, beyond the gear's tip circle (w = 29.35 mm), which `grind`
+/// refuses (issue 13 item 5): the grid runs from the 95 % target to the 50 % target (its
+/// middle row lies between targets and is not checked).
 #[test]
 fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     let c_um = 0.2;
@@ -143,7 +146,7 @@ fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     let sum = v["path"]["r7_sum_mm"].as_f64().unwrap();
     let b = -a * COS_BETA_B2 * sum; // w1 = a·w2 + b, from w1/cos β_b1 + w2/cos β_b2 = sum
     let w2 = |w1: f64| (w1 - b) / a;
-    let (w_lo, w_hi) = (w2(80.24583), w2(74.49085));
+    let (w_lo, w_hi) = (w2(80.24583), w2(77.36834));
     let v = json(
         &cfg,
         &[
@@ -169,8 +172,12 @@ fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     );
     let tol = 0.01 * c_um;
     for row in v["map"]["ground_um"].as_array().unwrap().iter().enumerate() {
-        // rows: gear roll start (worm 95 %), middle (worm 50 %), end (worm 5 %)
-        let want = if row.0 == 1 { c_um } else { 0.0 };
+        // rows: gear roll start (worm 95 %), between, end (worm 50 %)
+        let want = match row.0 {
+            0 => 0.0,
+            2 => c_um,
+            _ => continue,
+        };
         for f in row.1.as_array().unwrap() {
             let f_n2 = f.as_f64().unwrap() * COS_BETA_B2;
             assert!((f_n2 - want).abs() < tol, "row {}: {f_n2} vs {want}", row.0);
@@ -228,7 +235,11 @@ fn dressed_input_errors_name_the_field() {
     let bad = write_config_here("f3", &format!("{G1}\n[dressing]\ndd_mm = 7.0\n"));
     for (cfg, args, needle) in [
         (&g1, vec!["--module-mm", "2"], "normal_module_mm"),
-        (&g1, vec!["--roll-start-mm", "5"], "worm roll distance used"),
+        (
+            &g1,
+            vec!["--roll-start-mm", "5"],
+            "--roll-start-mm = 5 mm is outside",
+        ),
         (&both, vec![], "not both"),
         (&bad, vec![], "dd_mm"),
         (&g1, vec!["--worm-hand", "left"], "right-hand"),

@@ -10,5 +10,5 @@ mod conical_lines;
 mod dressed_worm;
 mod envelope;
 mod issue13;
-mod topological_worm;
 mod prop_grind;
+mod topological_worm;
