@@ -246,12 +246,31 @@ pub fn zero_stretch_profile_angle(
     DressError::check("alpha_search_rad", search_rad, 1e-4, 20f64.to_radians())?;
     let keep = design.worn(d_s_mm)?.profile_angle_at(d_s_mm / 2.0);
     let eval = |a: f64, k: AxisCorrection| {
-        stretch_at_profile_angle(design, dresser, spec, reference, d_s_mm, a, k)
+        stretch_at_profile_angle(design, dresser, spec, reference, d_s_mm, a, k).map_err(|e| {
+            match e {
+                // The trial angle left the re-profiling range: say so in degrees.
+                DressError::OutOfRange {
+                    field: "alpha_n_rad",
+                    value,
+                    min,
+                    max,
+                } => DressError::NotProducible {
+                    key: "[plan] zero_stretch".into(),
+                    detail: format!(
+                        "the search reached the profile angle {:.3} degrees, outside {:.0} ..= \
+                         {:.0} degrees",
+                        value.to_degrees(),
+                        min.to_degrees(),
+                        max.to_degrees()
+                    ),
+                },
+                e => e,
+            }
+        })
     };
-    let no_root = |detail: &str| DressError::NoRoot {
-        iterations: 0,
-        residual_um: f64::NAN,
-        reason: format!(
+    let no_root = |detail: &str| DressError::NotProducible {
+        key: "[plan] zero_stretch".into(),
+        detail: format!(
             "no profile angle within ±{:.2}° of {:.4}° makes the profile stretching zero at \
              d_S = {d_s_mm} mm ({detail})",
             search_rad.to_degrees(),
@@ -331,7 +350,11 @@ pub fn zero_stretch_profile_angle(
     }
     Err(DressError::NoConvergence {
         what: "zero-stretch profile angle",
-        detail: format!("last α = {a1} rad, P_FS = {p1}"),
+        detail: format!(
+            "last profile angle {:.4} degrees, stretching {:.3e} %",
+            a1.to_degrees(),
+            100.0 * p1
+        ),
     })
 }
 

@@ -236,3 +236,30 @@ fn plan_deviation_range_excludes_the_fillet_junction() {
         }
     }
 }
+
+/// A zero-stretch search whose root lies beyond `alpha_search_deg` names `[plan] zero_stretch`
+/// in degrees; no NaN and no radians reach the message (it printed "max |F| = NaN um").
+#[test]
+fn zero_stretch_out_of_range_names_the_key_in_degrees() {
+    use gearcomp_dressing::campaign::{plan_with_options, PlanOptions};
+    let (w, d) = g1_z5();
+    let spec = PlanSpec {
+        flank: Flank::Right,
+        diameters_mm: vec![140.0],
+        correction: Correction::ThreePoint,
+        crowning_mm: 0.0,
+        budget_mm: 0.1,
+    };
+    let options = PlanOptions {
+        zero_stretch: true,
+        alpha_search_rad: 0.0002,
+    };
+    let msg = plan_with_options(&w, &d, &spec, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("[plan] zero_stretch") && msg.contains("d_S = 140 mm") && msg.contains('°'),
+        "{msg}"
+    );
+    assert!(!msg.contains("NaN") && !msg.contains("_rad"), "{msg}");
+}
