@@ -327,3 +327,68 @@ fn internal_gear_span_still_computes() {
     let k = g.recommended_span_k(0.0).unwrap();
     assert!(g.span(k, 0.0).unwrap().span_mm.is_finite());
 }
+
+/// Random internal gears: the space of an internal gear has the shape of an external tooth
+/// whose thickness is the space width, e_t = m_t·(π/2 − 2·x·tan α_n), i.e. an external tooth
+/// at shift −x; so the span over k spaces and its contact equal the construction's span over
+/// k teeth of that external gear. Every k whose constructed contact lies on the internal
+/// flank (d_a … d_f, away from the ends by 1 µm) and fits the face is accepted.
+#[test]
+fn internal_span_matches_construction_on_random_gears() {
+    let strategy = (
+        0.5..8.0f64,
+        15.0..25.0f64,
+        prop_oneof![Just(0.0), 0.0..35.0f64],
+        30u32..200,
+        -0.3..0.5f64,
+        0.0..1.0f64,
+    );
+    let compared = std::cell::Cell::new(0u32);
+    let check = |(m, a, b, z, x, kf): (f64, f64, f64, u32, f64, f64)| {
+        let mut s = GearSpec::spur(m, a.to_radians(), z);
+        s.mesh = Mesh::Internal;
+        s.helix_angle_rad = b.to_radians();
+        s.profile_shift = x;
+        let Ok(g) = Gear::new(s) else {
+            return Ok(());
+        };
+        let c3 = Gear3::new(m, a.to_radians(), b.to_radians(), z, -x);
+        let (lo, hi) = g.flank_range_mm(x);
+        let Ok(rk) = g.recommended_span_k(x) else {
+            return Ok(());
+        };
+        let k = (i64::from(rk) + (kf * 5.0) as i64 - 2).clamp(1, i64::from(z - 1)) as u32;
+        let res = g.span(k, x);
+        if let Some(c) = construct::span(&c3, k) {
+            if c.contact_diameter_mm > lo + 1e-6 && c.contact_diameter_mm < hi - 1e-6 {
+                prop_assert!(res.is_ok(), "k = {k} refused: {:?} ({c:?})", res);
+            }
+            if let Ok(sp) = res {
+                compared.set(compared.get() + 1);
+                prop_assert!((sp.span_mm - c.span_mm).abs() < 1e-9 * (1.0 + c.span_mm));
+                prop_assert!(
+                    (sp.contact_diameter_mm - c.contact_diameter_mm).abs()
+                        < 1e-8 * (1.0 + c.contact_diameter_mm),
+                    "{sp:?} vs {c:?}"
+                );
+            }
+        }
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 150,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut r = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[19u8; 32]),
+    );
+    r.run(&strategy, check).unwrap();
+    TestRunner::new(cfg).run(&strategy, check).unwrap();
+    assert!(
+        compared.get() > 100,
+        "only {} spans compared",
+        compared.get()
+    );
+}
