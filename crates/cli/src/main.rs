@@ -37,7 +37,7 @@ enum Command {
     Replay(cmd_replay::Args),
     /// Identifies a thermal model from measured data (sensor selection, regression,
     /// validation) and writes the model file and a report.
-    Fit(cmd_fit::Args),
+    Fit(Box<cmd_fit::Args>),
     /// Electronic helical guide for CNC gear shaping: G83 cycle, kinematics, servo
     /// simulation.
     Shape(cmd_shape::Args),
@@ -63,7 +63,7 @@ fn main() -> ExitCode {
         Command::Gear(a) => cmd_gear::run(a),
         Command::Demo(a) => cmd_demo::run(a),
         Command::Replay(a) => cmd_replay::run(a),
-        Command::Fit(a) => cmd_fit::run(a),
+        Command::Fit(a) => cmd_fit::run(*a),
         Command::Shape(a) => cmd_shape::run(a),
         Command::Dress(a) => cmd_dress::run(a),
         Command::Grind(a) => cmd_grind::run(a),
