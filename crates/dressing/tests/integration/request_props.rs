@@ -70,6 +70,18 @@ fn valid_case() -> impl Strategy<Value = Case> {
                     proptest::array::uniform3(-0.3f64..0.3)
                 )
                     .prop_map(|(a, b, c, f)| (None, Some(vec![[a, f[0]], [b, f[1]], [c, f[2]]]))),
+                // Four-point: four targets (minimum-norm correction).
+                (
+                    0.02f64..0.25,
+                    0.3f64..0.45,
+                    0.55f64..0.7,
+                    0.75f64..0.98,
+                    proptest::array::uniform4(-0.3f64..0.3)
+                )
+                    .prop_map(|(a, b, c, e, f)| (
+                        None,
+                        Some(vec![[a, f[0]], [b, f[1]], [c, f[2]], [e, f[3]]])
+                    )),
             ],
         ),
     )
@@ -90,7 +102,11 @@ fn valid_case() -> impl Strategy<Value = Case> {
                     },
                     solve: SolveInput {
                         flank: if left { Flank::Left } else { Flank::Right },
-                        method: Method::ThreePoint,
+                        method: if tgt.1.as_ref().is_some_and(|p| p.len() == 4) {
+                            Method::FourPoint
+                        } else {
+                            Method::ThreePoint
+                        },
                         diameter_mm: (wear > 0.0).then_some(d0 * (1.0 - wear)),
                         crowning_um: tgt.0,
                         points: tgt.1,
@@ -181,7 +197,7 @@ fn runners(cases: u32) -> [TestRunner; 2] {
 
 #[test]
 fn random_valid_requests_agree_with_the_analytic_envelope() {
-    for mut runner in runners(8) {
+    for mut runner in runners(10) {
         runner.run(&valid_case(), |c| run_valid(&c)).unwrap();
     }
 }
