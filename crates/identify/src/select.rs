@@ -714,17 +714,25 @@ pub fn identify_auto(
             }
         }
     }
+    // Differences live in their own, smaller engine (values + pairs): the QR cost grows
+    // with the square of the column count.
     let mut diff = Vec::new();
+    let mut dfeats: Vec<Feat> = feats
+        .iter()
+        .filter(|f| f.kind == Transform::Value)
+        .copied()
+        .collect();
+    let mut dcols: Vec<Vec<f64>> = table.inputs.clone();
     if want(Family::Differences) && c <= 24 {
         for a in 0..c {
             for b in a + 1..c {
-                diff.push((a, b, feats.len()));
-                feats.push(Feat {
+                diff.push((a, b, dfeats.len()));
+                dfeats.push(Feat {
                     sensor: a,
                     minus: Some(b),
                     kind: Transform::Value,
                 });
-                cols.push(
+                dcols.push(
                     table.inputs[a]
                         .iter()
                         .zip(&table.inputs[b])
@@ -735,6 +743,22 @@ pub fn identify_auto(
         }
     }
     let eng = Engine::new(&cols, &table.targets, &scheme);
+    let eng_d = if diff.is_empty() {
+        None
+    } else {
+        Some(Engine::new(&dcols, &table.targets, &scheme))
+    };
+    let ctx_d = eng_d.as_ref().map(|e| Ctx {
+        eng: e,
+        feats: &dfeats,
+        n_in: c,
+        cap: opts.max_sensors,
+        value: (0..c).collect(),
+        lag: vec![Vec::new(); c],
+        delay: vec![Vec::new(); c],
+        diff,
+        taus: opts.taus_s.clone(),
+    });
     let ctx = Ctx {
         eng: &eng,
         feats: &feats,
@@ -743,7 +767,7 @@ pub fn identify_auto(
         value,
         lag,
         delay,
-        diff,
+        diff: Vec::new(),
         taus: opts.taus_s.clone(),
     };
     let tr_inputs: Vec<Vec<f64>> = table
@@ -755,8 +779,7 @@ pub fn identify_auto(
     let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
     let dendrogram = Dendrogram::single_linkage(&corr.map(f64::abs));
 
-    let mut out = Vec::with_capacity(table.targets.len());
-    for j in 0..table.targets.len() {
+    let one_target = |j: usize| -> Result<TargetModel> {
         let all: Vec<usize> = (0..c).collect();
         let (_, static_path) = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all, Fitter::Ols);
         let mut comparison = Vec::new();
@@ -794,11 +817,16 @@ pub fn identify_auto(
             None
         };
         for &fam in &families {
-            match family_best(&ctx, fam, j, opts, &static_path) {
+            let cx = match (&ctx_d, fam) {
+                (Some(d), Family::Differences) => d,
+                (None, Family::Differences) => continue,
+                _ => &ctx,
+            };
+            match family_best(cx, fam, j, opts, &static_path) {
                 Some(b) => {
                     comparison.push(FamilyScore {
                         family: fam.name().into(),
-                        sensors: sensors_of_units(&feats, &b.units).len(),
+                        sensors: sensors_of_units(cx.feats, &b.units).len(),
                         cv_rmse: b.cv,
                         fold_rmse: eng.fold_rmse(&b.sse),
                         detail: b.detail.clone(),
@@ -829,9 +857,46 @@ pub fn identify_auto(
             pivot: 0.0,
             tolerance: 0.0,
         })?;
-        out.push(finish(
-            table, &train, j, &feats, &cols, &eng, b, comparison,
-        )?);
+        if b.family == Family::Differences {
+            if let Some(e) = &eng_d {
+                return finish(table, &train, j, &dfeats, &dcols, e, b, comparison);
+            }
+        }
+        finish(table, &train, j, &feats, &cols, &eng, b, comparison)
+    };
+    // Targets are independent: share them over the cores (results in target order).
+    let nt = table.targets.len();
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(nt)
+        .max(1);
+    let mut results: Vec<Option<Result<TargetModel>>> = (0..nt).map(|_| None).collect();
+    std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..workers)
+            .map(|w| {
+                let f = &one_target;
+                sc.spawn(move || {
+                    (w..nt)
+                        .step_by(workers)
+                        .map(|j| (j, f(j)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            match h.join() {
+                Ok(v) => {
+                    for (j, r) in v {
+                        results[j] = Some(r);
+                    }
+                }
+                Err(p) => std::panic::resume_unwind(p),
+            }
+        }
+    });
+    let mut out = Vec::with_capacity(nt);
+    for r in results {
+        out.push(r.ok_or_else(|| invalid("targets", "a worker", "a result per target"))??);
     }
     let method = format!(
         "every family compared ({}); validation: {}; at most {} sensor(s)",
