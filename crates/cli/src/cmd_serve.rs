@@ -98,6 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let store = gearcomp_service::storage::open_store(&cfg)?;
         use gearcomp_service::auth;
+        auth::secure_record(&cfg, None)?;
         if let Some(role) = &args.issue_token {
             let role = gearcomp_service::config::Role::from_name(role).ok_or_else(|| {
                 anyhow::anyhow!("invalid --issue-token = {role:?}: expected operator or read_only")

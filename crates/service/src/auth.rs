@@ -262,10 +262,15 @@ pub fn revoke_token(store: &dyn crate::storage::Store, id: &str) -> Result<usize
     let n = store.remove_token(&id)?;
     if n == 0 {
         let ids: Vec<String> = list_tokens(store)?.into_iter().map(|(i, _)| i).collect();
+        let ids = if ids.is_empty() {
+            "none are left".to_string()
+        } else {
+            ids.join(", ")
+        };
         return Err(invalid(
             "--revoke-token",
             &id,
-            format!("the id of a token in the record ({})", ids.join(", ")),
+            format!("the id of a token in the record ({ids})"),
         ));
     }
     Ok(n)
