@@ -319,3 +319,77 @@ fn random_invalid_requests_name_the_key_and_unit() {
             .unwrap();
     }
 }
+
+/// Four-point targets that are producible by construction: f at four random fractions from a
+/// random ΔK, by the analytic envelope. The solve (minimum norm, a ΔK of its own) must hit
+/// them on that envelope, or refuse with the key.
+#[test]
+fn random_four_point_targets_from_a_reachable_correction() {
+    let strategy = (
+        valid_case(),
+        proptest::array::uniform4(-1.0f64..1.0),
+        (0.02f64..0.25, 0.3f64..0.45, 0.55f64..0.7, 0.75f64..0.98),
+    );
+    for mut runner in runners(6) {
+        runner
+            .run(&strategy, |(mut c, k, q)| {
+                let Ok(worm) = c.worm.build() else {
+                    return Ok(());
+                };
+                let Ok(dresser) = c.dresser.build(&worm) else {
+                    return Ok(());
+                };
+                let now = match c.solve.diameter_mm {
+                    Some(d) => worm.worn(d).unwrap(),
+                    None => worm,
+                };
+                let s = gearcomp_dressing::envelope::DressingSetup::new(now, dresser.clone());
+                let fl = c.solve.flank;
+                let Ok((a, b)) = s.active_profile(fl) else {
+                    return Err(TestCaseError::fail("active profile of a valid worm"));
+                };
+                let dk =
+                    AxisCorrection::from_array([2e-4 * k[0], 2e-3 * k[1], 0.01 * k[2], 0.3 * k[3]]);
+                let an = Analytic::new(&s, &dk);
+                let fr = [q.0, q.1, q.2, q.3];
+                let mut pts = Vec::new();
+                for f in fr {
+                    let Some(v) = an.f_mm(fl, a + f * (b - a)) else {
+                        return Ok(());
+                    };
+                    pts.push([f, 1e3 * v]);
+                }
+                if pts.iter().any(|p| p[1].abs() > 1000.0) {
+                    return Ok(());
+                }
+                c.solve.method = Method::FourPoint;
+                c.solve.crowning_um = None;
+                c.solve.points = Some(pts.clone());
+                match solve_request(&worm, &dresser, &c.solve) {
+                    Err(e) => {
+                        let msg = e.to_string();
+                        prop_assert!(
+                            matches!(e, DressError::NotProducible { .. })
+                                && msg.contains("[solve] points"),
+                            "{msg}"
+                        );
+                    }
+                    Ok(o) => {
+                        let an2 = Analytic::new(&o.setup, &o.solution.dk);
+                        for p in &pts {
+                            let f = an2.f_mm(fl, a + p[0] * (b - a)).unwrap();
+                            prop_assert!(
+                                (1e3 * f - p[1]).abs() < TOL_TARGET_UM,
+                                "fraction {}: wanted {} µm, got {} µm",
+                                p[0],
+                                p[1],
+                                1e3 * f
+                            );
+                        }
+                    }
+                }
+                Ok(())
+            })
+            .unwrap();
+    }
+}
