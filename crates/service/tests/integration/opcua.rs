@@ -453,3 +453,55 @@ async fn opcua_cut_counter_and_program_state() {
     run.stop().await.unwrap();
     cnc.stop().await;
 }
+
+/// Issue 14 item 1 over OPC UA: the service restarted four times against a CNC that
+/// holds −15 µm. Each new session writes the offset the last run applied, resumed from
+/// the record, never the 0.0 that only meant "no value yet" (before: 3 of 8 restarts
+/// wrote 0.0 at session start, before the first full scan).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn opcua_service_restarts_never_write_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("engine.toml"), common::engine_ab(5.0)).unwrap();
+    let port = free_port();
+    let cnc = Cnc::start(
+        port,
+        &[
+            ("Temp.A", Variant::Double(24.0)),
+            ("Temp.B", Variant::Double(20.0)),
+        ],
+        Arc::new(AtomicBool::new(false)),
+    )
+    .await;
+    let config = format!(
+        "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+         [storage]\npath = \"ua.db\"\ncommit_interval_s = 0.05\n\
+         [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+         publishing_interval_s = 0.05\nscan_period_s = 0.5\n\
+         reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+         channels = [{{ channel = \"A\", node = \"ns=2;s=Temp.A\" }}, {{ channel = \"B\", node = \"ns=2;s=Temp.B\" }}]\n\
+         offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n"
+    );
+    // Cz = −3.75·(24 − 20) = −15 µm.
+    let run = start_with(dir.path(), &config).await;
+    cnc.wait_comp(-15.0, 20.0).await;
+    run.stop().await.unwrap();
+    for restart in 1..=4 {
+        let before = cnc.log().len();
+        let run = start_with(dir.path(), &config).await;
+        // The session's first write: at once, before the first scan (0.5 s period).
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while cnc.log().len() == before {
+            assert!(Instant::now() < deadline, "restart {restart}: no write");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        tokio::time::sleep(Duration::from_millis(700)).await;
+        run.stop().await.unwrap();
+        let log = cnc.log();
+        assert!(
+            log[before..].iter().all(|v| *v == -15.0),
+            "restart {restart} wrote {:?}",
+            &log[before..]
+        );
+    }
+    cnc.stop().await;
+}
