@@ -41,17 +41,17 @@ use gearcomp_grinding::conical_equalise::{
     equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
 };
 use gearcomp_grinding::conical_lines;
-use gearcomp_grinding::conical_sim::{EnvelopeGrinder, MeshKinematics};
 use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{
     diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad, LineMap,
 };
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
+use gearcomp_grinding::envelope::{EnvelopeGrinder, MeshKinematics};
+use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
-use gearcomp_grinding::simulate::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HtmlReport, Series};

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{check_range, GrindError, Result};
 
-use crate::simulate::FlankGrid;
+use crate::envelope::FlankGrid;
 pub use gearcomp_geometry::iso1328::{
     helix_evaluation_range, profile_evaluation_range, round_tolerance_um, tolerances, Tolerances,
 };

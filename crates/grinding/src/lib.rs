@@ -14,14 +14,16 @@
 //! - [`dressed_topology`]: a topologically dressed worm (grid f_nFS(w, b)) as a grinding worm
 //!   for diagonal generating grinding.
 //! - [`machine`]: machine chain (35) and its inverse.
-//! - [`simulate`]: brute-force envelope grinding simulation over rotation and feed, storing the
-//!   worm point that ground each gear point, and the contact path fitted from it.
+//! - [`envelope`]: the envelope grinder for any worm–workpiece chain ([`envelope::MeshKinematics`]):
+//!   the shortest cut over rotation and feed at every gear point, storing the worm point that
+//!   ground it.
+//! - [`simulate`]: the envelope grinder on the cylindrical chain and the contact path fitted
+//!   from it.
 //! - [`solve`]: the worm for a wanted gear modification, iterated on the envelope simulation.
 //! - [`iso1328`]: ISO 1328-1:2013 profile and helix evaluation and tolerances.
 //! - [`conical`]: conical (beveloid) worm and/or workpiece: beveloid flanks, chains (29)–(31),
 //!   the contact path (50)–(86) with its feed terms, generating coupling and diagonal ratio.
-//! - [`conical_sim`]: the envelope simulation for any chain, and the conical contact path
-//!   fitted from two simulated feed couplings.
+//! - [`conical_sim`]: the conical contact path fitted from two simulated feed couplings.
 //! - [`conical_equalise`]: the worm cone angle that equalises K_ZV1 on both flanks (A6, T14).
 //! - [`conical_lines`]: line-class transfer on conical chains (worm ↔ gear modification of the
 //!   form (25)/(26)) and its inverse.
@@ -47,6 +49,7 @@ pub mod decompose;
 pub mod diagonal;
 pub mod dressed;
 pub mod dressed_topology;
+pub mod envelope;
 mod error;
 pub mod flank;
 pub mod iso1328;

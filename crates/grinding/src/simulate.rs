@@ -1,170 +1,22 @@
-//! Grinding simulation: the envelope of the (modified) worm flank over the gear flank.
+//! Grinding simulation of the cylindrical chain (28): the [`Grinder`] (the envelope grinder of
+//! [`crate::envelope`] on a [`WormGearPair`]) and the contact path fitted from the stored
+//! feeds and worm points of its shortest cuts.
 //!
-//! Every gear grid point (w_F2, z_F2) carries a vector along its outward normal; the worm, at
-//! every machine state (φ2, z_V2) with φ1 from the generating coupling and z_V1 from the feed
-//! coupling, shortens it to where it meets the worm flank. The final length is the ground
-//! normal deviation f_n2, and the worm point (w_F1, z_F1) and feed of the shortest cut are
-//! stored with it. Instead of discrete time steps (which leave feed marks) the shortest cut is
-//! found by minimising over rotation and feed directly ("exact-time" variant, digest §9.3 T1;
-//! ERRATA §7). The contact path is then fitted from the stored feeds and worm points.
+//! The grinder itself and its grid and result types live in [`crate::envelope`]; they are
+//! re-exported here under their former paths.
 
 use nalgebra::{DMatrix, DVector};
-use serde::{Deserialize, Serialize};
 
 use crate::contact::{ContactPath, WormGearPair};
-use crate::error::{check_range, GrindError, Result};
+use crate::error::{GrindError, Result};
 use crate::kinematics::FeedCoupling;
 
-/// Over which machine states the shortest cut is searched.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum EnvelopeMode {
-    /// Rotation only, at the feed where the analytic contact path (40) passes the point (the
-    /// restricted envelope of digest §9.3's "brute-force" numbers).
-    RotationOnly,
-    /// Rotation and feed (the true envelope, ERRATA §7).
-    RotationAndFeed,
-}
-
-/// A uniform grid over the gear flank's (w, z) plane.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FlankGrid {
-    /// First and last roll distance in mm.
-    pub w_range_mm: (f64, f64),
-    /// First and last width position in mm.
-    pub z_range_mm: (f64, f64),
-    /// Points along w (≥ 2).
-    pub n_w: usize,
-    /// Points along z (≥ 2).
-    pub n_z: usize,
-}
-
-impl FlankGrid {
-    /// A validated grid.
-    pub fn new(
-        w_range_mm: (f64, f64),
-        z_range_mm: (f64, f64),
-        n_w: usize,
-        n_z: usize,
-    ) -> Result<Self> {
-        check_range("w_start_mm", w_range_mm.0, 1e-6, 1e6, "0 < w_start < w_end")?;
-        check_range(
-            "w_end_mm",
-            w_range_mm.1,
-            w_range_mm.0 + 1e-6,
-            1e6,
-            "w_end > w_start",
-        )?;
-        check_range(
-            "z_start_mm",
-            z_range_mm.0,
-            -1e6,
-            1e6,
-            "finite, z_start < z_end",
-        )?;
-        check_range(
-            "z_end_mm",
-            z_range_mm.1,
-            z_range_mm.0 + 1e-6,
-            1e6,
-            "z_end > z_start",
-        )?;
-        for (field, n) in [("n_w", n_w), ("n_z", n_z)] {
-            if !(2..=10_000).contains(&n) {
-                return Err(GrindError::BadData {
-                    field,
-                    got: n,
-                    expected: "2 ..= 10000 grid points",
-                });
-            }
-        }
-        Ok(Self {
-            w_range_mm,
-            z_range_mm,
-            n_w,
-            n_z,
-        })
-    }
-    /// Roll distance of column i.
-    #[inline]
-    pub fn w_mm(&self, i: usize) -> f64 {
-        self.w_range_mm.0
-            + (self.w_range_mm.1 - self.w_range_mm.0) * i as f64 / (self.n_w - 1) as f64
-    }
-    /// Width position of row j.
-    #[inline]
-    pub fn z_mm(&self, j: usize) -> f64 {
-        self.z_range_mm.0
-            + (self.z_range_mm.1 - self.z_range_mm.0) * j as f64 / (self.n_z - 1) as f64
-    }
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.n_w * self.n_z
-    }
-    /// Always false for a validated grid.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-}
-
-/// Result of grinding one gear point.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct GroundPoint {
-    /// Normal deviation f_n2 in mm (> 0 = material left).
-    pub f_n_mm: f64,
-    /// Transverse deviation f_Ft2 = f_n2/cos β_b2 in mm.
-    pub f_ft_mm: f64,
-    /// Worm roll distance of the shortest cut.
-    pub w1_mm: f64,
-    /// Worm width position of the shortest cut.
-    pub z1_mm: f64,
-    /// Workpiece feed of the shortest cut.
-    pub z_v2_mm: f64,
-    /// Workpiece rotation of the shortest cut.
-    pub phi2_rad: f64,
-    /// State of the shortest cut as offsets from the analytic seed: rotation (mm of
-    /// r_b2·φ2) and feed (mm).
-    pub offset_mm: (f64, f64),
-    /// First-order analytic f_Ft2 in mm: −(cos β_b1/cos β_b2)·f_Ft1 at the mapped worm point.
-    pub analytic_f_ft_mm: f64,
-    /// Second-order model of the envelope in mm: the cut at the analytic state plus the drop
-    /// −½·gᵀH⁻¹g of its quadratic model over rotation and feed (None if that model has no
-    /// minimum).
-    pub second_order_f_ft_mm: Option<f64>,
-    /// The worm touches with its tip or root edge (the shortest cut lies on the bound of the
-    /// worm's radii).
-    pub worm_edge: bool,
-    /// Envelope and second-order model agree (within `conical_sim::SECOND_ORDER_ABS_MM` +
-    /// `SECOND_ORDER_REL`·|second-order correction|), and the worm touches with its flank.
-    pub explained: bool,
-}
-
-/// A ground flank: one [`GroundPoint`] per grid point, index i_w·n_z + j_z.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GroundFlank {
-    /// The grid.
-    pub grid: FlankGrid,
-    /// The points.
-    pub points: Vec<GroundPoint>,
-}
-
-impl GroundFlank {
-    /// Preallocates the result of a grid.
-    pub fn new(grid: FlankGrid) -> Self {
-        Self {
-            grid,
-            points: vec![GroundPoint::default(); grid.len()],
-        }
-    }
-    /// Point at (i_w, j_z).
-    pub fn at(&self, i: usize, j: usize) -> &GroundPoint {
-        &self.points[i * self.grid.n_z + j]
-    }
-}
+pub use crate::envelope::{EnvelopeMode, FlankGrid, GroundFlank, GroundPoint};
 
 /// The grinding simulation of one flank of a cylindrical worm and workpiece (chain (28)) with a
-/// given worm and feed coupling: the envelope simulation of [`crate::conical_sim`] on a
+/// given worm and feed coupling: the envelope simulation of [`crate::envelope`] on a
 /// [`WormGearPair`] (one algorithm for every chain).
-pub type Grinder<'a> = crate::conical_sim::EnvelopeGrinder<'a, WormGearPair>;
+pub type Grinder<'a> = crate::envelope::EnvelopeGrinder<'a, WormGearPair>;
 
 /// Contact-path coefficients fitted from a simulation (A3 steps 5–7).
 ///

@@ -12,10 +12,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::contact::WormGearPair;
 use crate::diagonal::{worm_modification_for_gear, LineMap};
+use crate::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use crate::error::{GrindError, Result};
 use crate::kinematics::FeedCoupling;
 use crate::modification::{FlankModification, LineModification, Poly};
-use crate::simulate::{EnvelopeMode, FlankGrid, Grinder, GroundFlank};
+use crate::simulate::Grinder;
 
 /// Stopping rule and limits of the iteration.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
