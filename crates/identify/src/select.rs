@@ -819,7 +819,18 @@ pub fn identify_auto(
         for &fam in &families {
             let cx = match (&ctx_d, fam) {
                 (Some(d), Family::Differences) => d,
-                (None, Family::Differences) => continue,
+                (None, Family::Differences) => {
+                    comparison.push(FamilyScore {
+                        family: fam.name().into(),
+                        sensors: 0,
+                        cv_rmse: f64::NAN,
+                        fold_rmse: Vec::new(),
+                        detail: format!("not run: {c} inputs (pairs only up to 24 inputs)"),
+                        eligible: false,
+                        kept: false,
+                    });
+                    continue;
+                }
                 _ => &ctx,
             };
             match family_best(cx, fam, j, opts, &static_path) {
