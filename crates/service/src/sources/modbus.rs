@@ -207,16 +207,13 @@ async fn run_module(
                 continue;
             }
         };
-        failures = 0;
         // A new connection (the device may have restarted): check and write at once.
         held.connected = true;
         flag_state.stop_written = None;
-        send(
-            &tx,
-            InputMsg::ClearAlarm {
-                key: conn_key.clone(),
-            },
-        );
+        // The connection counts (back-off reset, alarm cleared) only once the device has
+        // answered: a device that accepts connections but never answers stays one alarm
+        // with a growing wait, not an alarm that clears at every connect.
+        let mut answered = false;
         let mut tick = tokio::time::interval(period);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         'poll: loop {
@@ -231,6 +228,16 @@ async fn run_module(
                 .await;
                 let stamp_s = clock.now_s();
                 let key = format!("modbus.{i}.register.{}", r.address);
+                if !answered && matches!(res, Ok(Ok(_))) {
+                    answered = true;
+                    failures = 0;
+                    send(
+                        &tx,
+                        InputMsg::ClearAlarm {
+                            key: conn_key.clone(),
+                        },
+                    );
+                }
                 match res {
                     Ok(Ok(Ok(words))) => {
                         let Some(&w) = words.first() else { continue };

@@ -12,6 +12,7 @@ mod dashboard_browser;
 mod http_api;
 mod http_limits;
 mod modbus;
+mod modbus_silent;
 mod modbus_output;
 mod mqtt;
 mod mqtt_limits;
