@@ -430,6 +430,10 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             cycle.set_safe_point(false);
         }
     }
+    #[cfg_attr(
+        not(any(feature = "modbus", feature = "opcua")),
+        allow(unused_variables)
+    )]
     let alive = cycle.alive();
     let cycle_thread = std::thread::Builder::new()
         .name("gearcomp-cycle".into())
@@ -521,6 +525,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 clock,
                 tx: in_tx.clone(),
                 offsets: off_rx.clone(),
+                alive: alive.clone(),
             })?;
             tasks.push(tokio::spawn(adapter.run()));
         }

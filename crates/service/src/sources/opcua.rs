@@ -234,6 +234,8 @@ pub struct Resolved {
     trigger: Option<NodeId>,
     program_state: Option<(NodeId, Vec<i64>)>,
     output: Option<(NodeId, usize, f64)>,
+    stop: Option<NodeId>,
+    beat: Option<(NodeId, Duration)>,
 }
 
 /// Checks every node id, mapped channel and the offset axis.
@@ -304,12 +306,25 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         }
         None => None,
     };
+    let stop = match &cfg.stop_output {
+        Some(s) => Some(parse_node("input.stop_output.node", &s.node)?),
+        None => None,
+    };
+    let beat = match &cfg.heartbeat {
+        Some(h) => Some((
+            parse_node("input.heartbeat.node", &h.node)?,
+            Duration::from_secs_f64(h.period_s),
+        )),
+        None => None,
+    };
     Ok(Resolved {
         channels: out,
         positions,
         trigger,
         program_state,
         output,
+        stop,
+        beat,
     })
 }
 
@@ -327,6 +342,110 @@ pub struct OpcUaParts {
     pub tx: SyncSender<InputMsg>,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
+    /// The cycle's step count (`Cycle::alive`), for the heartbeat output.
+    pub alive: Arc<std::sync::atomic::AtomicU64>,
+}
+
+/// The stop / feed-hold and heartbeat outputs and what was last written to them.
+struct Flags {
+    stop: Option<NodeId>,
+    stop_written: Option<bool>,
+    beat: Option<(NodeId, Duration)>,
+    counter: i32,
+    last_alive: u64,
+    next_beat: Instant,
+    alive: Arc<std::sync::atomic::AtomicU64>,
+}
+
+const STOP_KEY: &str = "opcua.stop_output";
+const BEAT_KEY: &str = "opcua.heartbeat";
+
+/// Writes one value (value only, no timestamps); Err names the status or the failure.
+async fn write_value(
+    session: &Arc<Session>,
+    node: &NodeId,
+    v: Variant,
+) -> std::result::Result<(), String> {
+    let wv = WriteValue {
+        node_id: node.clone(),
+        attribute_id: AttributeId::Value as u32,
+        index_range: NumericRange::None,
+        value: DataValue {
+            value: Some(v),
+            ..Default::default()
+        },
+    };
+    match tokio::time::timeout(Duration::from_secs(5), session.write(&[wv])).await {
+        Ok(Ok(codes)) => match codes.first() {
+            Some(c) if c.is_good() => Ok(()),
+            Some(c) => Err(format!("{c}")),
+            None => Err("no result".into()),
+        },
+        Ok(Err(e)) => Err(format!("{e}")),
+        Err(_) => Err("no answer within 5 s".into()),
+    }
+}
+
+/// The stop flag when it changed or the session is new; the heartbeat counter every
+/// period while the cycle steps (a dead cycle stops it, so the PLC holds its offset).
+async fn write_flags(
+    session: &Arc<Session>,
+    f: &mut Flags,
+    offsets: &watch::Receiver<OffsetOut>,
+    tx: &SyncSender<InputMsg>,
+) {
+    if let Some(node) = &f.stop {
+        let want = offsets.borrow().stop;
+        if f.stop_written != Some(want) {
+            match write_value(session, node, Variant::Boolean(want)).await {
+                Ok(()) => {
+                    f.stop_written = Some(want);
+                    send(
+                        tx,
+                        InputMsg::ClearAlarm {
+                            key: STOP_KEY.into(),
+                        },
+                    );
+                }
+                Err(why) => send(
+                    tx,
+                    InputMsg::RaiseAlarm {
+                        key: STOP_KEY.into(),
+                        message: format!("OPC UA stop output {node} = {want}: {why}; retrying"),
+                    },
+                ),
+            }
+        }
+    }
+    if let Some((node, period)) = &f.beat {
+        let now = Instant::now();
+        if now >= f.next_beat {
+            f.next_beat = now + *period;
+            let a = f.alive.load(std::sync::atomic::Ordering::Acquire);
+            if a != f.last_alive {
+                f.last_alive = a;
+                let c = f.counter.wrapping_add(1);
+                match write_value(session, node, Variant::Int32(c)).await {
+                    Ok(()) => {
+                        f.counter = c;
+                        send(
+                            tx,
+                            InputMsg::ClearAlarm {
+                                key: BEAT_KEY.into(),
+                            },
+                        );
+                    }
+                    Err(why) => send(
+                        tx,
+                        InputMsg::RaiseAlarm {
+                            key: BEAT_KEY.into(),
+                            message: format!("OPC UA heartbeat {node} = {c}: {why}; retrying"),
+                        },
+                    ),
+                }
+            }
+        }
+    }
 }
 
 fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
@@ -575,6 +694,15 @@ async fn run(a: Adapter) {
         next_try: Instant::now(),
     });
     let mut failures = 0u32;
+    let mut flags = Flags {
+        stop: r.stop.clone(),
+        stop_written: None,
+        beat: r.beat.clone(),
+        counter: 0,
+        last_alive: 0,
+        next_beat: Instant::now(),
+        alive: p.alive.clone(),
+    };
     loop {
         let why = session(
             &mut client,
@@ -585,6 +713,7 @@ async fn run(a: Adapter) {
             &p.tx,
             &mut offsets,
             &mut output,
+            &mut flags,
             &mut failures,
         )
         .await;
@@ -630,6 +759,7 @@ async fn session(
     tx: &SyncSender<InputMsg>,
     offsets: &mut watch::Receiver<OffsetOut>,
     output: &mut Option<Output>,
+    flags: &mut Flags,
     failures: &mut u32,
 ) -> String {
     let policy = SecurityPolicy::from_str(&cfg.security_policy).unwrap_or(SecurityPolicy::None);
@@ -778,6 +908,9 @@ async fn session(
         o.next_try = Instant::now();
         write_offset(&session, o, offsets, tx).await;
     }
+    // A new session: the stop flag is written at once (the server may have restarted).
+    flags.stop_written = None;
+    write_flags(&session, flags, offsets, tx).await;
 
     let timed = r.trigger.is_none() && (!r.channels.is_empty() || !r.positions.is_empty());
     let mut tick = tokio::time::interval(Duration::from_secs_f64(cfg.scan_period_s));
@@ -809,10 +942,12 @@ async fn session(
                 }
             }
             _ = tokio::time::sleep_until(retry_at), if output.is_some() => {}
+            _ = tokio::time::sleep_until(flags.next_beat), if flags.beat.is_some() => {}
         }
         if let Some(o) = output.as_mut() {
             write_offset(&session, o, offsets, tx).await;
         }
+        write_flags(&session, flags, offsets, tx).await;
     }
 }
 

@@ -70,6 +70,33 @@ pub struct OpcUaInput {
     /// Where the offset is written, if anywhere.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_output: Option<OpcUaOffsetOutput>,
+    /// The stop / feed-hold output: a writable Boolean node, true while the engine's stop
+    /// request is latched (until the operator acknowledges it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_output: Option<OpcUaStopOutput>,
+    /// The heartbeat: a writable Int32 node counting up every `period_s` while the
+    /// compensation cycle steps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heartbeat: Option<OpcUaHeartbeat>,
+}
+
+/// The stop / feed-hold node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaStopOutput {
+    /// Node id of a writable Boolean.
+    pub node: String,
+}
+
+/// The heartbeat node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaHeartbeat {
+    /// Node id of a writable Int32.
+    pub node: String,
+    /// Period, s (0.05…3600; at least `cycle.period_s` so a live cycle always moves it).
+    #[serde(default = "one")]
+    pub period_s: f64,
 }
 
 fn none_name() -> String {
@@ -288,6 +315,19 @@ impl OpcUaInput {
                     "at least one state value meaning \"between cuts\"",
                 ));
             }
+        }
+        if let Some(s) = &self.stop_output {
+            crate::sources::opcua::parse_node("input.stop_output.node", &s.node)?;
+        }
+        if let Some(h) = &self.heartbeat {
+            crate::sources::opcua::parse_node("input.heartbeat.node", &h.node)?;
+            crate::error::check_range(
+                "input.heartbeat.period_s",
+                h.period_s,
+                0.05,
+                3600.0,
+                "0.05…3600 s",
+            )?;
         }
         if let Some(o) = &self.offset_output {
             crate::sources::opcua::parse_node("input.offset_output.node", &o.node)?;

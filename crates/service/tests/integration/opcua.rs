@@ -505,3 +505,188 @@ async fn opcua_service_restarts_never_write_zero() {
     }
     cnc.stop().await;
 }
+
+/// A PLC-like OPC UA server: Temp.A and Temp.B, a writable Boolean `FeedHold` and a
+/// writable Int32 `Heartbeat`, every accepted write logged.
+struct Plc {
+    handle: ServerHandle,
+    task: tokio::task::JoinHandle<Result<(), String>>,
+    nm: Arc<SimpleNodeManager>,
+    ns: u16,
+    holds: Arc<Mutex<Vec<bool>>>,
+    beats: Arc<Mutex<Vec<i32>>>,
+    _pki: tempfile::TempDir,
+}
+
+impl Plc {
+    async fn start(port: u16) -> Plc {
+        let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
+            .await
+            .unwrap();
+        let pki = tempfile::tempdir().unwrap();
+        let (server, handle) = ServerBuilder::new_anonymous("gearcomp test PLC")
+            .application_uri("urn:gearcomp-test-plc")
+            .product_uri("urn:gearcomp-test-plc")
+            .host("127.0.0.1")
+            .port(port)
+            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
+            .pki_dir(pki.path())
+            .create_sample_keypair(false)
+            .with_node_manager(simple_node_manager(
+                NamespaceMetadata {
+                    namespace_uri: NS_URI.to_owned(),
+                    ..Default::default()
+                },
+                "plc",
+            ))
+            .build()
+            .unwrap();
+        let nm = handle
+            .node_managers()
+            .get_of_type::<SimpleNodeManager>()
+            .unwrap();
+        let ns = handle.get_namespace_index(NS_URI).unwrap();
+        let holds: Arc<Mutex<Vec<bool>>> = Arc::default();
+        let beats: Arc<Mutex<Vec<i32>>> = Arc::default();
+        {
+            let mut space = nm.address_space().write();
+            for (name, v) in [("Temp.A", 24.0), ("Temp.B", 20.0)] {
+                VariableBuilder::new(&NodeId::new(ns, name), name, name)
+                    .data_type(DataTypeId::Double)
+                    .value(v)
+                    .organized_by(ObjectId::ObjectsFolder)
+                    .insert(&mut *space);
+            }
+            let hold = NodeId::new(ns, "FeedHold");
+            VariableBuilder::new(&hold, "FeedHold", "FeedHold")
+                .data_type(DataTypeId::Boolean)
+                .value(false)
+                .writable()
+                .organized_by(ObjectId::ObjectsFolder)
+                .insert(&mut *space);
+            let beat = NodeId::new(ns, "Heartbeat");
+            VariableBuilder::new(&beat, "Heartbeat", "Heartbeat")
+                .data_type(DataTypeId::Int32)
+                .value(0i32)
+                .writable()
+                .organized_by(ObjectId::ObjectsFolder)
+                .insert(&mut *space);
+            let h = holds.clone();
+            nm.inner()
+                .add_write_callback(hold, move |dv: DataValue, _| match dv.value {
+                    Some(Variant::Boolean(x)) => {
+                        h.lock().unwrap().push(x);
+                        StatusCode::Good
+                    }
+                    _ => StatusCode::BadTypeMismatch,
+                });
+            let b = beats.clone();
+            nm.inner()
+                .add_write_callback(beat, move |dv: DataValue, _| match dv.value {
+                    Some(Variant::Int32(x)) => {
+                        b.lock().unwrap().push(x);
+                        StatusCode::Good
+                    }
+                    _ => StatusCode::BadTypeMismatch,
+                });
+        }
+        let task = tokio::spawn(server.run_with(listener));
+        Plc {
+            handle,
+            task,
+            nm,
+            ns,
+            holds,
+            beats,
+            _pki: pki,
+        }
+    }
+
+    fn set(&self, name: &str, v: f64) {
+        self.nm
+            .set_value(
+                self.handle.subscriptions(),
+                &NodeId::new(self.ns, name),
+                None,
+                DataValue::new_now(Variant::Double(v)),
+            )
+            .unwrap();
+    }
+
+    fn hold(&self) -> Option<bool> {
+        self.holds.lock().unwrap().last().copied()
+    }
+
+    fn beats(&self) -> Vec<i32> {
+        self.beats.lock().unwrap().clone()
+    }
+}
+
+async fn wait(what: &str, secs: f64, f: impl Fn() -> bool) {
+    let deadline = Instant::now() + Duration::from_secs_f64(secs);
+    while !f() {
+        assert!(Instant::now() < deadline, "timed out: {what}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// Issue 14 item 8 over OPC UA: the feed-hold Boolean follows the latched stop request
+/// (set over the limit, kept when back in range, released by the operator), and the
+/// heartbeat Int32 counts 1, 2, 3, … while the service runs and stops with it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn opcua_feed_hold_and_heartbeat() {
+    let dir = tempfile::tempdir().unwrap();
+    let engine = engine_ab(5.0).replacen(
+        "stale_timeout_s = 5\n",
+        "stale_timeout_s = 5\nlimit_max = 30.0\n",
+        1,
+    );
+    assert!(engine.contains("limit_max"));
+    std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
+    let port = free_port();
+    let plc = Plc::start(port).await;
+    assert_eq!(plc.ns, 2);
+    let run = start_with(
+        dir.path(),
+        &format!(
+            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+             [storage]\npath = \"plc.db\"\n\
+             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
+             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+             channels = [{{ channel = \"A\", node = \"ns=2;s=Temp.A\" }}, {{ channel = \"B\", node = \"ns=2;s=Temp.B\" }}]\n\
+             stop_output = {{ node = \"ns=2;s=FeedHold\" }}\n\
+             heartbeat = {{ node = \"ns=2;s=Heartbeat\", period_s = 0.1 }}\n"
+        ),
+    )
+    .await;
+    let op = run.generated.clone().unwrap().operator;
+    let api = Api::new(&run);
+    wait("feed hold written false", 20.0, || {
+        plc.hold() == Some(false)
+    })
+    .await;
+    wait("heartbeat counts", 20.0, || plc.beats().len() >= 3).await;
+    plc.set("Temp.A", 35.0);
+    wait("feed hold set", 10.0, || plc.hold() == Some(true)).await;
+    plc.set("Temp.A", 24.0);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(plc.hold(), Some(true), "released without acknowledgement");
+    let r = api
+        .client
+        .post(format!("{}/api/stop/ack", api.base))
+        .bearer_auth(&op)
+        .send()
+        .await
+        .unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    wait("feed hold released", 10.0, || plc.hold() == Some(false)).await;
+    run.stop().await.unwrap();
+    let beats = plc.beats();
+    // Counted 1, 2, 3, … one per period.
+    assert_eq!(beats, (1..=beats.len() as i32).collect::<Vec<_>>());
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(plc.beats().len(), beats.len(), "heartbeat after the stop");
+    plc.handle.cancel();
+    let _ = tokio::time::timeout(Duration::from_secs(10), plc.task).await;
+}
