@@ -1,5 +1,5 @@
 //! `gearcomp dress`: design a profile roller dresser, solve the axis corrections ΔK for a
-//! profile modification, and plan a worm's life, from a TOML description (seed 004, part 1).
+//! profile modification, and plan a worm's life, from a TOML description (JP6903407B2, worm dressing).
 
 use std::path::{Path, PathBuf};
 
@@ -102,7 +102,7 @@ struct SolveCfg {
     points: Option<Vec<[f64; 2]>>,
     /// Worm point the contact line must pass through: ν_zS as fifth unknown (eq. (14)/(19)).
     contact_point: Option<ContactPointCfg>,
-    /// Topological program over the worm width ([solve.topological], §4.A.5/§4.A.7).
+    /// Topological program over the worm width ([solve.topological], JP6903407B2 eqs. (15)–(17), (22)).
     topological: Option<TopoCfg>,
     /// Clearance budget for the opposite-flank cut and the jacket depth (mm), as in [plan].
     #[serde(default = "budget")]
@@ -765,7 +765,7 @@ fn topo_crowning(sc: &SolveCfg, tc: &TopoCfg) -> anyhow::Result<CrowningOverWidt
 }
 
 /// `dress solve` with `[solve.topological]`: the topological 3- or 4-point program over the
-/// worm width (digest §4.A.5, §4.A.7), its machine axes per position and the dressed worm.
+/// worm width (docs/dressing.md "Derivation: topological programs"), its machine axes per position and the dressed worm.
 fn run_solve_topological(
     c: &Common,
     sc: &SolveCfg,

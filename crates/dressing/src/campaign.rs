@@ -141,7 +141,7 @@ impl StretchReference {
 /// # Formula
 /// P_FS = [(w(r_A2; ΔK) − w(r_A1; ΔK)) / cos β_b] / [(w_Na,0 − w_Nf,0) / cos β_b0] − 1
 /// # Source
-/// seed 004, E128–E129, eq. (21) (lost) as reconstructed in digest §4.A.9 [RECONSTRUCTED];
+/// JP6903407B2, eq. (21) (drawing lost), Fig. 13; form of docs/dressing.md "Derivation: three-point system and relative profile stretching" [RECONSTRUCTED];
 /// line-of-action scaling [RECONSTRUCTED]
 pub fn profile_stretch(
     setup: &DressingSetup,
@@ -206,7 +206,7 @@ fn dress_once(
 /// kept) and dressed by the old dresser with the plan's correction; returns (P_FS, ΔK).
 ///
 /// # Source
-/// seed 004, claim 2, E148–E149, Fig. 19(b) [SEED]; digest §4.A.15 option B [RECONSTRUCTED]
+/// JP6903407B2, claim 2, Fig. 19(b) [SEED]; docs/dressing.md "Derivation: worm life and zero-stretch angle" [RECONSTRUCTED]
 pub fn stretch_at_profile_angle(
     design: &Worm,
     dresser: &Dresser,
@@ -232,8 +232,8 @@ pub fn stretch_at_profile_angle(
 /// |P_FS| < 1e-9. ΔK is continued from evaluation to evaluation.
 ///
 /// # Source
-/// seed 004, claim 2, E148–E149, Fig. 19(b)/(c) ("path 0") [SEED]; 1-D root find digest
-/// §4.A.15 [RECONSTRUCTED]
+/// JP6903407B2, claim 2, Fig. 19(b)/(c) ("path 0") [SEED]; 1-D root find
+/// docs/dressing.md "Derivation: worm life and zero-stretch angle" [RECONSTRUCTED]
 pub fn zero_stretch_profile_angle(
     design: &Worm,
     dresser: &Dresser,
@@ -368,8 +368,8 @@ fn target(ws: &[f64; 3], c_mm: f64, w: f64) -> f64 {
 /// Plans every dressing of a worm's life with the dresser designed for the new worm.
 ///
 /// # Source
-/// seed 004, claims 1–2, E147–E150 [SEED]; algorithm digest §4.A.15 [RECONSTRUCTED];
-/// checks O343–O361 [SEED]
+/// JP6903407B2, claims 1–2, Fig. 19 [SEED]; algorithm docs/dressing.md "Derivation: worm life and zero-stretch angle" [RECONSTRUCTED];
+/// checks: JP6903407B2, section on the maximum producible profile modification and the choice of dresser and worm [SEED]
 pub fn plan(design: &Worm, dresser: &Dresser, spec: &PlanSpec) -> Result<Vec<PlanRow>> {
     plan_with_options(design, dresser, spec, &PlanOptions::default())
 }
@@ -378,8 +378,8 @@ pub fn plan(design: &Worm, dresser: &Dresser, spec: &PlanSpec) -> Result<Vec<Pla
 /// [`zero_stretch_profile_angle`] (claim 2), otherwise the unchanged helicoid (claim 1).
 ///
 /// # Source
-/// seed 004, claims 1–2, E147–E150 [SEED]; algorithm digest §4.A.15 [RECONSTRUCTED];
-/// checks O343–O361 [SEED]
+/// JP6903407B2, claims 1–2, Fig. 19 [SEED]; algorithm docs/dressing.md "Derivation: worm life and zero-stretch angle" [RECONSTRUCTED];
+/// checks: JP6903407B2, section on the maximum producible profile modification and the choice of dresser and worm [SEED]
 pub fn plan_with_options(
     design: &Worm,
     dresser: &Dresser,

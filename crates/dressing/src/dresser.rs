@@ -26,7 +26,7 @@ impl Nominal {
     /// (kept over the worm's life: "uncorrected" = only the centre distance follows the
     /// diameter), ν_yA,0 = 0
     /// # Source
-    /// ERRATA "Conventions" [RECONSTRUCTED]; seed 004 E90, claim 1 [SEED]
+    /// docs/dressing.md "Conventions fixed here (the seed leaves them open)" [RECONSTRUCTED]; JP6903407B2, claim 1, lead-coupled ν_zS of the worm dressing description [SEED]
     pub fn for_worm(worm: &Worm, d_a_mm: f64) -> Self {
         Self {
             d_mm: worm.r_f_mm + d_a_mm / 2.0,
@@ -101,7 +101,7 @@ const N_KNOTS: usize = 1201;
 /// # Formula
 /// g(b) = n(w,b) · (a × (E(w,b) − C)) = 0;  z_A = (E − C)·a,  R_A = |E − C − z_A a|
 /// # Source
-/// digest §7 last bullet (form-grinding contact condition) [RECONSTRUCTED]
+/// docs/dressing.md "Derivation: dresser envelope and tip fillet" (form-grinding contact condition) [RECONSTRUCTED]
 pub fn design_contact(
     worm: &Worm,
     flank: Flank,
@@ -145,8 +145,8 @@ impl Dresser {
     /// and flank joins them.
     ///
     /// # Source
-    /// seed 004 E90 [SEED]; contact condition digest §7 [RECONSTRUCTED]; fillet ERRATA §6
-    /// [RECONSTRUCTED]
+    /// JP6903407B2, worm dressing description (dresser of revolution, line contact) [SEED]; contact
+    /// condition and fillet docs/dressing.md "Derivation: dresser envelope and tip fillet" [RECONSTRUCTED]
     pub fn design(worm: &Worm, spec: DresserSpec) -> Result<Self> {
         DressError::check("d_a_mm", spec.d_a_mm, 5.0, 2000.0)?;
         DressError::check(

@@ -72,7 +72,7 @@ impl DressingSetup {
     /// choice among equivalent axis sets.
     ///
     /// # Source
-    /// seed 004, eqs. (1) and (5) [SEED]; digest §3 (inverse kinematics) [RECONSTRUCTED]
+    /// JP6903407B2, eqs. (1) and (5) [SEED]; docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
     pub fn machine_axes(&self, dk: &AxisCorrection) -> Result<AxesBsp2> {
         self.machine_axes_at(dk, 0.0)
     }
@@ -84,7 +84,7 @@ impl DressingSetup {
     /// K_R(φ_S = ν_zS/p + Δφ_S, ν_zS, γ_0 + Δγ, d_0 + Δd, ν_yA,0 + Δν_yA) → (5), B1 unwrapped
     /// next to ν_zS/p
     /// # Source
-    /// seed 004, eqs. (1), (5), E90 (lead coupling) [SEED]; digest §3 [RECONSTRUCTED]
+    /// JP6903407B2, eqs. (1), (5), lead-coupled ν_zS [SEED]; docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
     pub fn machine_axes_at(&self, dk: &AxisCorrection, nu_zs_mm: f64) -> Result<AxesBsp2> {
         DressError::check("nu_zs_mm", nu_zs_mm, -1e5, 1e5)?;
         let n = self.nominal;
@@ -190,7 +190,7 @@ impl DressingSetup {
     /// # Formula
     /// g(s,t) = ρ_A(q) − R_A(z_A(q)), q = X⁻¹(R_z(t)(P + s n) + t p e_z); f = s at g = g_t = 0
     /// # Source
-    /// seed 004, E97–E104 (simulation) [SEED]; screw reduction digest §4.A.1 notes [RECONSTRUCTED]
+    /// JP6903407B2, dressing simulation, eqs. (8)–(10), Fig. 1 [SEED]; docs/dressing.md "Derivation: screw reduction" [RECONSTRUCTED]
     pub fn dress_point(
         &self,
         flank: Flank,
@@ -388,7 +388,7 @@ impl DressingSetup {
     /// worm frame); screw invariants r = √(x²+y²), ζ = z − p ψ; solve r_c(z_A) = r_l(s),
     /// ζ_c(z_A) = ζ_l(s)
     /// # Source
-    /// seed 004 E104 (analytic alternative) [SEED]; meshing condition [RECONSTRUCTED]
+    /// JP6903407B2, analytic alternative to the dressing simulation [SEED]; meshing condition [RECONSTRUCTED]
     pub fn dress_point_meshing(
         &self,
         flank: Flank,
@@ -523,7 +523,7 @@ impl DressingSetup {
     /// Radius association r_FA(w; ΔK): the dresser radius that dresses roll distance w (eq. (10)).
     ///
     /// # Source
-    /// seed 004, E102, eq. (10) [SEED]
+    /// JP6903407B2, eq. (10) (radius association) [SEED]
     pub fn association(&self, flank: Flank, w_mm: f64, dk: &AxisCorrection) -> Result<f64> {
         self.dress_point(flank, w_mm, dk).map(|d| d.r_a_mm)
     }
@@ -629,7 +629,7 @@ impl DressingSetup {
     /// w_Nf dressed by the fillet/flank tangent point of the dresser.
     ///
     /// # Source
-    /// ERRATA "Conventions" and §6 [RECONSTRUCTED]
+    /// docs/dressing.md "Conventions fixed here (the seed leaves them open)", docs/dressing.md "Derivation: dresser envelope and tip fillet" [RECONSTRUCTED]
     pub fn active_profile(&self, flank: Flank) -> Result<(f64, f64)> {
         let side = self.dresser.side(flank);
         let r_t = self.dresser.profile(side.u_tangent_mm * side.z_sign).0;
@@ -679,7 +679,7 @@ impl DressingSetup {
     /// over its active profile.
     ///
     /// # Source
-    /// seed 004, O343–O361 (penetration check) [SEED]; ERRATA §1 [RECONSTRUCTED]
+    /// JP6903407B2, section on the maximum producible profile modification and the choice of dresser and worm [SEED]; docs/dressing.md "Reference case G1-Z5" (clearance budget) [RECONSTRUCTED]
     pub fn opposite_flank_cut(&self, flank: Flank, dk: &AxisCorrection) -> Result<f64> {
         let opp = flank.opposite();
         let (w0, w1) = self.active_profile(opp)?;

@@ -29,7 +29,7 @@ pub struct HelicalParams {
 /// # Domain
 /// m_n > 0, 0 < α_n < 90°, z ≥ 1, 0 < β < 90° (β = 0 gives an infinite lead)
 /// # Source
-/// ISO 21771:2007 4.3, 4.4 [STANDARD]; digest §7 building blocks [RECONSTRUCTED]
+/// ISO 21771:2007 4.3, 4.4 [STANDARD]; docs/dressing.md "Derivation: worm helicoid" [RECONSTRUCTED]
 pub fn helical_params(
     m_n_mm: f64,
     alpha_n_rad: f64,
@@ -66,7 +66,7 @@ pub fn helical_params(
 /// # Formula
 /// β_S = acos(z_S m_n / d_S) (lead angle γ_S = 90° − β_S), then [`helical_params`]
 /// # Source
-/// digest §5.3 [RECONSTRUCTED]
+/// ISO 21771:2007 4.3, 4.4 (worm as helical gear) [STANDARD]; docs/dressing.md "Derivation: worm helicoid", docs/dressing.md "Reference case G1 and its worms" [RECONSTRUCTED]
 pub fn worm_params(z_s: u32, d_s_mm: f64, m_n_mm: f64, alpha_n_rad: f64) -> Result<HelicalParams> {
     DressError::check("z_s", f64::from(z_s), 1.0, 20.0)?;
     DressError::check("d_s_mm", d_s_mm, f64::from(z_s) * m_n_mm * 1.0001, 1e4)?;
@@ -79,7 +79,7 @@ pub fn worm_params(z_s: u32, d_s_mm: f64, m_n_mm: f64, alpha_n_rad: f64) -> Resu
 /// # Formula
 /// m_bF1 · cos β_bF1 = m_bF2 · cos β_bF2  (within `tol_mm`)
 /// # Source
-/// seed 004, O285, eq. (20) and eq. (93) [SEED]
+/// JP6903407B2, eqs. (20) and (93) [SEED]
 pub fn meshes(a: &HelicalParams, b: &HelicalParams, tol_mm: f64) -> bool {
     (a.m_b_mm * a.beta_b_rad.cos() - b.m_b_mm * b.beta_b_rad.cos()).abs() <= tol_mm
 }
@@ -89,7 +89,7 @@ pub fn meshes(a: &HelicalParams, b: &HelicalParams, tol_mm: f64) -> bool {
 /// # Formula
 /// m_nS = m_nV cos α_nV / cos α_nS  (eq. (20) as equal normal base pitch)
 /// # Source
-/// seed 004, eq. (20) [SEED]; normal-pitch form digest §4.A.6 [RECONSTRUCTED]
+/// JP6903407B2, eq. (20) [SEED]; normal-pitch form docs/dressing.md "Derivation: worm helicoid" [RECONSTRUCTED]
 pub fn normal_module_for_profile_angle(m_nv_mm: f64, alpha_nv_rad: f64, alpha_ns_rad: f64) -> f64 {
     m_nv_mm * alpha_nv_rad.cos() / alpha_ns_rad.cos()
 }

@@ -1,4 +1,4 @@
-//! The worm–dresser kinematic chain (seed 004 eq. (1)), the example machines (eqs. (4), (5))
+//! The worm–dresser kinematic chain (JP6903407B2 eq. (1)), the example machines (eqs. (4), (5))
 //! and the inverse from a relative pose to machine axis values.
 
 use crate::error::{DressError, Result};
@@ -63,7 +63,7 @@ impl AxisCorrection {
 /// # Formula
 /// K_R = R_z(−φ_S)·T_z(−ν_zS)·R_x(−γ)·T_x(−d)·T_y(ν_yA)·R_z(φ_A)
 /// # Source
-/// seed 004, O184/O191, eq. (1) [SEED]
+/// JP6903407B2, eq. (1) [SEED]
 pub fn k_r(p: &DressPose) -> Mat4 {
     rz(-p.phi_s_rad)
         * tz(-p.nu_zs_mm)
@@ -114,7 +114,7 @@ pub struct AxesBsp1 {
 /// # Formula
 /// H_Bsp1 = R_z(−φ_B1)·T_z(−ν_V1)·R_x(−φ_A1)·T_x(−ν_X1)·T_y(ν_Z1)·R_y(φ_C5)·R_z(φ_B3)
 /// # Source
-/// seed 004, O203, eq. (4) [SEED]
+/// JP6903407B2, eq. (4) [SEED]
 pub fn h_bsp1(a: &AxesBsp1) -> Mat4 {
     rz(-a.b1_rad)
         * tz(-a.v1_mm)
@@ -130,7 +130,7 @@ pub fn h_bsp1(a: &AxesBsp1) -> Mat4 {
 /// # Formula
 /// H_Bsp2 = R_z(−φ_B1)·T_z(−ν_V1)·R_x(−φ_A1)·T_x(−ν_X1)·T_y(ν_Z1)·R_z(φ_B3)
 /// # Source
-/// seed 004, O204, eq. (5) [SEED]
+/// JP6903407B2, eq. (5) [SEED]
 pub fn h_bsp2(a: &AxesBsp2) -> Mat4 {
     rz(-a.b1_rad) * tz(-a.v1_mm) * rx(-a.a1_rad) * tx(-a.x1_mm) * ty(a.z1_mm) * rz(a.b3_rad)
 }
@@ -160,7 +160,7 @@ fn unwrap_near(a: f64, reference: f64) -> f64 {
 /// # Domain
 /// |a_z| ≤ |cos φ_C5| (the swivel can reach the crossing angle), |φ_A1| ≠ π/2
 /// # Source
-/// seed 004, eqs. (3), (4) [SEED]; inversion digest §4.A.20 [RECONSTRUCTED]
+/// JP6903407B2, eqs. (3), (4) [SEED]; inversion docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn solve_bsp1(k: &Mat4, c5_rad: f64, reference: &AxesBsp1) -> Result<AxesBsp1> {
     let r = rotation(k);
     let t = translation(k);
@@ -227,7 +227,7 @@ fn axis_travel_bsp1(a: &AxesBsp1, r: &AxesBsp1) -> f64 {
 /// (5) is (1) with φ_B1 = φ_S, ν_V1 = ν_zS, φ_A1 = γ, ν_X1 = d, ν_Z1 = ν_yA, φ_B3 = φ_A,
 /// so this is [`solve_bsp1`] with φ_C5 = 0.
 /// # Source
-/// seed 004, eqs. (3), (5) [SEED]; correspondence digest §3.2 [RECONSTRUCTED]
+/// JP6903407B2, eqs. (3), (5) [SEED]; correspondence docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn solve_bsp2(k: &Mat4, reference: &AxesBsp2) -> Result<AxesBsp2> {
     let r1 = AxesBsp1 {
         b1_rad: reference.b1_rad,
@@ -252,11 +252,12 @@ pub fn solve_bsp2(k: &Mat4, reference: &AxesBsp2) -> Result<AxesBsp2> {
 /// Of the one-parameter family of machine-(4) solutions, the one with least travel from
 /// `reference` for C5 within ±`c5_limit_rad`.
 ///
-/// Golden-section search on the travel over C5 (the family is smooth in C5); E169 asks for a
-/// choice by least axis travel / no reversal, this is that choice.
+/// Golden-section search on the travel over C5 (the family is smooth in C5); the patent asks
+/// to choose among the redundant solutions of chain (4) (machine of Fig. 22) so as to avoid
+/// axis reversals; least travel from a reference is our form of that choice.
 ///
 /// # Source
-/// seed 004, E168–E169 [SEED]; cost digest §4.A.20 [RECONSTRUCTED]
+/// JP6903407B2, eq. (3), chain (4), Fig. 22 [SEED]; cost docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn pick_bsp1(k: &Mat4, reference: &AxesBsp1, c5_limit_rad: f64) -> Result<AxesBsp1> {
     let cost = |c5: f64| -> f64 {
         solve_bsp1(k, c5, reference)

@@ -1,4 +1,4 @@
-//! gearcomp-dressing: dressing the grinding worm (seed 004, part 1).
+//! gearcomp-dressing: dressing the grinding worm (JP6903407B2, worm dressing).
 //!
 //! A grinding worm is redressed many times with the same profile roller dresser and shrinks; a
 //! dresser designed for the new worm then puts unwanted profile crowning on the small worm.

@@ -572,7 +572,7 @@ fn producible_range(
 /// with no root, or whose evaluation fails, is an error stating the producible range.
 ///
 /// # Source
-/// seed 004, E121–E122 (3-point), E106–E107 (4-point), O343–O361 (penetration check) [SEED]
+/// JP6903407B2, eq. (18) (3-point), eqs. (11), (12) (4-point) [SEED]; penetration check: JP6903407B2, section on the maximum producible profile modification and the choice of dresser and worm [SEED]
 pub fn solve_request(design: &Worm, dresser: &Dresser, input: &SolveInput) -> Result<SolveOutcome> {
     check_key("[solve] budget_mm", input.budget_mm, 0.0, 5.0, "mm")?;
     let d_s = current_worm(design, input.diameter_mm)?.d_s_mm;

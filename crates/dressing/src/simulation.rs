@@ -51,7 +51,7 @@ pub struct SimResult {
 /// dresser radius at that point is stored.
 ///
 /// # Source
-/// seed 004, E97–E104, Fig. 1 [SEED]; signed vectors digest §4.A.1 notes [RECONSTRUCTED]
+/// JP6903407B2, dressing simulation, eqs. (8)–(10), Fig. 1 [SEED]; signed vectors docs/dressing.md "Derivation: screw reduction" [RECONSTRUCTED]
 pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> Result<SimResult> {
     simulate_scheduled(setup, spec, dk)
 }
@@ -67,8 +67,8 @@ pub fn simulate(setup: &DressingSetup, spec: &SimSpec, dk: &AxisCorrection) -> R
 /// # Formula
 /// p_A = X(t)⁻¹ (R_z(t) q + p t e_z), X(t) = R_z(−Δφ_S)·R_x(−γ)·T_x(−d)·T_y(ν_yA) at ΔK(p t)
 /// # Source
-/// seed 004, E97–E104, E114–E120 (ΔK over the width) [SEED]; time-varying ΔK digest §4.A.5
-/// [RECONSTRUCTED]
+/// JP6903407B2, eqs. (8)–(10), Fig. 1; eqs. (15)–(17), Fig. 2 (ΔK over the width) [SEED]; time-varying
+/// ΔK docs/dressing.md "Derivation: topological programs" [RECONSTRUCTED]
 pub fn simulate_scheduled<S: CorrectionSchedule + ?Sized>(
     setup: &DressingSetup,
     spec: &SimSpec,
@@ -209,7 +209,7 @@ fn entry_point(
 /// # Formula
 /// b = b_ref(w) + p·t*(w), t* = envelope time of the axial-section point (eq. (8))
 /// # Source
-/// seed 004, O234, eq. (8) [SEED]
+/// JP6903407B2, eq. (8) [SEED]
 pub fn contact_line(
     setup: &DressingSetup,
     flank: Flank,
@@ -233,7 +233,7 @@ pub fn contact_line(
 /// squares (SVD of the centred points).
 ///
 /// # Source
-/// seed 004, O238, eq. (9) [SEED]
+/// JP6903407B2, eq. (9) [SEED]
 pub fn fit_contact_line(points: &[(f64, f64)]) -> (f64, f64, f64) {
     let n = points.len() as f64;
     let (mw, mb) = points

@@ -17,7 +17,7 @@ pub struct NewtonOptions {
     pub tol_mm: f64,
     /// When the iteration stalls (no damped step passes the monotonicity test, or the
     /// iteration limit is reached), a max |F| below this (mm) is still a root: at ΔK of
-    /// millimetres or degrees the evaluation noise floor is ≈ 1e-7 mm (ERRATA §3), far below
+    /// millimetres or degrees the evaluation noise floor is ≈ 1e-7 mm (docs/dressing.md "Derivation: Newton damping and scaling"), far below
     /// any profile deviation a gear maker measures. Larger residuals are "not producible".
     #[serde(default = "default_stall_tol_mm")]
     pub stall_tol_mm: f64,
@@ -65,7 +65,7 @@ pub struct Solution {
 /// Scale of each unknown in mm of normal effect: (r_b cos β_b, d_A/2, 1, 1).
 ///
 /// # Source
-/// ERRATA §2–§3 (unknowns in mm of normal effect) [RECONSTRUCTED]
+/// docs/dressing.md "Derivation: minimum-norm 4-point solve", docs/dressing.md "Derivation: Newton damping and scaling" (unknowns in mm of normal effect) [RECONSTRUCTED]
 pub fn unknown_scale(setup: &DressingSetup) -> [f64; 4] {
     [
         setup.worm.r_b_mm * setup.worm.beta_b_rad.cos(),
@@ -83,8 +83,8 @@ pub fn unknown_scale(setup: &DressingSetup) -> [f64; 4] {
 /// accept λ when ‖Δx̄(λ)‖ ≤ (1 − λ/4)‖Δx‖, else λ ← min(λ/2, ‖Δx‖λ²/(2‖Δx̄ − (1 − λ)Δx‖)).
 ///
 /// # Source
-/// seed 004, E106–E109 (Newton on F_FS4) [SEED]; damping, scaling and filtering ERRATA §2–§3
-/// [RECONSTRUCTED] after Deuflhard, Newton Methods for Nonlinear Problems (2004), NLEQ1
+/// JP6903407B2, four-point method, eqs. (11), (12), Newton on F_FS4 [SEED]; damping, scaling and
+/// filtering docs/dressing.md "Derivation: minimum-norm 4-point solve", docs/dressing.md "Derivation: Newton damping and scaling" [RECONSTRUCTED] after Deuflhard, Newton Methods for Nonlinear Problems (2004), NLEQ1
 pub fn newton<F>(
     setup: &DressingSetup,
     residual: F,
@@ -284,7 +284,7 @@ pub struct ThreePoint {
 /// # Formula
 /// F_F3(ΔK) = (f_nFS(w_i; ΔK) − f_i (i = 1..3), r_FA(w_assoc; ΔK) − r_FA*)
 /// # Source
-/// seed 004, E121–E122, O298, eq. (18) (lost) as reconstructed in digest §7 [RECONSTRUCTED]
+/// JP6903407B2, three-point method, eq. (18) (drawing lost), Fig. 12; form of docs/dressing.md "Derivation: three-point system and relative profile stretching" [RECONSTRUCTED]
 pub fn three_point_residual(
     setup: &DressingSetup,
     p: &ThreePoint,
@@ -321,10 +321,10 @@ pub struct FourPoint {
 
 /// Solves F_FS4(ΔK) = (f_nFS(w_i; ΔK) − f_i)_{i=1..4} = 0; the Tikhonov-filtered step returns
 /// the minimum-norm correction because the single-flank 4-point Jacobian is rank-deficient
-/// (ERRATA §2).
+/// (docs/dressing.md "Derivation: minimum-norm 4-point solve").
 ///
 /// # Source
-/// seed 004, E106–E107, eqs. (11), (12) [SEED]; minimum norm ERRATA §2 [RECONSTRUCTED]
+/// JP6903407B2, eqs. (11), (12) [SEED]; minimum norm docs/dressing.md "Derivation: minimum-norm 4-point solve" [RECONSTRUCTED]
 pub fn solve_four_point(
     setup: &DressingSetup,
     p: &FourPoint,
@@ -361,7 +361,7 @@ pub struct CurveFit {
 /// Minimises Σ ω_j (f_nFS(w_j; ΔK) − f_j)² by Gauss–Newton with the same damping.
 ///
 /// # Source
-/// seed 004, E144–E145 (curve fitting, weights) [SEED]; Gauss–Newton [RECONSTRUCTED]
+/// JP6903407B2, curve-fitting variant (weights) [SEED]; Gauss–Newton docs/dressing.md "Derivation: three-point system and relative profile stretching" [RECONSTRUCTED]
 pub fn solve_curve_fit(
     setup: &DressingSetup,
     p: &CurveFit,
@@ -407,7 +407,7 @@ pub fn solve_curve_fit(
 /// # Formula
 /// ν_zS = b_BwFS(w_0; 0, ΔK) − b_0
 /// # Source
-/// seed 004, E111–E113, eqs. (13), (14) [SEED]; decoupling digest §4.A.4 [RECONSTRUCTED]
+/// JP6903407B2, eqs. (13), (14) [SEED]; decoupling docs/dressing.md "Derivation: screw reduction" [RECONSTRUCTED]
 pub fn axial_position_for_contact_point(
     setup: &DressingSetup,
     flank: Flank,

@@ -184,7 +184,7 @@ impl WidthPoly {
 /// # Formula
 /// b_BwFS(w; 0, ΔK) = b_ref(w) + p·t*(w) (t* the envelope time of the axial-section ray)
 /// # Source
-/// seed 004, O234, eq. (8) [SEED]
+/// JP6903407B2, eq. (8) [SEED]
 pub fn contact_point(
     setup: &DressingSetup,
     flank: Flank,
@@ -264,8 +264,7 @@ pub struct QuasiStatic {
 /// # Formula
 /// ν* = b_BwFS(w; 0, ΔK(ν*)) − b (fixed point, secant), f = f_nFS(w; ΔK(ν*))
 /// # Source
-/// seed 004, E114–E120 [SEED]; quasi-static assumption digest §4.A.5, §8.3 item 5
-/// [RECONSTRUCTED]
+/// JP6903407B2, eqs. (15)–(17), Fig. 2 [SEED]; quasi-static model docs/dressing.md "Derivation: topological programs" [RECONSTRUCTED]
 pub fn quasi_static_point<S: CorrectionSchedule + ?Sized>(
     setup: &DressingSetup,
     flank: Flank,
@@ -448,8 +447,8 @@ fn topo_solve(
 /// e_i = f_nFS(w_i(b_i); ΔK) − f_i(b_i), e_{4+i} = b_i − b_BwFS(w_i(b_i); ν_zS, ΔK),
 /// e_9 = b_0 − b_BwFS(w_0; ν_zS, ΔK), i = 1..4
 /// # Source
-/// seed 004, E114–E120, eqs. (15)–(17) [SEED]; 9-component system digest §4.A.5
-/// [RECONSTRUCTED]; ERRATA §2 (minimum norm) [RECONSTRUCTED]
+/// JP6903407B2, eqs. (15)–(17), Fig. 2 [SEED]; 9-component system docs/dressing.md "Derivation: topological programs"
+/// [RECONSTRUCTED]; docs/dressing.md "Derivation: minimum-norm 4-point solve" [RECONSTRUCTED]
 pub fn solve_topological_four_point(
     setup: &DressingSetup,
     p: &TopoFourPoint,
@@ -474,7 +473,7 @@ pub fn solve_topological_four_point(
 /// e_i = f_nFS(w_i(b_i); ΔK) − f_i(b_i) (i = 1..3), e_4 = r_FA(w_a(b_a); ΔK) − r_A(b_a), plus
 /// the crossing equations of b_1..b_3, b_a and of b_0
 /// # Source
-/// seed 004, E131–E133, eq. (22) [SEED]; digest §4.A.7 [RECONSTRUCTED]
+/// JP6903407B2, eq. (22), Fig. 3 [SEED]; docs/dressing.md "Derivation: topological programs" [RECONSTRUCTED]
 pub fn solve_topological_three_point(
     setup: &DressingSetup,
     p: &TopoThreePoint,
@@ -505,7 +504,7 @@ pub struct TopoProgram {
 /// from the previous ΔK) and tabulates ΔK(ν_zS).
 ///
 /// # Source
-/// digest §4.A.5 "dressing program" [RECONSTRUCTED]; seed 004 E114–E120 [SEED]
+/// docs/dressing.md "Derivation: topological programs" (dressing program) [RECONSTRUCTED]; JP6903407B2, eqs. (15)–(17) [SEED]
 pub fn topological_program<F>(
     b0s_mm: &[f64],
     start: AxisCorrection,

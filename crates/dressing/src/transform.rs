@@ -1,6 +1,6 @@
 //! Homogeneous 4×4 transforms: the elementary rotations and translations of the kinematic chains.
 //!
-//! Convention (digest §3.1 [RECONSTRUCTED], confirmed by test A2): right-handed, active
+//! Convention (docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED], confirmed by test A2): right-handed, active
 //! rotations, products evaluated left to right, and a chain maps coordinates of the right-hand
 //! body (dresser) into the frame of the left-hand body (worm): p_S = K_R · p_A.
 
@@ -14,7 +14,7 @@ pub type Mat4 = Matrix4<f64>;
 /// # Formula
 /// [[1,0,0,0],[0,c,−s,0],[0,s,c,0],[0,0,0,1]], c = cos φ, s = sin φ
 /// # Source
-/// seed 004, O172–O176 [SEED]; matrix form digest §3.1 [RECONSTRUCTED]
+/// JP6903407B2, symbol definitions before eq. (1) [SEED]; matrix form docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn rx(phi_rad: f64) -> Mat4 {
     let (s, c) = phi_rad.sin_cos();
     Matrix4::new(
@@ -27,7 +27,7 @@ pub fn rx(phi_rad: f64) -> Mat4 {
 /// # Formula
 /// [[c,0,s,0],[0,1,0,0],[−s,0,c,0],[0,0,0,1]]
 /// # Source
-/// seed 004, O172–O176 [SEED]; matrix form digest §3.1 [RECONSTRUCTED]
+/// JP6903407B2, symbol definitions before eq. (1) [SEED]; matrix form docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn ry(phi_rad: f64) -> Mat4 {
     let (s, c) = phi_rad.sin_cos();
     Matrix4::new(
@@ -40,7 +40,7 @@ pub fn ry(phi_rad: f64) -> Mat4 {
 /// # Formula
 /// [[c,−s,0,0],[s,c,0,0],[0,0,1,0],[0,0,0,1]]
 /// # Source
-/// seed 004, O172–O176 [SEED]; matrix form digest §3.1 [RECONSTRUCTED]
+/// JP6903407B2, symbol definitions before eq. (1) [SEED]; matrix form docs/dressing.md "Derivation: frames and inverse kinematics" [RECONSTRUCTED]
 pub fn rz(phi_rad: f64) -> Mat4 {
     let (s, c) = phi_rad.sin_cos();
     Matrix4::new(

@@ -10,8 +10,8 @@ use std::f64::consts::PI;
 ///
 /// `Right` is the flank whose outward normal points towards +z (the −z side of the gap that
 /// the dresser sits in at φ_S = 0); `Left` the other one. With this choice the right flank of a
-/// right-hand worm reproduces the signs of the reference solution in ERRATA §1 (see
-/// `docs/dressing.md`).
+/// right-hand worm reproduces the signs of the reference solution
+/// docs/dressing.md "Reference case G1-Z5".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Flank {
@@ -72,9 +72,9 @@ impl Worm {
     /// A new worm designed at d_S0 with addendum 1.0·m_n, dedendum 1.25·m_n, right hand.
     ///
     /// # Formula
-    /// worm as helical gear (digest §5.3); r_a = d_S0/2 + m_n, r_f = d_S0/2 − 1.25 m_n
+    /// worm as helical gear (docs/dressing.md "Derivation: worm helicoid"); r_a = d_S0/2 + m_n, r_f = d_S0/2 − 1.25 m_n
     /// # Source
-    /// ERRATA "Conventions" (worm) [RECONSTRUCTED]
+    /// docs/dressing.md "Derivation: worm helicoid" (worm proportions) [RECONSTRUCTED]
     pub fn design(z_s: u32, d_s0_mm: f64, m_n_mm: f64, alpha_n_rad: f64) -> Result<Self> {
         let h = worm_params(z_s, d_s0_mm, m_n_mm, alpha_n_rad)?;
         Ok(Self {
@@ -120,7 +120,7 @@ impl Worm {
     /// # Domain
     /// 5° ≤ α_n ≤ 45°
     /// # Source
-    /// seed 004, claim 2, E147–E150, eq. (20) [SEED]; digest §4.A.15 option B [RECONSTRUCTED]
+    /// JP6903407B2, claim 2, eq. (20), Fig. 19 [SEED]; docs/dressing.md "Derivation: worm life and zero-stretch angle" [RECONSTRUCTED]
     pub fn with_profile_angle(&self, alpha_n_rad: f64) -> Result<Self> {
         DressError::check(
             "alpha_n_rad",
@@ -175,7 +175,7 @@ impl Worm {
     /// Roll distance of radius r on the involute: w = √(r² − r_b²).
     ///
     /// # Source
-    /// digest §4.A.1 [RECONSTRUCTED]; ISO 21771 [STANDARD]
+    /// docs/dressing.md "Derivation: worm helicoid" [RECONSTRUCTED]; ISO 21771:2007 4.3 [STANDARD]
     pub fn roll_from_radius(&self, r_mm: f64) -> f64 {
         (r_mm * r_mm - self.r_b_mm * self.r_b_mm).max(0.0).sqrt()
     }
@@ -197,7 +197,7 @@ impl Worm {
     /// # Formula
     /// η = π − s·inv(r_ref) + s·(p_x/4 − t/sin β_b)/p,  r_ref = d_S/2, t = thickening
     /// # Source
-    /// ERRATA "Conventions" (thread half the axial pitch) [RECONSTRUCTED]
+    /// docs/dressing.md "Derivation: worm helicoid" (thread half the axial pitch) [RECONSTRUCTED]
     pub fn eta(&self, flank: Flank) -> f64 {
         let s = flank.sign();
         let r_ref = self.d_s_mm / 2.0;
@@ -210,7 +210,7 @@ impl Worm {
     /// # Formula
     /// E_F(w, b) = R_z(s_F w / r_b + b / p + η_F) · (r_b, −s_F w, b)
     /// # Source
-    /// seed 004, eq. (27) (lost) as reconstructed in digest §7 [RECONSTRUCTED]
+    /// JP6903407B2, eq. (27) (drawing lost); form of docs/dressing.md "Derivation: worm helicoid" [RECONSTRUCTED]
     pub fn point(&self, flank: Flank, w_mm: f64, b_mm: f64) -> Vector3<f64> {
         let s = flank.sign();
         let th = s * w_mm / self.r_b_mm + b_mm / self.p_mm + self.eta(flank);
@@ -225,7 +225,7 @@ impl Worm {
     /// n = s_F · R_z(θ) · (0, −cos β_b, sin β_b), θ = s_F w / r_b + b / p + η_F
     /// (∂E/∂w × ∂E/∂b normalised; |n_z| = sin β_b)
     /// # Source
-    /// digest §7, eq. (27) row [RECONSTRUCTED]
+    /// docs/dressing.md "Derivation: worm helicoid", eq. (27) [RECONSTRUCTED]
     pub fn normal(&self, flank: Flank, w_mm: f64, b_mm: f64) -> Vector3<f64> {
         let s = flank.sign();
         let th = s * w_mm / self.r_b_mm + b_mm / self.p_mm + self.eta(flank);

@@ -1,4 +1,4 @@
-//! `gearcomp dress` end to end: design, solve (ERRATA §1 G1-Z5 reference), plan, errors.
+//! `gearcomp dress` end to end: design, solve (docs/dressing.md "Reference case G1-Z5" G1-Z5 reference), plan, errors.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common::{gearcomp, write_config};
@@ -30,7 +30,7 @@ diameters_mm = [160.0, 150.0, 140.0]
 budget_mm = 0.1
 "#;
 
-/// `dress solve --json` reproduces the ERRATA §1 root and profile for G1-Z5, c = 0.2 µm.
+/// `dress solve --json` reproduces the docs/dressing.md "Reference case G1-Z5" root and profile for G1-Z5, c = 0.2 µm.
 #[test]
 fn dress_solve_json_matches_errata_s1() {
     let cfg = write_config_here("solve", CONFIG);

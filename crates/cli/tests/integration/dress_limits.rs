@@ -8,7 +8,7 @@ use crate::common::{gearcomp, write_config};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestCaseError, TestRunner};
 
-/// G1-Z5 (ERRATA §1) with a [solve] table to fill in.
+/// G1-Z5 (docs/dressing.md "Reference case G1-Z5") with a [solve] table to fill in.
 const BASE: &str = r#"
 [worm]
 starts = 5

@@ -1,6 +1,6 @@
 //! `gearcomp dress solve` with `[solve.topological]`: a 3-point program whose crowning varies
 //! over the worm width, checked position by position with the library's screw evaluation, and
-//! against the ERRATA §1 root where the wanted crowning is that of ERRATA §1 (0.2 µm, G1-Z5).
+//! against the docs/dressing.md "Reference case G1-Z5" root where the wanted crowning is that of docs/dressing.md "Reference case G1-Z5" (0.2 µm, G1-Z5).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common::{gearcomp, write_config};
@@ -38,7 +38,7 @@ b_range_mm = [-10.0, 10.0]
 crowning_table = [[-10.0, 0.1], [10.0, 0.3]]
 "#;
 
-/// G1-Z5 with its gap-filling dresser (ERRATA §1), built here from the library directly.
+/// G1-Z5 with its gap-filling dresser (docs/dressing.md "Reference case G1-Z5"), built here from the library directly.
 fn g1_z5() -> DressingSetup {
     let worm = Worm::design(5, 160.0, 3.0, 20f64.to_radians()).unwrap();
     let spec = DresserSpec {
@@ -80,7 +80,7 @@ fn topological_program_hits_the_width_dependent_targets() {
         .iter()
         .map(|x| x.as_f64().unwrap())
         .collect();
-    // ERRATA §1 targets: 5/50/95 % of the active profile of G1-Z5.
+    // docs/dressing.md "Reference case G1-Z5" targets: 5/50/95 % of the active profile of G1-Z5.
     for (w, e) in ws.iter().zip([74.49085, 77.36834, 80.24583]) {
         assert!((w - e).abs() < 1e-5, "{w} vs {e}");
     }
@@ -115,7 +115,7 @@ fn topological_program_hits_the_width_dependent_targets() {
         // The radius association (22): the new worm's tip dresser radius dresses the tip.
         assert!((s.association(fl, 80.56555, &dk).unwrap() - r_tip).abs() < 1e-5);
     }
-    // The interior position (b0 = 0, c = 0.2 µm) is the ERRATA §1 root.
+    // The interior position (b0 = 0, c = 0.2 µm) is the docs/dressing.md "Reference case G1-Z5" root.
     let p = &pos[1];
     assert!(g(p, "b0_mm").abs() < 1e-12);
     assert!((g(p, "dgamma_deg") / 0.5580 - 1.0).abs() < 0.01);

@@ -1,4 +1,4 @@
-//! Shared geometries of the tests: G1 (digest §8.2) and G1-Z5 (ERRATA §1).
+//! Shared geometries of the tests: G1 (our test list) and G1-Z5 (docs/dressing.md "Reference case G1-Z5").
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};

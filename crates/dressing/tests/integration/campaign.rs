@@ -92,7 +92,7 @@ fn reprofiling_keeps_normal_base_pitch() {
         assert!((w.profile_angle_at(119.0) - f64::to_radians(deg)).abs() < 1e-12);
         assert_eq!((w.r_a_mm, w.r_f_mm), (worn.r_a_mm, worn.r_f_mm));
     }
-    // Digest §5.3: 22° needs m_nS = 3.040473 mm.
+    // docs/dressing.md "Reference case G1 and its worms": 22° needs m_nS = 3.040473 mm.
     let w22 = worn.with_profile_angle(22f64.to_radians()).unwrap();
     assert!((w22.m_n_mm - 3.040473).abs() < 1e-6);
     assert!(worn.with_profile_angle(60f64.to_radians()).is_err());

@@ -31,7 +31,7 @@ fn c1_c7_contact_line_is_straight() {
     assert!((rho - rho2).abs() < 0.5f64.to_radians());
 }
 
-/// C2 against ERRATA §4: G1, ΔK = 0, 4 rows, 41 vectors over one feed period; the largest feed
+/// C2 against docs/dressing.md "Reference: feed marks of the full simulation": G1, ΔK = 0, 4 rows, 41 vectors over one feed period; the largest feed
 /// mark at 0.5°/0.2°/0.1°/0.04° per step is 1.61/0.253/0.065/0.0105 µm and scales as Δt².
 #[test]
 fn c2_feed_marks_errata_s4() {
@@ -82,7 +82,7 @@ fn c2_feed_marks_errata_s4() {
 }
 
 /// C3: the full time-stepped simulation agrees with the screw evaluation within 0.05 µm; on
-/// G1-Z5 at the ERRATA §1 root with 0.0076° per step within 2e-4 µm on both flanks.
+/// G1-Z5 at the docs/dressing.md "Reference case G1-Z5" root with 0.0076° per step within 2e-4 µm on both flanks.
 #[test]
 fn c3_full_simulation_matches_screw_evaluation() {
     let s = common::g1();
@@ -129,7 +129,7 @@ fn c3_full_simulation_matches_screw_evaluation() {
         for (j, w) in ws.iter().enumerate() {
             let f = z5.dress_point(fl, *w, &dk).unwrap().f_mm;
             for v in &r.f_mm[j] {
-                // ERRATA: 1.4e-4 µm on its rows; the tip row here shows 1.7e-4 µm.
+                // Reference: 1.4e-4 µm on its rows; the tip row here shows 1.7e-4 µm.
                 assert!((v - f).abs() < 2e-7, "{fl:?} w {w}: {} µm", (v - f) * 1e3);
             }
         }
@@ -147,12 +147,12 @@ fn c4_pure_rotation() {
             assert!((f - sign * 1.409538e-3).abs() < 0.03e-3, "{fl:?} {w}: {f}");
         }
     }
-    // Away from the fillet the offset is exact to the numerical noise (ERRATA §2: variation 8e-7).
+    // Away from the fillet the offset is exact to the numerical noise (docs/dressing.md "Derivation: minimum-norm 4-point solve": variation 8e-7).
     let f = s.dress_point(Flank::Right, 140.0, &dk).unwrap().f_mm;
     assert!((f - 1.409538e-3).abs() < 1e-9);
 }
 
-/// C5: pure Δd = −0.01 mm removes a nearly uniform 0.342·0.01 mm (ERRATA §2: sin α_x = 0.342,
+/// C5: pure Δd = −0.01 mm removes a nearly uniform 0.342·0.01 mm (docs/dressing.md "Derivation: minimum-norm 4-point solve": sin α_x = 0.342,
 /// relative variation 3e-5) on both flanks.
 #[test]
 fn c5_pure_centre_distance() {

@@ -1,4 +1,4 @@
-//! Tests B1–B4 (DIN 3960 and the involute helicoid) and the dresser design (ERRATA §1, §6).
+//! Tests B1–B4 (DIN 3960 and the involute helicoid) and the dresser design (docs/dressing.md "Reference case G1-Z5", docs/dressing.md "Derivation: dresser envelope and tip fillet").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
@@ -9,7 +9,7 @@ use nalgebra::{Rotation3, Vector3};
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
-/// B1: gear G1 (m_n 3, α_n 20°, z 40, β 15°), digest §5.3 (hand calculation with ISO 21771).
+/// B1: gear G1 (m_n 3, α_n 20°, z 40, β 15°), docs/dressing.md "Reference case G1 and its worms" (hand calculation with ISO 21771).
 #[test]
 fn b1_gear_g1_din3960() {
     let g = helical_params(3.0, 20.0 * DEG, 40.0, 15.0 * DEG).unwrap();
@@ -22,7 +22,7 @@ fn b1_gear_g1_din3960() {
     assert!((g.m_b_mm * g.beta_b_rad.cos() - 3.0 * (20.0 * DEG).cos()).abs() < 1e-12);
 }
 
-/// B2: the worm table of digest §5.3 and the meshing condition (20).
+/// B2: the worm table of docs/dressing.md "Reference case G1 and its worms" and the meshing condition (20).
 #[test]
 fn b2_worm_table_and_meshing() {
     let gear = helical_params(3.0, 20.0 * DEG, 40.0, 15.0 * DEG).unwrap();
@@ -123,7 +123,7 @@ fn b4_rotation_is_uniform_normal_offset() {
     }
 }
 
-/// Dresser design for G1 and G1-Z5 against ERRATA §1 and §6: fillet radius, w_Nf, r_Nf, the
+/// Dresser design for G1 and G1-Z5 against docs/dressing.md "Reference case G1-Z5" and docs/dressing.md "Derivation: dresser envelope and tip fillet": fillet radius, w_Nf, r_Nf, the
 /// root gap in the dresser plane, the tip association, and left/right symmetry.
 #[test]
 fn dresser_design_errata_s1_s6() {
@@ -137,7 +137,7 @@ fn dresser_design_errata_s1_s6() {
         assert!((side.w_nf_mm - 136.74363).abs() < 1e-5);
         assert!((g1.worm.radius_from_roll(side.w_nf_mm) - 136.8057).abs() < 1e-4);
     }
-    // Axial gap of the worm at the root circle, ERRATA §6: 1.9826 mm.
+    // Axial gap of the worm at the root circle, docs/dressing.md "Derivation: dresser envelope and tip fillet": 1.9826 mm.
     let wr = g1.worm.roll_from_radius(g1.worm.r_f_mm);
     let gap = (g1.worm.b_axial_section(Flank::Right, wr)
         - g1.worm.b_axial_section(Flank::Left, wr))

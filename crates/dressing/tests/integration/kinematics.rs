@@ -1,4 +1,4 @@
-//! Tests A2–A6: chain (1), machines (4)/(5), their inverse (digest §8.2 A).
+//! Tests A2–A6: chain (1), machines (4)/(5), their inverse (docs/dressing.md "Reference case G1 and its worms").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use gearcomp_dressing::kinematics::*;
@@ -17,7 +17,7 @@ fn pose(a: [f64; 6]) -> DressPose {
     }
 }
 
-/// A2: the pose matrix, digest §8.2 A2 (6 decimals, computed independently with numpy).
+/// A2: the pose matrix, docs/dressing.md "Reference case G1 and its worms" (6 decimals, computed independently with numpy).
 #[test]
 fn a2_pose_matrix_seed004_eq1() {
     let k = k_r(&pose([0.3, 12.0, 0.61390f64.to_radians(), 200.0, 5.0, 1.1]));

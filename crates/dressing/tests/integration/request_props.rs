@@ -24,7 +24,7 @@ const TOL_ENVELOPE_UM: f64 = 1e-3;
 /// ΔK reproduces the targets (µm): the solver stops at 1e-9 mm (stall 1e-6 mm).
 const TOL_TARGET_UM: f64 = 2e-3;
 
-/// The envelope of one ΔK matches at G1-Z5 (ERRATA §1 root and a few others).
+/// The envelope of one ΔK matches at G1-Z5 (docs/dressing.md "Reference case G1-Z5" root and a few others).
 #[test]
 fn analytic_envelope_matches_screw_evaluation_g1_z5() {
     let s = common::g1_z5();

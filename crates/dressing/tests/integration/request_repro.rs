@@ -1,4 +1,4 @@
-//! The reproductions of issue 13 item 6 (G1-Z5 of ERRATA §1: z_S = 5, d_S0 = 160 mm,
+//! The reproductions of issue 13 item 6 (G1-Z5 of docs/dressing.md "Reference case G1-Z5": z_S = 5, d_S0 = 160 mm,
 //! m_n = 3 mm, α_n = 20°, dresser 100 mm, jacket 0.8 mm), each a test: a solution far beyond
 //! what the worm carries is refused naming the budget and the producible range; internal
 //! non-convergence no longer reaches the user; the plan's deviation leaves out the fillet

@@ -1,4 +1,4 @@
-//! Tests D1–D4, E1 and the curve-fitting variant against ERRATA §1, §2, §5.
+//! Tests D1–D4, E1 and the curve-fitting variant against docs/dressing.md "Reference case G1-Z5", docs/dressing.md "Derivation: minimum-norm 4-point solve", docs/dressing.md "Reference: corrections against worm diameter (E1)".
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
@@ -11,7 +11,7 @@ use gearcomp_dressing::DressError;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
-/// The 3-point crowning problem of ERRATA "Conventions": f = (0, −c, 0) at 5/50/95 % of the
+/// The 3-point crowning problem of docs/dressing.md "Conventions fixed here (the seed leaves them open)": f = (0, −c, 0) at 5/50/95 % of the
 /// active profile, the dresser radius that dresses w_Na uncorrected still dresses w_Na.
 fn crowning(s: &DressingSetup, c_mm: f64) -> (ThreePoint, (f64, f64)) {
     let fl = Flank::Right;
@@ -34,7 +34,7 @@ fn rel(a: f64, b: f64) -> f64 {
     (a / b - 1.0).abs()
 }
 
-/// D3 replacement (ERRATA §1, G1-Z5, c = 0.2 µm): root, profile, shape, stretching, side effects.
+/// D3 replacement (docs/dressing.md "Reference case G1-Z5", G1-Z5, c = 0.2 µm): root, profile, shape, stretching, side effects.
 #[test]
 fn d3_g1_z5_crowning_errata_s1() {
     let s = common::g1_z5();
@@ -47,7 +47,7 @@ fn d3_g1_z5_crowning_errata_s1() {
         solve_three_point(&s, &p, AxisCorrection::default(), &NewtonOptions::default()).unwrap();
     assert!(sol.iterations <= 6, "iterations {}", sol.iterations);
     let k = sol.dk;
-    // ERRATA tolerances: Δγ, Δν ≈ 1 %, Δφ_S, Δd ≈ 10 %.
+    // Reference tolerances: Δγ, Δν ≈ 1 %, Δφ_S, Δd ≈ 10 %.
     assert!(rel(k.dphi_s_rad, 6.057e-4) < 0.10, "{k:?}");
     assert!(rel(k.dgamma_rad, 0.5580 * DEG) < 0.01);
     assert!(rel(k.dd_mm, -0.02450) < 0.10);
@@ -60,11 +60,11 @@ fn d3_g1_z5_crowning_errata_s1() {
     for (i, e) in expect.iter().enumerate() {
         let w = a + (b - a) * i as f64 / 10.0;
         let f_um = s.dress_point(Flank::Right, w, &k).unwrap().f_mm * 1e3;
-        // ERRATA profile tolerance 1e-3 µm (values printed to 1e-4 µm).
+        // Reference profile tolerance 1e-3 µm (values printed to 1e-4 µm).
         assert!((f_um - e).abs() < 1e-3, "{i}: {f_um} vs {e}");
         prof.push((w, f_um));
     }
-    // Parabola fit on [5 %, 95 %]: ERRATA largest residual 3.5e-5 µm (0.02 % of c).
+    // Parabola fit on [5 %, 95 %]: reference largest residual 3.5e-5 µm (0.02 % of c).
     let fit: Vec<(f64, f64)> = (0..=18)
         .map(|i| {
             let w = a + (b - a) * (0.05 + 0.05 * i as f64);
@@ -91,7 +91,7 @@ fn d3_g1_z5_crowning_errata_s1() {
     assert!((20.0..22.0).contains(&jac), "jacket depth {jac} µm");
 }
 
-/// ERRATA §1 solver stress case: c = 2 µm on G1-Z5 has the root (0.04008 rad, 4.2477°,
+/// docs/dressing.md "Reference case G1-Z5" solver stress case: c = 2 µm on G1-Z5 has the root (0.04008 rad, 4.2477°,
 /// −0.7150 mm, −3.4269 mm), P_FS = +1.6 %, jacket 0.67 mm below the root.
 #[test]
 fn d3_stress_case_two_micrometre() {
@@ -122,9 +122,9 @@ fn d4_no_root() {
     assert!(matches!(e, DressError::NoRoot { .. }), "{e}");
 }
 
-/// D1 with ERRATA §2: the single-flank 4-point problem is rank-deficient; the minimum-norm
+/// D1 with docs/dressing.md "Derivation: minimum-norm 4-point solve": the single-flank 4-point problem is rank-deficient; the minimum-norm
 /// solve meets the 4 targets and reproduces the profile over [5 %, 100 %] (compare profile,
-/// never ΔK). ERRATA's minimum-norm answer is (−0.00233, 0.00100, −0.00959, 0.05022).
+/// never ΔK). The minimum-norm answer of docs/dressing.md "Derivation: minimum-norm 4-point solve" is (−0.00233, 0.00100, −0.00959, 0.05022).
 #[test]
 fn d1_four_point_minimum_norm_errata_s2() {
     let s = common::g1();
@@ -146,7 +146,7 @@ fn d1_four_point_minimum_norm_errata_s2() {
         solve_four_point(&s, &p, AxisCorrection::default(), &NewtonOptions::default()).unwrap();
     assert!(sol.iterations <= 10);
     assert!(sol.residual_mm.iter().all(|r| r.abs() < 1e-5));
-    // Equilibrated condition ~1e10–1e11 (ERRATA: σ_min/σ_max ≈ 1e-10).
+    // Equilibrated condition ~1e10–1e11 (docs/dressing.md "Derivation: minimum-norm 4-point solve": σ_min/σ_max ≈ 1e-10).
     assert!(sol.cond > 1e8, "cond {}", sol.cond);
     for i in 0..=19 {
         let x = at(0.05 + 0.05 * i as f64);
@@ -154,7 +154,7 @@ fn d1_four_point_minimum_norm_errata_s2() {
             s.dress_point(fl, x, &sol.dk).unwrap().f_mm - s.dress_point(fl, x, &star).unwrap().f_mm;
         assert!(d.abs() < 0.02e-3, "{x}: {d}");
     }
-    // Minimum norm: Δν and Δγ agree with ERRATA's answer; the solution is far smaller than
+    // Minimum norm: Δν and Δγ agree with the reference answer; the solution is far smaller than
     // the null-curve roots (Δd of −2.1 … +0.6 mm) plain Newton lands on.
     let k = sol.dk;
     assert!(rel(k.dnu_ya_mm, 0.05022) < 0.05, "{k:?}");
@@ -192,7 +192,7 @@ fn curve_fit_reproduces_profile() {
     }
 }
 
-/// E1 (ERRATA §5): z_S 1, d_A 125, c = 0.030 µm: the corrections are larger for d_S0 = 280
+/// E1 (docs/dressing.md "Reference: corrections against worm diameter (E1)"): z_S 1, d_A 125, c = 0.030 µm: the corrections are larger for d_S0 = 280
 /// (0.0130 rad, 0.767°, −0.0281 mm) than for 200 (0.0036 rad, 0.541°, −0.0152 mm).
 #[test]
 fn e1_corrections_grow_with_worm_diameter() {
@@ -210,7 +210,7 @@ fn e1_corrections_grow_with_worm_diameter() {
     assert!(k280.dphi_s_rad.abs() > k200.dphi_s_rad.abs());
     assert!(k280.dgamma_rad.abs() > k200.dgamma_rad.abs());
     assert!(k280.dd_mm.abs() > k200.dd_mm.abs());
-    // ERRATA values (Δγ to 1 %, Δφ_S and Δd to 10 % as ERRATA §1 states for these two).
+    // Reference values (Δγ to 1 %, Δφ_S and Δd to 10 %, the tolerances of docs/dressing.md "Reference case G1-Z5").
     assert!(
         rel(k280.dgamma_rad, 0.767 * DEG) < 0.01 && rel(k200.dgamma_rad, 0.541 * DEG) < 0.01,
         "{ks:?}"
@@ -263,7 +263,7 @@ fn d5_contact_line_through_a_point() {
 
 /// A generic 4-point crowning (targets on the parabola through (5 %, 0), (50 %, −c), (95 %, 0),
 /// taken at 10/37/63/90 %) is producible: the rank-deficient iteration stalls at the
-/// evaluation noise floor (ERRATA §3), which `stall_tol_mm` accepts, and every target is met
+/// evaluation noise floor (docs/dressing.md "Derivation: Newton damping and scaling"), which `stall_tol_mm` accepts, and every target is met
 /// to 1e-3 µm. A far-off target set is still "not producible".
 #[test]
 fn four_point_generic_crowning_is_producible_at_the_noise_floor() {

@@ -1,4 +1,4 @@
-//! Topological dressing (digest §4.A.5, §4.A.7, test D6): the time-varying ΔK(ν_zS) in the full
+//! Topological dressing (docs/dressing.md "Derivation: topological programs", test D6): the time-varying ΔK(ν_zS) in the full
 //! simulation against the screw evaluation, the 9-component 4-point program and the
 //! width-dependent 3-point program, and the dressed worm as an interpolated grid.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -18,7 +18,7 @@ use gearcomp_dressing::worm::Flank;
 
 const FL: Flank = Flank::Right;
 
-/// The ERRATA §1 crowning root of G1-Z5 (c = 0.2 µm).
+/// The docs/dressing.md "Reference case G1-Z5" crowning root of G1-Z5 (c = 0.2 µm).
 fn errata_root() -> AxisCorrection {
     AxisCorrection::from_array([6.057e-4, 0.5580f64.to_radians(), -0.02450, -1.0413])
 }
@@ -42,7 +42,7 @@ fn spec(ws: Vec<f64>, bs: Vec<f64>, deg: f64) -> SimSpec {
 
 /// Identity: a schedule that does not vary (but takes the time-varying path of the simulation)
 /// reproduces the constant-ΔK screw evaluation within 0.05 µm (measured: feed marks only,
-/// < 0.0015 µm at 0.02° per step, ERRATA §4 gives 0.0012 µm on G1-Z5).
+/// < 0.0015 µm at 0.02° per step, docs/dressing.md "Reference: feed marks of the full simulation" gives 0.0012 µm on G1-Z5).
 #[test]
 fn constant_schedule_reproduces_screw_evaluation() {
     let s = common::g1_z5();
@@ -61,13 +61,13 @@ fn constant_schedule_reproduces_screw_evaluation() {
     }
 }
 
-/// Linear ΔK(ν_zS): from 0 to the ERRATA §1 root over 40 mm of width, plus a Δφ_S slope
+/// Linear ΔK(ν_zS): from 0 to the docs/dressing.md "Reference case G1-Z5" root over 40 mm of width, plus a Δφ_S slope
 /// (≈ 2 µm of thread thickness over the width). Every width position b must match the screw
 /// evaluation at the local ΔK(ν_zS(b)) to first order.
 ///
 /// Tolerance: the quasi-static model is exact to first order in dΔK/dν; its error is
 /// e₂ = (p ∂f/∂ν)²/(2 S_tt) (S_tt = g_tt/|g_s|, curvature of the entry depth over time), here
-/// < 1e-4 µm, and the full simulation adds feed marks ≤ 0.0012 µm at 0.02° per step (ERRATA §4,
+/// < 1e-4 µm, and the full simulation adds feed marks ≤ 0.0012 µm at 0.02° per step (docs/dressing.md "Reference: feed marks of the full simulation",
 /// G1-Z5). So |f_sim − f_qs| < 0.002 µm.
 #[test]
 fn linear_schedule_matches_local_screw_evaluation() {
@@ -141,10 +141,10 @@ fn quasi_static_error_is_second_order() {
     }
 }
 
-/// D6 (digest §8.2): targets f_i(b) linear from 0 to 2 µm across 40 mm of width on four constant
+/// D6 (our test list): targets f_i(b) linear from 0 to 2 µm across 40 mm of width on four constant
 /// roll distances (10/37/63/90 %); the 9-component system solved at 9 width positions with
 /// continuation; the worm dressed by the full simulation with ΔK(ν_zS) interpolated matches the
-/// targets on the four curves within 0.1 µm (digest), and within 0.002 µm away from the ends.
+/// targets on the four curves within 0.1 µm (our acceptance), and within 0.002 µm away from the ends.
 ///
 /// At the first and last columns the curves w ≠ w_0 are passed by the contact line at ν_zS just
 /// outside the programmed range (the line is slanted by ±1 mm), where the schedule holds its
@@ -160,8 +160,8 @@ fn d6_topological_four_point() {
         f_mm: std::array::from_fn(|_| WidthPoly::linear(0.0, slope)),
         w0_mm: at(&s, 0.5),
     };
-    // The single-flank 4-point problem is rank-deficient (ERRATA §2): targets that tilt with the
-    // slanted contact line are met in the least-squares sense to < 1e-6 mm (ERRATA §3 stop).
+    // The single-flank 4-point problem is rank-deficient (docs/dressing.md "Derivation: minimum-norm 4-point solve"): targets that tilt with the
+    // slanted contact line are met in the least-squares sense to < 1e-6 mm (docs/dressing.md "Derivation: Newton damping and scaling" stop).
     let opts = NewtonOptions {
         tol_mm: 1e-6,
         ..NewtonOptions::default()
@@ -196,7 +196,7 @@ fn d6_topological_four_point() {
     assert!(topo.f_at(w4[0] - 1.0, 10.0).is_err());
 }
 
-/// Topological 3-point with the width-dependent radius association (22), digest §4.A.7: crowning
+/// Topological 3-point with the width-dependent radius association (22), docs/dressing.md "Derivation: topological programs": crowning
 /// growing from 0.1 to 0.3 µm over 40 mm, and the dresser radius that dressed the tip of the new
 /// worm dressing a roll distance that falls by 0.3 mm over the width (the kink of Fig. 3 running
 /// along the worm). Checked by full simulations at three width positions: profile targets within
@@ -249,7 +249,7 @@ fn topological_three_point_with_width_dependent_association() {
     }
 }
 
-/// The grid type: bilinear interpolation of the ERRATA §1 profile (the parabola through
+/// The grid type: bilinear interpolation of the docs/dressing.md "Reference case G1-Z5" profile (the parabola through
 /// (5 %, 0), (50 %, −c), (95 %, 0), so f″ = 2c/0.45² per unit of the active profile) on 9 rows is
 /// within the closed-form linear-interpolation error f″h²/8 (h = 1/8); points outside the grid
 /// are errors naming the axis.
