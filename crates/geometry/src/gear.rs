@@ -83,7 +83,7 @@ impl BasicRack {
     ///
     /// # Source
     /// DIN 867:1986 [STANDARD]; reproduces d_Ff = 18.8003 mm and x_Emin = −0.0843 of the
-    /// MESYS vector TV1 (research/anchors.md §4.3).
+    /// MESYS vector TV1 (docs/geometry.md "Published test vectors").
     pub const DIN_867: BasicRack = BasicRack {
         addendum_coeff: 1.0,
         dedendum_coeff: 1.25,
@@ -316,7 +316,7 @@ impl Gear {
     /// x_min = h_FfP/m_n − z·sin²α_t / (2·cos β),  h_FfP = h_fP − ρ_fP·(1 − sin α_n)
     /// # Source
     /// DIN 3960:1987, 3.6.3 (end of the straight rack flank on the line of action) [STANDARD];
-    /// TV1 of research/anchors.md: x_Emin = −0.0843 [PUBLISHED]
+    /// TV1 of docs/geometry.md "Published test vectors" (MESYS): x_Emin = −0.0843 [PUBLISHED]
     fn min_shift_undercut_ext(&self) -> f64 {
         let m_n = self.spec.normal_module_mm;
         let s = self.dims.transverse_pressure_angle_rad.sin();

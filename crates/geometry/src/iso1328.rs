@@ -76,7 +76,8 @@ fn check(name: &'static str, value: f64, min: f64, max: f64, unit: &'static str)
 /// # Domain
 /// A = 1 … 11; 5 ≤ d ≤ 15 000 mm, 0.5 ≤ m_n ≤ 70 mm, 4 ≤ b ≤ 1200 mm (the standard's scope).
 /// # Source
-/// ISO 1328-1:2013, formulas (5)–(12) [STANDARD]; checked against research anchors.md TV4
+/// ISO 1328-1:2013, formulas (5)–(12) [STANDARD]; checked against TV4 of docs/geometry.md
+/// "Published test vectors"
 /// (d = 80, m_n = 2, b = 20, A = 6).
 pub fn tolerances_unrounded(d_mm: f64, m_n_mm: f64, b_mm: f64, class: u8) -> Result<Tolerances> {
     let d = check("reference diameter d", d_mm, 5.0, 15_000.0, "mm")?;
@@ -161,8 +162,8 @@ pub fn helix_evaluation_range(face_mm: (f64, f64), m_n_mm: f64) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    /// research anchors.md TV4: d = 80 mm, m_n = 2, b = 20 mm, class 6, with the unrounded
-    /// values computed there independently.
+    /// TV4 of docs/geometry.md "Published test vectors": d = 80 mm, m_n = 2, b = 20 mm, class 6,
+    /// with the unrounded values computed independently from the standard's formulas.
     #[test]
     fn class6_tolerances_tv4() {
         let u = tolerances_unrounded(80.0, 2.0, 20.0, 6).unwrap();

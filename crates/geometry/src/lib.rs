@@ -9,7 +9,7 @@
 //!   ([`Gear::ball_dimension`], [`Gear::recommended_ball_mm`]), with their inverses.
 //! - [`GearPair`]: working pressure angle, Σx ↔ centre distance, contact ratios, backlash.
 //! - [`GeneratingWorm`] (hob / grinding worm as a ZI helicoid) and [`ShaperCutter`].
-//! - [`involute`]: inv α and its inverse; [`shrink`]: seed 003 workpiece shrink.
+//! - [`involute`]: inv α and its inverse; [`shrink`]: CN105397560 workpiece shrink.
 //!
 //! Lengths are mm and angles rad everywhere; degrees appear only in error messages and at
 //! the CLI. Conventions (internal gears, signs, the k and ball rules) are in

@@ -1,4 +1,4 @@
-//! Workpiece thermal-shrink compensation for dry cutting (seed 003, eq. (7)).
+//! Workpiece thermal-shrink compensation for dry cutting (CN105397560, eq. (7)).
 //!
 //! A gear cut hot (temperature Ta) shrinks when it cools to the design temperature Tb.
 //! The hob's rack and the generating ratio are not scaled by the hot workpiece, so the hot
@@ -14,7 +14,7 @@
 pub enum ShrinkReference {
     /// The reference (pitch) circle, ρ = r.
     Pitch,
-    /// A given radius, e.g. the tip radius r_a (the literal seed 003 eq. (7)).
+    /// A given radius, e.g. the tip radius r_a (the literal CN105397560 eq. (7)).
     Radius(f64),
 }
 
@@ -92,8 +92,8 @@ fn check(input: &ShrinkInput) -> Result<f64, ShrinkError> {
 /// # Units
 /// r, ρ in mm; result in µm.
 /// # Source
-/// seed 003, eq. (7) [DERIVED: research/seed_formulas.md eq. (7*), checked there against a
-/// rack-generation envelope to 1e-8 mm]; transverse section for helical gears [DERIVED]
+/// CN105397560, eq. (7) [DERIVED: docs/geometry.md "Derivation: workpiece-shrink δT", checked
+/// there against a rack-generation envelope to 1e-8 mm]; transverse section for helical gears [DERIVED]
 pub fn shrink_offset_exact_um(input: &ShrinkInput) -> Result<f64, ShrinkError> {
     let rho = check(input)?;
     let r = input.reference_radius_mm;
@@ -118,7 +118,8 @@ pub fn shrink_offset_exact_um(input: &ShrinkInput) -> Result<f64, ShrinkError> {
 /// # Formula
 /// δT ≈ r·λ·ΔT_w·tan α_ρ / tan α_t  (at the pitch circle: r·λ·ΔT_w)
 /// # Source
-/// seed 003, eq. (7), first-order form [DERIVED: research/seed_formulas.md]
+/// CN105397560, eq. (7), first-order form [DERIVED: docs/geometry.md "Derivation:
+/// workpiece-shrink δT"]
 pub fn shrink_offset_first_order_um(input: &ShrinkInput) -> Result<f64, ShrinkError> {
     let rho = check(input)?;
     let r = input.reference_radius_mm;
@@ -143,7 +144,7 @@ mod tests {
         }
     }
 
-    /// Test vectors of research/seed_formulas.md (seed 003), which were checked there
+    /// Test vectors of docs/geometry.md "Derivation: workpiece-shrink δT" (CN105397560), checked
     /// against an independent rack-generation envelope simulation.
     #[test]
     fn seed003_vectors_pitch_and_tip() {

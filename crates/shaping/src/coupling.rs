@@ -1,9 +1,9 @@
-//! The electronic-gearbox coupling law of the helical guide, seed 002 eq. (1), in velocity
+//! The electronic-gearbox coupling law of the helical guide, Procedia CIRP 56 (2016) eq. (1), in velocity
 //! form and in the drift-free position form.
 //!
 //! Sign conventions (fixed by this crate, see `docs/shaping.md`): C1 (workpiece) and C2
 //! (cutter) are positive counter-clockwise seen from above (from the crank side), Z is
-//! positive along the cutting stroke (downwards, away from the crank). With these, seed 002
+//! positive along the cutting stroke (downwards, away from the crank). With these, Procedia CIRP 56 (2016)
 //! eq. (1) with β > 0 is a right-hand workpiece in external mesh (left-hand cutter).
 
 use std::f64::consts::PI;
@@ -143,8 +143,9 @@ impl GearCut {
     /// Helix angle actually cut: β' = β + Δβ.
     ///
     /// # Source
-    /// seed 002, abstract and §1 ("compensating helix angle value") [SEED]; applied to the
-    /// helical term only, seed_formulas.md "Control cycle" [RECONSTRUCTED]
+    /// Procedia CIRP 56 (2016) 173–177, abstract and §1 ("compensating helix angle value")
+    /// [SEED]; applied to the helical term only, docs/shaping.md "Derivation: the control cycle
+    /// and the position form" [RECONSTRUCTED]
     pub fn effective_beta_rad(&self) -> f64 {
         self.beta_rad + self.delta_beta_rad
     }
@@ -155,7 +156,8 @@ impl GearCut {
     /// ρ = −Z_C1/Z_C2 (external), +Z_C1/Z_C2 (internal)
     ///
     /// # Source
-    /// seed 002, eq. (1) first term [SEED]; internal sign seed_formulas.md [DERIVED]
+    /// Procedia CIRP 56 (2016), eq. (1) first term [SEED]; internal sign docs/shaping.md
+    /// "Derivation: the control cycle and the position form" [DERIVED]
     pub fn generating_ratio(&self) -> Ratio {
         let sign: i128 = match self.mesh {
             Mesh::External => -1,
@@ -205,7 +207,7 @@ impl GearCut {
     /// mm per revolution.
     ///
     /// # Source
-    /// seed 002, eq. (1) second term and §2 ("one round while the cutter moves a helical
+    /// Procedia CIRP 56 (2016), eq. (1) second term and §2 ("one round while the cutter moves a helical
     /// lead") [SEED]
     pub fn cutter_lead_mm(&self) -> f64 {
         PI * self.m_n_mm * f64::from(self.z_c2) / self.effective_beta_rad().sin()
@@ -228,7 +230,7 @@ impl GearCut {
     /// rad/mm.
     ///
     /// # Source
-    /// seed 002, eq. (1) [SEED]
+    /// Procedia CIRP 56 (2016), eq. (1) [SEED]
     pub fn helical_gain_rad_per_mm(&self) -> f64 {
         self.helix_sign() * 2.0 * self.effective_beta_rad().sin()
             / (self.m_n_mm * f64::from(self.z_c2))
@@ -243,7 +245,7 @@ impl GearCut {
     /// n in rpm, v_Z in mm/min, m_n in mm.
     ///
     /// # Source
-    /// seed 002 (Procedia CIRP 56, 2016), eq. (1) [SEED]
+    /// Procedia CIRP 56 (2016), eq. (1) [SEED]
     pub fn n_c2_rpm(&self, n_c1_rpm: f64, v_z_mm_min: f64) -> f64 {
         self.generating_ratio().to_f64() * n_c1_rpm
             + self.helix_sign() * self.effective_beta_rad().sin()
@@ -260,8 +262,8 @@ impl GearCut {
     /// rad, mm.
     ///
     /// # Source
-    /// seed 002 eq. (1) integrated over time; seed_formulas.md "Control cycle" step 4
-    /// [RECONSTRUCTED]. The interpolator evaluates the same law with exact integer ratios.
+    /// Procedia CIRP 56 (2016) eq. (1) integrated over time; docs/shaping.md "Derivation: the
+    /// control cycle and the position form", step 4 [RECONSTRUCTED]. The interpolator evaluates the same law with exact integer ratios.
     pub fn c2_delta_rad(&self, delta_c1_rad: f64, delta_z_mm: f64) -> f64 {
         self.generating_ratio().to_f64() * delta_c1_rad
             + self.helical_gain_rad_per_mm() * delta_z_mm

@@ -1,7 +1,7 @@
 //! Exact crank–connecting-rod (slider-crank) kinematics of the shaper's stroke drive.
 //!
 //! Convention (fixed by this crate, see `docs/shaping.md`): the crank angle θ is zero at the
-//! near dead point (seed 002's "Dot 1", cutter nearest the crank = top dead point), θ grows in
+//! near dead point (Procedia CIRP 56 (2016)'s "Dot 1", cutter nearest the crank = top dead point), θ grows in
 //! the crank's running direction, and the stroke position Z is measured from that dead point,
 //! positive along the cutting stroke (away from the crank). θ ∈ [0, π] is the cutting stroke,
 //! θ ∈ [π, 2π) the return stroke.
@@ -79,7 +79,7 @@ impl SliderCrank {
     /// L·sin α = R·sin θ  ⇒  α = asin(λ·sin θ)
     ///
     /// # Source
-    /// seed 002 (Procedia CIRP 56, 2016), eq. (3) [SEED]
+    /// Procedia CIRP 56 (2016), eq. (3) [SEED]
     pub fn rod_angle_rad(&self, theta_rad: f64) -> f64 {
         (self.lambda() * theta_rad.sin()).asin()
     }
@@ -93,7 +93,7 @@ impl SliderCrank {
     /// mm; H(0) = L − R, H(π) = L + R.
     ///
     /// # Source
-    /// seed 002, eqs. (2)–(3) [SEED]; closed form seed_formulas.md eq. (4) [DERIVED]
+    /// Procedia CIRP 56 (2016), eqs. (2)–(3) [SEED]; closed form docs/shaping.md (K1) [DERIVED]
     pub fn h_mm(&self, theta_rad: f64) -> f64 {
         self.rod_projection_mm(theta_rad) - self.r_mm * theta_rad.cos()
     }
@@ -109,7 +109,7 @@ impl SliderCrank {
     /// mm, 0 ≤ Z ≤ 2R.
     ///
     /// # Source
-    /// seed 002, eq. (2) [SEED]; seed_formulas.md eq. (5) [DERIVED]
+    /// Procedia CIRP 56 (2016), eq. (2) [SEED]; docs/shaping.md (K2) [DERIVED]
     pub fn z_mm(&self, theta_rad: f64) -> f64 {
         let half = (0.5 * theta_rad).sin();
         let rs = self.r_mm * theta_rad.sin();
@@ -125,7 +125,7 @@ impl SliderCrank {
     /// mm/rad.
     ///
     /// # Source
-    /// seed_formulas.md eq. (6) [DERIVED, finite-difference checked]
+    /// docs/shaping.md (K3) [DERIVED, finite-difference checked]
     pub fn dz_dtheta_mm(&self, theta_rad: f64) -> f64 {
         let (s, c) = theta_rad.sin_cos();
         self.r_mm * s - self.r_mm * self.r_mm * s * c / self.rod_projection_mm(theta_rad)
@@ -140,7 +140,7 @@ impl SliderCrank {
     /// mm/rad².
     ///
     /// # Source
-    /// seed_formulas.md eq. (7) [DERIVED, finite-difference checked]
+    /// docs/shaping.md (K4) [DERIVED, finite-difference checked]
     pub fn d2z_dtheta2_mm(&self, theta_rad: f64) -> f64 {
         let (s, c) = theta_rad.sin_cos();
         let p = self.rod_projection_mm(theta_rad);
@@ -183,7 +183,7 @@ impl SliderCrank {
     /// mm/s for ω in rad/s.
     ///
     /// # Source
-    /// seed_formulas.md eq. (6) [DERIVED]
+    /// docs/shaping.md (K3) [DERIVED]
     pub fn velocity_mm_s(&self, theta_rad: f64, omega_rad_s: f64) -> f64 {
         omega_rad_s * self.dz_dtheta_mm(theta_rad)
     }
@@ -197,7 +197,7 @@ impl SliderCrank {
     /// mm/s² for ω in rad/s and ω̇ in rad/s².
     ///
     /// # Source
-    /// seed_formulas.md eq. (7) [DERIVED]
+    /// docs/shaping.md (K4) [DERIVED]
     pub fn acceleration_mm_s2(
         &self,
         theta_rad: f64,
@@ -219,7 +219,7 @@ impl SliderCrank {
     /// 0 ≤ Z ≤ 2R (mm); the result is in [0, π] or [π, 2π).
     ///
     /// # Source
-    /// inverse of seed 002 eq. (2) [DERIVED]
+    /// inverse of Procedia CIRP 56 (2016) eq. (2) [DERIVED]
     pub fn theta_from_z_rad(&self, z_mm: f64, branch: Branch) -> Result<f64> {
         let z = check_range("stroke position Z", z_mm, 0.0, self.stroke_mm(), "mm")?;
         let (r, l) = (self.r_mm, self.l_mm);
@@ -249,7 +249,7 @@ impl SliderCrank {
     /// (rad, mm/rad).
     ///
     /// # Source
-    /// seed_formulas.md (peak v_Z at 97.02° for λ = 0.125) [DERIVED]
+    /// docs/shaping.md (K5) (peak v_Z at 97.02° for λ = 0.125) [DERIVED]
     pub fn peak_velocity(&self) -> (f64, f64) {
         let (mut lo, mut hi) = (0.5 * PI, PI);
         for _ in 0..200 {

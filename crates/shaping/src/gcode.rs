@@ -1,6 +1,6 @@
 //! The G83 electronic-helical-guide cycle: grammar, parser and conversion to a set-up.
 //!
-//! Seed 002 says only that "a special G code with parameters (G83)" was designed; the words
+//! Procedia CIRP 56 (2016) says only that "a special G code with parameters (G83)" was designed; the words
 //! below are this crate's choice, modelled on FANUC's EGB command `G81 T_ L_ Q_ P_`
 //! (T teeth, L tool threads, Q module, P helix angle with the sign giving the hand):
 //!

@@ -364,8 +364,9 @@ impl Interpolator {
     /// lift = E·(1 − cos 2(θ − π))/2 on the return stroke θ ∈ [π, 2π), both 0 when cutting.
     ///
     /// # Source
-    /// seed 002 eq. (1) and abstract (crank angle measured, speed computed each cycle) [SEED];
-    /// position form and cycle structure seed_formulas.md "Control cycle" [RECONSTRUCTED];
+    /// Procedia CIRP 56 (2016) eq. (1) and abstract (crank angle measured, speed computed each cycle) [SEED];
+    /// position form and cycle structure docs/shaping.md "Derivation: the control cycle and the
+    /// position form" [RECONSTRUCTED];
     /// lift-off and infeed profiles: this crate's choice, docs/shaping.md [RECONSTRUCTED]
     pub fn cycle(&mut self, raw_counts: u32) -> CycleOutput {
         let cpr = self.cfg.crank_cpr;

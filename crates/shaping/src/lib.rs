@@ -1,11 +1,11 @@
-//! gearcomp-shaping: the electronic helical guide for CNC gear shaping (seed 002).
+//! gearcomp-shaping: the electronic helical guide for CNC gear shaping (Procedia CIRP 56 (2016)).
 //!
 //! A gear shaper strokes its cutter with a crank and connecting rod while cutter (C2) and
 //! workpiece (C1) roll together; for a helical gear the cutter must also turn one extra
 //! revolution per cutter lead of stroke. This crate replaces the mechanical helical guide:
 //!
 //! - [`crank::SliderCrank`]: exact stroke position, velocity, acceleration and inverse.
-//! - [`coupling::GearCut`]: seed 002 eq. (1), velocity and position form, internal/external,
+//! - [`coupling::GearCut`]: Procedia CIRP 56 (2016) eq. (1), velocity and position form, internal/external,
 //!   both hands, helix-angle correction Δβ.
 //! - [`ratio::Ratio`]: exact reduced integer ratios, so the ideal coupling never drifts.
 //! - [`interpolator::Interpolator`]: one control cycle at a time from the crank encoder,

@@ -12,7 +12,7 @@
 //! Closed loop without feed-forward: G(s) = K_v / (s·(T_v·s + 1)).
 //!
 //! # Source
-//! seed_formulas.md "servo model" G(s) = K_p/(s(T_m s + 1)) [RECONSTRUCTED]; exact
+//! docs/shaping.md "Servo model": G(s) = K_v/(s(T_v s + 1)) [RECONSTRUCTED]; exact
 //! zero-order-hold discretisation [DERIVED]
 
 use crate::error::{check_range, Result};

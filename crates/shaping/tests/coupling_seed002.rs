@@ -1,4 +1,5 @@
-//! Coupling law (seed 002 eq. (1)) against the digest vectors and FANUC's published helical
+//! Coupling law (Procedia CIRP 56 (2016) eq. (1)) against the test vector of docs/shaping.md
+//! "Derivation: the control cycle and the position form" and FANUC's published helical
 //! compensation, plus exact-ratio behaviour.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -24,7 +25,7 @@ fn seed_cut() -> GearCut {
 
 #[test]
 fn seed002_eq1_vectors() {
-    // Digest: Z_C1 = 40, Z_C2 = 25, m_n = 3, β = 15°, n_C1 = 2 rpm, crank case A at 300 rpm.
+    // docs/shaping.md test vector: Z_C1 = 40, Z_C2 = 25, m_n = 3, β = 15°, n_C1 = 2 rpm, crank case A at 300 rpm.
     let cut = seed_cut();
     let crank = SliderCrank::new(25.0, 200.0).unwrap();
     let w = rpm_to_rad_s(300.0);
@@ -38,10 +39,10 @@ fn seed002_eq1_vectors() {
         (270.0, -54.96381),
     ] {
         let v_z_mm_min = 60.0 * crank.velocity_mm_s(f64::to_radians(deg), w);
-        // Half a unit in the 5th decimal the digest prints.
+        // Half a unit in the 5th decimal docs/shaping.md prints.
         assert_abs_diff_eq!(cut.n_c2_rpm(2.0, v_z_mm_min), expected, epsilon = 5e-6);
     }
-    // v_Z at 30° in mm/min from the digest.
+    // v_Z at 30° in mm/min from docs/shaping.md.
     assert_abs_diff_eq!(
         60.0 * crank.velocity_mm_s(30f64.to_radians(), w),
         21006.293,
@@ -51,7 +52,7 @@ fn seed002_eq1_vectors() {
 
 #[test]
 fn seed002_extra_rotation_over_a_stroke() {
-    // Digest: 19.772319° of extra C2 rotation over the full 50 mm stroke.
+    // docs/shaping.md: 19.772319° of extra C2 rotation over the full 50 mm stroke.
     let d = seed_cut().c2_delta_rad(0.0, 50.0).to_degrees();
     assert_abs_diff_eq!(d, 19.772319, epsilon = 5e-7);
 }

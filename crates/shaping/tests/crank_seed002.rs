@@ -1,4 +1,5 @@
-//! Slider-crank kinematics against the seed 002 digest tables and finite differences.
+//! Slider-crank kinematics against the test vectors of docs/shaping.md "Derivation: slider-crank
+//! kinematics" (Procedia CIRP 56 (2016) eqs. (2)–(3) continued) and finite differences.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use approx::assert_abs_diff_eq;
@@ -46,8 +47,8 @@ fn seed002_crank_case_b() {
 }
 
 #[test]
-fn peak_velocity_matches_digest() {
-    // Digest: peak |v_Z| = 791.512 mm/s at 97.02° (λ = 0.125, 300 rpm); 95.65° for λ = 0.1.
+fn peak_velocity_matches_derivation() {
+    // docs/shaping.md (K5): peak |v_Z| = 791.512 mm/s at 97.02° (λ = 0.125, 300 rpm); 95.65° for λ = 0.1.
     let a = SliderCrank::new(25.0, 200.0).unwrap();
     let (th, dz) = a.peak_velocity();
     assert_abs_diff_eq!(th.to_degrees(), 97.02, epsilon = 0.005);
@@ -58,7 +59,7 @@ fn peak_velocity_matches_digest() {
 
 #[test]
 fn closed_forms_at_dead_points_and_quadrature() {
-    // a_Z(0) = Rω²(1 − λ), a_Z(π) = −Rω²(1 + λ), v_Z(90°) = ωR: seed_formulas.md eq. (7).
+    // a_Z(0) = Rω²(1 − λ), a_Z(π) = −Rω²(1 + λ), v_Z(90°) = ωR: docs/shaping.md (K3), (K4).
     let c = SliderCrank::new(25.0, 200.0).unwrap();
     let w = rpm_to_rad_s(300.0);
     let (r, lam) = (25.0, 0.125);

@@ -1,4 +1,4 @@
-//! The cyclic interpolator: digest cycle vector, encoder wrap, zero drift over 10^6 strokes,
+//! The cyclic interpolator: docs/shaping.md control-cycle vector, encoder wrap, zero drift over 10^6 strokes,
 //! feasibility refusal.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -19,7 +19,7 @@ const DEG: f64 = CPR as f64 / 360.0;
 
 #[test]
 fn seed002_one_cycle_at_90_degrees() {
-    // Digest: one 1 ms cycle at θ = 90°, n_A = 300 rpm, n_C1 = 2 rpm: Δθ_A = 1.8°,
+    // docs/shaping.md test vector: one 1 ms cycle at θ = 90°, n_A = 300 rpm, n_C1 = 2 rpm: Δθ_A = 1.8°,
     // ΔZ = 0.786823 mm, helical ΔC2 = 0.311146°, generating ΔC2 = −0.0192° (ΔC1 = 0.012°),
     // and n_C2 = 48.56381 rpm at 90°.
     // n_C1 = 2 rpm at 300 strokes/min = 2.4° per stroke = 24 000 counts of 3.6e6.
@@ -117,7 +117,7 @@ fn million_strokes_have_zero_drift() {
 #[test]
 fn infeasible_speed_is_refused_with_the_numbers() {
     // At 1000 strokes/min the helical peak alone is k_h·v_peak with v_peak = 791.512·10/3 mm/s
-    // (digest peak at 300 rpm, scaled): far above the 150 rpm C2 limit.
+    // (docs/shaping.md (K5) peak at 300 rpm, scaled): far above the 150 rpm C2 limit.
     let err = Interpolator::new(seed_config(1000.0, 24_000.0)).unwrap_err();
     let k_h = 2.0 * 15f64.to_radians().sin() / (3.0 * 25.0);
     let helical_rpm = rad_s_to_rpm(k_h * 791.512 * 10.0 / 3.0);

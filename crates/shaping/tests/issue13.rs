@@ -130,8 +130,8 @@ fn too_many_blocks_are_refused_at_parse_time() {
     assert!(t.elapsed().as_secs_f64() < 5.0);
 }
 
-/// Closed forms written here: slider-crank stroke position and velocity (seed 002 eqs.
-/// (2)–(3)), and the EGB law of seed 002 eq. (1),
+/// Closed forms written here: slider-crank stroke position and velocity (Procedia CIRP 56 (2016) eqs.
+/// (2)–(3)), and the EGB law of Procedia CIRP 56 (2016) eq. (1),
 /// n_C2 = ρ·n_C1 + σ·sin β'/(π·m_n·Z_C2)·v_Z, ρ = ∓Z_C1/Z_C2, in rad/s:
 /// ω_C2 = ρ·ω_C1 + σ·2·sin β'/(m_n·Z_C2)·v_Z, and its position form
 /// C2 = ρ·C1 + σ·2·sin β'/(m_n·Z_C2)·(Z − Z_0).

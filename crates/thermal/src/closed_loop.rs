@@ -22,8 +22,8 @@ pub struct DriftStats {
 /// # Formula
 /// max |e|;  RMS = √(Σe²/n);  range = max e − min e
 /// # Source
-/// ISO 230-3:2020 (drift range as total drift over the test period) [STANDARD, as
-/// summarised in research/anchors.md §5; clause numbers unverified]
+/// ISO 230-3:2020 (drift range as total drift over the test period) [STANDARD; clause
+/// numbers not checked against the standard's text]
 pub fn drift_stats(errors_um: &[f64]) -> DriftStats {
     if errors_um.is_empty() {
         return DriftStats {

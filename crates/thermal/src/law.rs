@@ -16,7 +16,7 @@ use crate::units::{s_to_h, um_to_mm};
 /// # Units
 /// Kd in µm/°C, T in °C, α and Cz in µm.
 /// # Source
-/// seed 001 (JPH0761598B2), EDM embodiment, Cz = Kd·T + α [SEED]
+/// JPH0761598B2, EDM embodiment, Cz = Kd·T + α [SEED]
 pub fn linear_um(kd_um_per_c: f64, temp_c: f64, alpha_um: f64) -> f64 {
     kd_um_per_c * temp_c + alpha_um
 }
@@ -28,7 +28,7 @@ pub fn linear_um(kd_um_per_c: f64, temp_c: f64, alpha_um: f64) -> f64 {
 /// # Units
 /// Kz in µm/°C, A and B in °C, Cz in µm.
 /// # Source
-/// seed 001 (JPH0761598B2), surface-grinder embodiment (the text's "K_g" is Kz) [SEED]
+/// JPH0761598B2, surface-grinder embodiment (the text's "K_g" is Kz) [SEED]
 pub fn difference_um(kz_um_per_c: f64, a_c: f64, b_c: f64) -> f64 {
     kz_um_per_c * (a_c - b_c)
 }
@@ -40,7 +40,7 @@ pub fn difference_um(kz_um_per_c: f64, a_c: f64, b_c: f64) -> f64 {
 /// # Units
 /// Kz in µm/°C, A in °C, b in °C/h, t in s (converted to h here), c in °C.
 /// # Source
-/// seed 001, approximation B = b·t + c [SEED]
+/// JPH0761598B2, approximation B = b·t + c [SEED]
 pub fn time_linear_um(kz_um_per_c: f64, a_c: f64, b_c_per_h: f64, c_c: f64, t_s: f64) -> f64 {
     kz_um_per_c * a_c - kz_um_per_c * (b_c_per_h * s_to_h(t_s) + c_c)
 }
@@ -54,12 +54,12 @@ pub fn time_linear_um(kz_um_per_c: f64, a_c: f64, b_c_per_h: f64, c_c: f64, t_s:
 /// # Domain
 /// t ≥ 0 (t < 0 is taken as 0).
 /// # Source
-/// seed 001, approximation A ∝ √t [SEED]
+/// JPH0761598B2, approximation A ∝ √t [SEED]
 pub fn time_sqrt_um(kz_prime_um_per_c: f64, b_c: f64, k_um_per_sqrt_h: f64, t_s: f64) -> f64 {
     kz_prime_um_per_c * b_c + k_um_per_sqrt_h * s_to_h(t_s.max(0.0)).sqrt()
 }
 
-/// C = K·(value − midpoint): one component of seed 000's total correction.
+/// C = K·(value − midpoint): one component of EP0138375's total correction.
 ///
 /// # Formula
 /// C_P = K_P·(P̄ − X), C_B = K_B·(B̄ − Y), C_S = K_S·(S̄ − Z);  TC = C_P + C_S − C_B
@@ -67,7 +67,8 @@ pub fn time_sqrt_um(kz_prime_um_per_c: f64, b_c: f64, k_um_per_sqrt_h: f64, t_s:
 /// K in µm per channel unit (µm/°C for thermistors; the lever ratio µm/µm for the
 /// proximity transducer); value and midpoint in the channel unit.
 /// # Source
-/// seed 000, Figs. 6–9 blocks 300/400/500/601 [RECONSTRUCTED: research/seed_formulas.md]
+/// EP0138375, Figs. 6–9 blocks 300/400/500/601 [RECONSTRUCTED: docs/thermal.md "Derivation:
+/// EP0138375 Figs. 6–9 as implemented"]
 pub fn component_um(k_um_per_unit: f64, value: f64, midpoint: f64) -> f64 {
     k_um_per_unit * (value - midpoint)
 }
@@ -81,7 +82,8 @@ pub fn component_um(k_um_per_unit: f64, value: f64, midpoint: f64) -> f64 {
 /// K0 in µm, tanβ in µm/mm, T in °C, P and P0 in mm.
 /// # Source
 /// SINUMERIK 840D sl FM "Extended Functions" K3 §4.2 (SD43900/43910/43920); TwinCAT
-/// P-AXIS-00272…00274 [VENDOR MANUAL, research/anchors.md §1.1, §1.5]
+/// CNC axis parameters P-AXIS-00272…00274 (temp_comp_position_0, _offset_0, _coefficient)
+/// [VENDOR MANUAL]
 #[allow(clippy::too_many_arguments)]
 pub fn position_um(
     offset_um: f64,
@@ -105,7 +107,7 @@ pub fn position_um(
 /// # Units
 /// D, D′ in mm; Cz in µm.
 /// # Source
-/// seed 001, claim 1 [SEED]
+/// JPH0761598B2, claim 1 [SEED]
 pub fn measuring_system_reading_mm(d_mm: f64, cz_um: f64) -> f64 {
     d_mm + um_to_mm(cz_um)
 }
@@ -117,7 +119,7 @@ pub fn measuring_system_reading_mm(d_mm: f64, cz_um: f64) -> f64 {
 /// # Units
 /// Z, Z′ in mm; Cz in µm.
 /// # Source
-/// seed 001, EDM embodiment [SEED]
+/// JPH0761598B2, EDM embodiment [SEED]
 pub fn command_position_mm(z_mm: f64, cz_um: f64) -> f64 {
     z_mm + um_to_mm(cz_um)
 }
@@ -129,8 +131,8 @@ pub fn command_position_mm(z_mm: f64, cz_um: f64) -> f64 {
 /// # Units
 /// Δ and p in µm; r in pulses.
 /// # Source
-/// seed 000, Fig. 9 blocks 606–608 [SEED]; remainder carry [RECONSTRUCTED:
-/// research/seed_formulas.md]
+/// EP0138375, Fig. 9 blocks 606–608 [SEED]; remainder carry [RECONSTRUCTED: docs/thermal.md
+/// "Derivation: EP0138375 Figs. 6–9 as implemented"]
 pub fn pulses_with_carry(delta_um: f64, pulse_um: f64, carry_pulses: &mut f64) -> i64 {
     let x = delta_um / pulse_um + *carry_pulses;
     let n = x.round();
@@ -143,7 +145,7 @@ pub fn pulses_with_carry(delta_um: f64, pulse_um: f64, carry_pulses: &mut f64) -
 mod tests {
     use super::*;
 
-    /// research/seed_formulas.md, seed 001 arithmetic checks.
+    /// docs/thermal.md "JPH0761598B2 arithmetic".
     #[test]
     fn seed001_arithmetic() {
         let cz = difference_um(-3.75, 24.0, 20.0);

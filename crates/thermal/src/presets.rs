@@ -23,11 +23,11 @@ use crate::units::{f_to_c, inch_to_um, per_f_to_per_c};
 /// The machines the simulator knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Preset {
-    /// Surface / form grinder with a hydraulic table (seed 001).
+    /// Surface / form grinder with a hydraulic table (JPH0761598B2).
     Grinder,
-    /// Hydromechanical gear shaper (seed 000).
+    /// Hydromechanical gear shaper (EP0138375).
     Shaper,
-    /// Dry hobbing machine (seed 003 setting).
+    /// Dry hobbing machine (CN105397560 setting).
     Hobbing,
 }
 
@@ -107,7 +107,7 @@ fn channel(name: &str, sensor: SensorKind, valid: (f64, f64), limits: (f64, f64)
     }
 }
 
-/// Seed 001's surface grinder: −20 µm after about 6 h, compensated by Kz·(A − B).
+/// JPH0761598B2's surface grinder: −20 µm after about 6 h, compensated by Kz·(A − B).
 pub fn grinder() -> PresetBundle {
     // Nodes: 0 hydraulic oil, 1 bed top (A), 2 wheel head (B), 3 column, 4 coolant.
     let machine = MachineSpec {
@@ -130,7 +130,7 @@ pub fn grinder() -> PresetBundle {
         spindle_rpm: 1500.0,
         cut_s: 300.0,
         load_s: 60.0,
-        // True Z error: the bed-top/wheel-head difference of seed 001 (3.75 µm/K) plus
+        // True Z error: the bed-top/wheel-head difference of JPH0761598B2 (3.75 µm/K) plus
         // a column term the two sensors do not see.
         drift_um_per_k: vec![0.0, 3.75, -3.75, -0.6, 0.0],
         drift_noise_um: 0.3,
@@ -180,7 +180,7 @@ pub fn grinder() -> PresetBundle {
     }
 }
 
-/// Seed 000's hydromechanical gear shaper: ≈ 76 µm over a run, pulses to the infeed.
+/// EP0138375's hydromechanical gear shaper: ≈ 76 µm over a run, pulses to the infeed.
 pub fn shaper() -> PresetBundle {
     // Nodes: 0 base, 1 sub-base, 2 cutter-spindle housing, 3 hydraulic oil, 4 table.
     let mut machine = MachineSpec {
@@ -215,13 +215,14 @@ pub fn shaper() -> PresetBundle {
         dt_s: 10.0,
     };
     let t0_c = machine.ambient_c(0.0);
-    // Seed 000 example constants (research/seed_formulas.md), converted once here.
+    // EP0138375 example constants (docs/thermal.md "EP0138375 worked example"), converted
+    // once here.
     let k_p = 1.5;
     let proximity_um_per_k = 12.0;
     let x_mid_um = inch_to_um(0.0500);
     let k_s_um_per_c = per_f_to_per_c(inch_to_um(0.00010));
     let k_b_um_per_c = per_f_to_per_c(inch_to_um(0.00008));
-    // Rising temperature reduces the centre distance (seed 000): the drift is the negative
+    // Rising temperature reduces the centre distance (EP0138375): the drift is the negative
     // of the seed's total correction, plus a table term no sensor sees.
     machine.drift_um_per_k = vec![
         k_b_um_per_c,

@@ -35,7 +35,7 @@ fn run_prints_json_with_the_design_lead_for_ideal_servos() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let c = &v[0];
     assert_eq!(c["line"], 3);
-    // Cutter lead π·3·25/sin 15° = 910.36364 mm (seed_formulas.md).
+    // Cutter lead π·3·25/sin 15° = 910.36364 mm (docs/shaping.md, control-cycle test vector).
     let lead = c["gear"]["cutter_lead_mm"].as_f64().unwrap();
     assert!((lead - 910.36364).abs() < 5e-6, "{lead}");
     assert_eq!(c["gear"]["generating_ratio"], "-8/5");

@@ -1,4 +1,4 @@
-//! The published test vectors of issue 2 (research/anchors.md §4.3, TV1–TV3), through the
+//! The published test vectors of issue 2 (docs/geometry.md "Published test vectors", TV1–TV3), through the
 //! library API. Tolerance 5e-5 mm (or 5e-7 for Σx) is half a unit of the last published
 //! digit: the references print 4 (Σx: 6) decimals.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

@@ -1,6 +1,6 @@
 //! Thermal model files (`gearcomp_core::model::ModelFile`, written by `gearcomp fit`) run
 //! by the engine: the transforms' documented semantics against closed forms, and the
-//! seed 003 regression → workpiece-shrink chain of research/seed_formulas.md.
+//! CN105397560 regression → workpiece-shrink chain of docs/thermal.md "CN105397560 chain".
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use gearcomp_core::model::ModelFile;
@@ -93,7 +93,7 @@ transform = TRANSFORM
     }
 }
 
-/// research/seed_formulas.md, seed 003 chain: Ta = −12.531724 + 0.479769·t1 +
+/// docs/thermal.md "CN105397560 chain": Ta = −12.531724 + 0.479769·t1 +
 /// 1.535764·t2 + 0.360204·t3 at t = (21.0, 29.0, 30.5) → Ta = 53.0668 °C; Tb = 20 °C,
 /// λ = 11.5e-6 /K, m = 3, z = 40, α = 20° → δT_p = 22.8488 µm (exact), 22.8161 µm (first
 /// order, r·ε) and δT_a = 31.2764 µm at the tip (r_a1 = 63 mm). Machine part: intercept

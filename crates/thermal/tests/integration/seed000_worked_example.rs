@@ -1,4 +1,4 @@
-//! Seed 000 (Fellows gear shaper) worked example of research/seed_formulas.md, run through
+//! EP0138375 (Fellows gear shaper) worked example of docs/thermal.md, run through
 //! the whole engine: N = 8 samples at the stroke switch, K·(value − midpoint) components
 //! with the base subtracted, boundary constant D, pulses with the remainder carried, and
 //! the averaged proximity reading above its limit stopping the machine.

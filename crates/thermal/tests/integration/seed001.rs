@@ -1,4 +1,4 @@
-//! Seed 001 (JPH0761598B2) arithmetic through the engine, and the grinder preset of the
+//! JPH0761598B2 arithmetic through the engine, and the grinder preset of the
 //! simulator compensated by Kz·(A − B).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -63,7 +63,7 @@ fn seed001_edm_linear_law() {
     assert!((command_position_mm(-5.000, cz) - -5.006).abs() < 1e-12);
 }
 
-/// Seed 001: "about −20 µm after about 6 h"; with compensation "within 5 µm". The preset
+/// JPH0761598B2: "about −20 µm after about 6 h"; with compensation "within 5 µm". The preset
 /// must show both: uncompensated > 15 µm, compensated ≤ 5 µm, on several noise seeds.
 #[test]
 fn grinder_preset_with_seed001_compensation_stays_within_5um() {
@@ -86,7 +86,7 @@ fn grinder_preset_with_seed001_compensation_stays_within_5um() {
     }
 }
 
-/// Seed 000's magnitude: ≈ 0.076 mm size variation over a run without compensation; the
+/// EP0138375's magnitude: ≈ 0.076 mm size variation over a run without compensation; the
 /// seed's compensation with D = 0.0002 in and 0.0001 in pulses removes most of it.
 #[test]
 fn shaper_preset_has_seed000_magnitude() {

@@ -34,7 +34,7 @@ fn step_into_with_a_reused_output_equals_step() {
         },
         &mut out,
     );
-    // Linear law Kd·T + α = −2·23 + 40 = −6 µm (seed 001).
+    // Linear law Kd·T + α = −2·23 + 40 = −6 µm (JPH0761598B2).
     assert_eq!(out.axes().len(), 1);
     assert!((out.axes()[0].law_um + 6.0).abs() < 1e-12);
 

@@ -1,5 +1,5 @@
 //! Helpers shared by the CLI integration tests: a per-test temp folder, a config file in it,
-//! the `gearcomp` binary run with arguments, and the check of seed 001's law on a record.
+//! the `gearcomp` binary run with arguments, and the check of JPH0761598B2's law on a record.
 #![allow(dead_code, clippy::unwrap_used)]
 
 use std::path::{Path, PathBuf};
@@ -44,7 +44,7 @@ pub fn gearcomp_json(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
-/// Independent check of a grinder record: the preset is seed 001's Cz = Kz·(A − B) with
+/// Independent check of a grinder record: the preset is JPH0761598B2's Cz = Kz·(A − B) with
 /// Kz = −3.75 µm/°C, on the averaged values of the same cycle, for every offset whose law was
 /// evaluated in that cycle (more than 10 of them). A frozen axis (stale channel, which a
 /// loaded machine can cause at high speed-up) keeps its last law value, so it is skipped.
@@ -70,7 +70,8 @@ pub fn assert_grinder_law(db: &Path) {
     }
 }
 
-/// The T8 worm and feeds of digest §9.3 for `gearcomp grind simulate`: ρ_F1 = 20°, K for
+/// The worm and feeds of the line-to-line example (JP6903407B2 diagonal generating;
+/// docs/grinding.md "Topologically dressed worm") for `gearcomp grind simulate`: ρ_F1 = 20°, K for
 /// ρ_F2 = 45°, z_V01 = 5 mm, worm modification C = (0, 0.1, 0.02), L = (0, 0.01), Q = −0.03.
 pub const T8_WORM_ARGS: [&str; 12] = [
     "--worm-rho-deg",
