@@ -10,6 +10,7 @@
 //! - [`dresser`]: the dresser designed as the exact envelope of the worm gap, jacket and fillets;
 //! - [`envelope`]: f_nFS(w; ΔK) and the radius association r_FA by the screw evaluation of the
 //!   vector-shortening simulation and, independently, by the analytic envelope;
+//! - [`schedule`]: ΔK(ν_zS) over the worm width (constant, polynomial, dressing program);
 //! - [`simulation`]: the full time-stepped (w, b)-grid simulation and the contact line;
 //! - [`solve`]: 3-point (with radius association), 4-point (minimum norm) and curve-fit solvers
 //!   (damped Newton, natural-monotonicity test, scaled unknowns, Tikhonov-filtered steps);
@@ -43,6 +44,7 @@ pub mod error;
 pub mod gear;
 pub mod kinematics;
 pub mod request;
+pub mod schedule;
 pub mod simulation;
 pub mod solve;
 pub mod spline;

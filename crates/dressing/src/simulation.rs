@@ -4,7 +4,7 @@
 use crate::envelope::DressingSetup;
 use crate::error::{DressError, Result};
 use crate::kinematics::AxisCorrection;
-use crate::topology::CorrectionSchedule;
+use crate::schedule::CorrectionSchedule;
 use crate::worm::Flank;
 use nalgebra::Vector3;
 
