@@ -18,7 +18,7 @@ fn rows(text: &str) -> Vec<Vec<f64>> {
 fn seed002_crank_case_a() {
     let crank = SliderCrank::new(25.0, 200.0).unwrap();
     let omega = rpm_to_rad_s(300.0);
-    let table = rows(include_str!("golden/seed002_crank_case_a.csv"));
+    let table = rows(include_str!("../golden/crank_case_a.csv"));
     assert_eq!(table.len(), 9);
     for r in table {
         let th = r[0].to_radians();
@@ -39,7 +39,7 @@ fn seed002_crank_case_a() {
 fn seed002_crank_case_b() {
     let crank = SliderCrank::new(10.0, 100.0).unwrap();
     let omega = rpm_to_rad_s(600.0);
-    for r in rows(include_str!("golden/seed002_crank_case_b.csv")) {
+    for r in rows(include_str!("../golden/crank_case_b.csv")) {
         let th = r[0].to_radians();
         assert_abs_diff_eq!(crank.h_mm(th), r[1], epsilon = 1e-6);
         assert_abs_diff_eq!(crank.velocity_mm_s(th, omega), r[2], epsilon = 1e-5);

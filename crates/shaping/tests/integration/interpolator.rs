@@ -12,7 +12,7 @@ use gearcomp_shaping::simulate::execute_program;
 use gearcomp_shaping::units::{rad_s_to_rpm, rpm_to_rad_s};
 use gearcomp_shaping::ShapingError;
 
-include!("support/setup.rs");
+include!("../support/setup.rs");
 
 const CPR: u32 = 3_600_000;
 const DEG: f64 = CPR as f64 / 360.0;

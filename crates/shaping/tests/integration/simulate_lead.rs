@@ -11,7 +11,7 @@ use gearcomp_shaping::simulate::{simulate, SimulationConfig};
 use gearcomp_shaping::units::rpm_to_rad_s;
 use std::f64::consts::PI;
 
-include!("support/setup.rs");
+include!("../support/setup.rs");
 
 fn sim(interp: InterpolatorConfig, servo: ServoModel) -> SimulationConfig {
     SimulationConfig {
