@@ -42,11 +42,9 @@ use gearcomp_grinding::conical_equalise::{
 };
 use gearcomp_grinding::conical_lines;
 use gearcomp_grinding::contact::WormGearPair;
-use gearcomp_grinding::diagonal::{
-    diagonal_ratio, line_map, predicted_gear_f_ft_mm, rho1_estimate_rad, LineMap,
-};
+use gearcomp_grinding::diagonal::{diagonal_ratio, line_map, rho1_estimate_rad, LineMap};
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
-use gearcomp_grinding::envelope::{EnvelopeGrinder, MeshKinematics};
+use gearcomp_grinding::envelope::{AnalyticTransfer, EnvelopeGrinder};
 use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
@@ -54,7 +52,7 @@ use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
-use gearcomp_report::{Chart, HtmlReport, Series};
+use gearcomp_report::{Chart, HeatAxis, HeatMap, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
 
 /// Options of `gearcomp grind`.
@@ -832,32 +830,17 @@ struct Extras {
     solve: Option<SolveOut>,
 }
 
-/// What `grind_and_report` needs of a worm–workpiece mesh beyond the simulation kinematics.
-trait GrindMesh: MeshKinematics {
-    /// Gear f_Ft2 in mm that the analytic pointwise map predicts at (w2, z2).
-    fn analytic_f_ft_mm(
-        &self,
-        coupling: &FeedCoupling,
-        worm_mod: &dyn FlankModification,
-        w2_mm: f64,
-        z2_mm: f64,
-    ) -> Result<f64>;
+/// What `grind_and_report` needs of a worm–workpiece mesh beyond the simulation kinematics and
+/// the analytic map (both in the grinding crate).
+trait GrindMesh: AnalyticTransfer {
+    /// The mesh named in error messages.
+    const NAME: &'static str;
     /// The contact path for the output.
     fn path_out(&self) -> PathOut;
 }
 
 impl GrindMesh for WormGearPair {
-    fn analytic_f_ft_mm(
-        &self,
-        coupling: &FeedCoupling,
-        worm_mod: &dyn FlankModification,
-        w2_mm: f64,
-        z2_mm: f64,
-    ) -> Result<f64> {
-        Ok(predicted_gear_f_ft_mm(
-            self, coupling, worm_mod, w2_mm, z2_mm,
-        ))
-    }
+    const NAME: &'static str = "worm–gear pair";
 
     fn path_out(&self) -> PathOut {
         PathOut {
@@ -877,27 +860,7 @@ impl GrindMesh for WormGearPair {
 }
 
 impl GrindMesh for ConicalPair {
-    /// The conical pair's analytic map: the worm point that grinds (w2, z2) under the feed
-    /// coupling, and the transverse transfer of (38).
-    ///
-    /// # Formula
-    /// (w1, z1) from (77), (86), (76) at z_V2 with z_V1 = F_ZV1(z_V2);
-    /// f_Ft2(w2, z2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w1, z1), β_bF of the conical flanks.
-    /// # Source
-    /// Seed 004 eq. (38), O537 [SEED]; digest §4.4 (A4) steps 1–2 [RECONSTRUCTED];
-    /// `ConicalPair::map_gear_point`, `ConicalPair::transverse_ratio`.
-    fn analytic_f_ft_mm(
-        &self,
-        coupling: &FeedCoupling,
-        worm_mod: &dyn FlankModification,
-        w2_mm: f64,
-        z2_mm: f64,
-    ) -> Result<f64> {
-        let m = self
-            .map_gear_point(coupling, w2_mm, z2_mm)
-            .context("analytic map of the conical pair")?;
-        Ok(-self.transverse_ratio() * worm_mod.f_ft_mm(m.w1_mm, m.z1_mm))
-    }
+    const NAME: &'static str = "conical pair";
 
     fn path_out(&self) -> PathOut {
         let p = &self.path;
@@ -992,7 +955,9 @@ fn grind_and_report<M: GrindMesh>(
         for j in 0..g.n_z {
             let (w, z) = (g.w_mm(i), g.z_mm(j));
             let f = ground.at(i, j).f_ft_mm;
-            let an = mesh.analytic_f_ft_mm(&cpl, worm_mod, w, z)?;
+            let an = mesh
+                .predicted_gear_f_ft_mm(&cpl, worm_mod, w, z)
+                .with_context(|| format!("analytic map of the {}", M::NAME))?;
             let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
             dev_mm.push(f - design);
             design_mm.push(f - wanted.map_or(an, |m| m.f_ft_mm(w, z)));
@@ -1927,89 +1892,18 @@ fn emit(out: &Output, a: &SetupArgs) -> Result<()> {
     Ok(())
 }
 
-/// Colour of a value in [−m, m]: blue (negative, material missing) – white – red (material).
-fn colour(v: f64, m: f64) -> String {
-    let t = if m > 0.0 {
-        (v / m).clamp(-1.0, 1.0)
-    } else {
-        0.0
-    };
-    let (r, g, b) = if t >= 0.0 {
-        (255.0, 255.0 * (1.0 - t), 255.0 * (1.0 - t))
-    } else {
-        (255.0 * (1.0 + t), 255.0 * (1.0 + t), 255.0)
-    };
-    format!("rgb({},{},{})", r as u8, g as u8, b as u8)
-}
-
-/// SVG heat map of a (w, z) map: w to the right, z upwards.
+/// SVG heat map of a (w, z) map: w to the right, z upwards (drawn by the report crate).
 fn heat_map_svg(title: &str, map: &MapOut, values: &[Vec<f64>]) -> String {
-    let (w_px, h_px, left, top, bottom) = (760.0, 380.0, 70.0, 40.0, 50.0);
-    let (nw, nz) = (map.w_mm.len(), map.z_mm.len());
-    let m = values.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
-    let plot_w = w_px - left - 120.0;
-    let plot_h = h_px - top - bottom;
-    let cw = plot_w / nw as f64;
-    let ch = plot_h / nz as f64;
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w_px}\" height=\"{h_px}\" \
-         font-family=\"sans-serif\" font-size=\"12\">\
-         <text x=\"{}\" y=\"20\" font-size=\"16\" text-anchor=\"middle\">{}</text>",
-        w_px / 2.0,
-        gearcomp_report::escape(title)
-    );
-    for (i, row) in values.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            let x = left + i as f64 * cw;
-            let y = top + plot_h - (j + 1) as f64 * ch;
-            let _ = write!(
-                s,
-                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{:.2}\" height=\"{:.2}\" fill=\"{}\"><title>w {:.3} mm, z {:.3} mm: {:.4} µm</title></rect>",
-                cw + 0.3,
-                ch + 0.3,
-                colour(*v, m),
-                map.w_mm[i],
-                map.z_mm[j],
-                v
-            );
-        }
+    let w = HeatAxis::new("w", "roll distance", "mm", map.w_mm.clone());
+    let z = HeatAxis::new("z", "width", "mm", map.z_mm.clone());
+    HeatMap {
+        title,
+        x: &w,
+        y: &z,
+        value_unit: "µm",
+        cells: values,
     }
-    let _ = write!(
-        s,
-        "<rect x=\"{left}\" y=\"{top}\" width=\"{plot_w}\" height=\"{plot_h}\" fill=\"none\" stroke=\"#333\"/>\
-         <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">roll distance w / mm ({:.2} … {:.2})</text>\
-         <text x=\"16\" y=\"{}\" transform=\"rotate(-90 16 {})\" text-anchor=\"middle\">width z / mm ({:.2} … {:.2})</text>",
-        left + plot_w / 2.0,
-        h_px - 15.0,
-        map.w_mm.first().copied().unwrap_or(0.0),
-        map.w_mm.last().copied().unwrap_or(0.0),
-        top + plot_h / 2.0,
-        top + plot_h / 2.0,
-        map.z_mm.first().copied().unwrap_or(0.0),
-        map.z_mm.last().copied().unwrap_or(0.0),
-    );
-    let lx = left + plot_w + 30.0;
-    for k in 0..=10 {
-        let v = m * (1.0 - 0.2 * f64::from(k));
-        let y = top + plot_h * f64::from(k) / 10.0;
-        let _ = write!(
-            s,
-            "<rect x=\"{lx}\" y=\"{y:.1}\" width=\"20\" height=\"{:.1}\" fill=\"{}\"/>",
-            plot_h / 10.0 + 0.5,
-            colour(v, m)
-        );
-        if k % 2 == 0 {
-            let _ = write!(
-                s,
-                "<text x=\"{}\" y=\"{:.1}\">{:+.3} µm</text>",
-                lx + 26.0,
-                y + 4.0,
-                v
-            );
-        }
-    }
-    s.push_str("</svg>");
-    s
+    .to_svg()
 }
 
 fn write_report(out: &Output, path: &std::path::Path) -> Result<()> {

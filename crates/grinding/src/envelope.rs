@@ -234,6 +234,52 @@ impl MeshKinematics for ConicalPair {
     }
 }
 
+/// The first-order analytic worm → gear map of a mesh: the gear modification that a worm
+/// modification grinds at a gear point, to compare with the envelope of [`EnvelopeGrinder`].
+///
+/// # Formula
+/// f_Ft2(w_F2, z_F2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w_F1, z_F1) at the worm point that grinds
+/// (w_F2, z_F2) under the feed coupling (eq. (38)).
+/// # Source
+/// JP6903407B2 eq. (38); cylindrical chain [`crate::diagonal::predicted_gear_f_ft_mm`],
+/// conical chains [`crate::conical_lines::predicted_gear_f_ft_mm`].
+pub trait AnalyticTransfer: MeshKinematics {
+    /// Gear f_Ft2 in mm that the analytic pointwise map predicts at (w2, z2).
+    fn predicted_gear_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64>;
+}
+
+impl AnalyticTransfer for WormGearPair {
+    fn predicted_gear_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64> {
+        Ok(crate::diagonal::predicted_gear_f_ft_mm(
+            self, coupling, worm_mod, w2_mm, z2_mm,
+        ))
+    }
+}
+
+impl AnalyticTransfer for ConicalPair {
+    fn predicted_gear_f_ft_mm(
+        &self,
+        coupling: &FeedCoupling,
+        worm_mod: &dyn FlankModification,
+        w2_mm: f64,
+        z2_mm: f64,
+    ) -> Result<f64> {
+        crate::conical_lines::predicted_gear_f_ft_mm(self, coupling, worm_mod, w2_mm, z2_mm)
+    }
+}
+
 /// Envelope grinding simulation of one flank for any [`MeshKinematics`].
 ///
 /// The worm is bounded: a ray/worm intersection counts only where the worm thread exists
