@@ -1,12 +1,16 @@
 //! Self-contained HTML reports (no external assets, no JavaScript) with SVG charts drawn by
 //! `plotters`. Every gearcomp command that writes a report (`demo`, `fit`, `shape`, `dress`)
 //! builds it with [`HtmlReport`] and [`Chart`], so reports look alike and open offline.
+//! Values over a grid are drawn as a [`HeatMap`].
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use plotters::prelude::*;
 use thiserror::Error;
+
+mod heat_map;
+pub use heat_map::{diverging_colour, HeatAxis, HeatMap};
 
 /// Result alias of this crate.
 pub type Result<T> = std::result::Result<T, ReportError>;
