@@ -53,14 +53,6 @@ struct Common {
     report: Option<PathBuf>,
 }
 
-/// Degrees at the interface, radians inside: the one conversion of this command.
-fn rad(deg: f64) -> f64 {
-    deg.to_radians()
-}
-fn deg(rad: f64) -> f64 {
-    rad.to_degrees()
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Config {
@@ -242,16 +234,16 @@ fn run_design(c: &Common) -> anyhow::Result<()> {
     let (rho, _, _) = fit_contact_line(&line);
     let out = DesignOut {
         base_radius_mm: worm.r_b_mm,
-        base_helix_angle_deg: deg(worm.beta_b_rad),
+        base_helix_angle_deg: worm.beta_b_rad.to_degrees(),
         lead_mm: worm.p_mm * 2.0 * std::f64::consts::PI,
         tip_radius_mm: worm.r_a_mm,
         root_radius_mm: worm.r_f_mm,
         nominal_centre_distance_mm: setup.nominal.d_mm,
-        nominal_crossing_angle_deg: deg(setup.nominal.gamma_rad),
+        nominal_crossing_angle_deg: setup.nominal.gamma_rad.to_degrees(),
         fillet_radius_mm: side.fillet_radius_mm,
         active_profile_mm: (w_nf, w_na),
         tip_dresser_radius_mm: setup.association(fl, w_na, &k0)?,
-        contact_line_direction_deg: deg(rho),
+        contact_line_direction_deg: rho.to_degrees(),
         profile,
     };
     if c.json {
@@ -354,9 +346,9 @@ fn axes_for(setup: &DressingSetup, dk: &AxisCorrection) -> anyhow::Result<AxesOu
 fn axes_at(setup: &DressingSetup, dk: &AxisCorrection, nu_zs_mm: f64) -> anyhow::Result<AxesOut> {
     let a = setup.machine_axes_at(dk, nu_zs_mm)?;
     Ok(AxesOut {
-        b1_deg: deg(a.b1_rad),
+        b1_deg: a.b1_rad.to_degrees(),
         v1_mm: a.v1_mm,
-        a1_deg: deg(a.a1_rad),
+        a1_deg: a.a1_rad.to_degrees(),
         x1_mm: a.x1_mm,
         z1_mm: a.z1_mm,
     })
@@ -431,7 +423,7 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
         iterations: sol.iterations,
         condition: sol.cond,
         dphi_s_rad: dk.dphi_s_rad,
-        dgamma_deg: deg(dk.dgamma_rad),
+        dgamma_deg: dk.dgamma_rad.to_degrees(),
         dd_mm: dk.dd_mm,
         dnu_ya_mm: dk.dnu_ya_mm,
         axes_bsp2: axes_for(&setup, &dk)?,
@@ -568,16 +560,16 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
     }
     let options = PlanOptions {
         zero_stretch: pc.zero_stretch,
-        alpha_search_rad: rad(pc.alpha_search_deg),
+        alpha_search_rad: pc.alpha_search_deg.to_radians(),
     };
     let rows: Vec<PlanRow> = plan_with_options(&worm, &dresser, &spec, &options)?;
     if c.json {
         let out: Vec<PlanRowOut<'_>> = rows
             .iter()
             .map(|r| PlanRowOut {
-                alpha_n_deg: deg(r.alpha_n_rad),
-                alpha_keep_deg: deg(r.alpha_keep_rad),
-                dgamma_deg: deg(r.dk.dgamma_rad),
+                alpha_n_deg: r.alpha_n_rad.to_degrees(),
+                alpha_keep_deg: r.alpha_keep_rad.to_degrees(),
+                dgamma_deg: r.dk.dgamma_rad.to_degrees(),
                 row: r,
             })
             .collect();
@@ -611,7 +603,7 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
                 (false, false) => "",
             };
             println!("{:>8.2} {:>10.5} {:>12.4e} {:>10.5} {:>10.5} {:>10.5} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>8.4} {:>9.2} {:>9.2} {flags}",
-                r.d_s_mm, deg(r.alpha_n_rad), r.dk.dphi_s_rad, deg(r.dk.dgamma_rad), r.dk.dd_mm, r.dk.dnu_ya_mm,
+                r.d_s_mm, r.alpha_n_rad.to_degrees(), r.dk.dphi_s_rad, r.dk.dgamma_rad.to_degrees(), r.dk.dd_mm, r.dk.dnu_ya_mm,
                 r.deviation_max_um, r.deviation_range_um, r.deviation_foot_um, r.deviation_tip_um, 100.0 * r.stretch,
                 1e3 * r.opposite_cut_mm, 1e3 * r.jacket_depth_mm);
         }
@@ -631,7 +623,10 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
         r.chart(
             &Chart::new("Axis corrections per dressing", "d_S [mm]", "dK")
                 .with(Series::line("dphi_S [mrad]", d(&|r| 1e3 * r.dk.dphi_s_rad)))
-                .with(Series::line("dgamma [deg]", d(&|r| deg(r.dk.dgamma_rad))))
+                .with(Series::line(
+                    "dgamma [deg]",
+                    d(&|r| r.dk.dgamma_rad.to_degrees()),
+                ))
                 .with(Series::line("dd [10 um]", d(&|r| 100.0 * r.dk.dd_mm)))
                 .with(Series::line("dnu_yA [mm]", d(&|r| r.dk.dnu_ya_mm))),
         )?;
@@ -899,7 +894,7 @@ fn run_solve_topological(
             nu_zs_mm: s.nu_zs_mm,
             crowning_um: crowning.as_ref().map(|cw| cw.at(s.b0_mm).0),
             dphi_s_rad: s.dk.dphi_s_rad,
-            dgamma_deg: deg(s.dk.dgamma_rad),
+            dgamma_deg: s.dk.dgamma_rad.to_degrees(),
             dd_mm: s.dk.dd_mm,
             dnu_ya_mm: s.dk.dnu_ya_mm,
             axes_bsp2: axes_at(setup, &s.dk, s.nu_zs_mm)?,
@@ -977,7 +972,10 @@ fn run_solve_topological(
                     "dphi_S [mrad]",
                     curve(&|k| 1e3 * k.dphi_s_rad),
                 ))
-                .with(Series::line("dgamma [deg]", curve(&|k| deg(k.dgamma_rad))))
+                .with(Series::line(
+                    "dgamma [deg]",
+                    curve(&|k| k.dgamma_rad.to_degrees()),
+                ))
                 .with(Series::line("dd [10 um]", curve(&|k| 100.0 * k.dd_mm)))
                 .with(Series::line("dnu_yA [mm]", curve(&|k| k.dnu_ya_mm)))
                 .with(Series::points(
