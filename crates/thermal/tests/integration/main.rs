@@ -5,10 +5,10 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod ep0138375_worked_example;
 mod faults;
+mod jph0761598b2_and_presets;
 mod model_file;
 mod properties;
 mod sampling_and_safety;
-mod seed000_worked_example;
-mod seed001;
 mod step_into;
