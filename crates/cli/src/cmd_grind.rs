@@ -1,4 +1,4 @@
-//! `gearcomp grind`: generating grinding with a (dressed) worm, seed 004 part 2.
+//! `gearcomp grind`: generating grinding with a (dressed) worm, JP6903407B2, part 2.
 //!
 //! `simulate` grinds a gear flank with a given worm modification and diagonal ratio (envelope
 //! simulation, compared with the analytic worm→gear mapping); `solve` finds the diagonal ratio
@@ -589,7 +589,7 @@ struct ConeSetup {
 /// r_a,min = r + m_n − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone: addendum m_n
 /// over the local profile shift x(z) = z·tan ϑ2/m_n).
 /// # Source
-/// Beveloid local profile shift, digest §3.7 (R2) [RECONSTRUCTED]; addendum h_a = m_n, ISO
+/// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED]; addendum h_a = m_n, ISO
 /// 53 basic rack [STANDARD]; convention fixed here (docs/grinding.md).
 fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
     let gear = gear_body(a)?;

@@ -1,5 +1,5 @@
 //! Grinding simulation of one flank on a 100 × 200 grid (envelope over rotation and feed)
-//! against the first-order analytic mapping of the same points, seed 004 reference example,
+//! against the first-order analytic mapping of the same points, JP6903407B2, reference example,
 //! T8 worm modification, diagonal ratio K(20°, 45°).
 //!
 //! Budget: the simulation is an off-line planning step (seconds are fine); the analytic map

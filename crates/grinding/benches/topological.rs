@@ -1,6 +1,6 @@
 //! The topologically dressed worm (bicubic grid f_n(w, b)) against the analytic line
 //! modification of the same size, per point: the worm lookup, the analytic worm → gear map and
-//! the envelope grinding of one gear point, seed 004 reference example, K(20°, 45°).
+//! the envelope grinding of one gear point, JP6903407B2, reference example, K(20°, 45°).
 //!
 //! Report each as a ratio to the line-modification baseline measured in the same run.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]

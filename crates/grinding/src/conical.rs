@@ -85,7 +85,7 @@ impl BeveloidGear {
     /// # Formula
     /// x(z) = x0 + z·tan ϑ/m_n
     /// # Source
-    /// Beveloid definition (rack tilted by the cone angle), digest §3.7 (R2) and §10.5
+    /// Beveloid definition (rack tilted by the cone angle), docs/grinding.md "Conical tool and workpiece"
     /// (Zierau, TU Braunschweig report 32) [RECONSTRUCTED].
     pub fn local_profile_shift(&self, z_mm: f64) -> f64 {
         self.body.x_shift + z_mm * self.cone_angle_rad.tan() / self.body.m_n_mm
@@ -99,7 +99,7 @@ impl BeveloidGear {
     /// (generatrix), u = cos β·e_y − sin β·e_g (normal to the tooth lines in the plane),
     /// m = −s·cos α_nF·u + sin α_nF·e_n.
     /// # Source
-    /// Rack generation of beveloids, digest §3.7 (R1)–(R3) [RECONSTRUCTED].
+    /// Rack generation of beveloids, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED].
     pub fn rack_normal(&self, flank: Flank) -> Vector3<f64> {
         let s = flank.sign();
         let (sa, ca) = self.body.alpha_n_rad(flank).sin_cos();
@@ -121,7 +121,7 @@ impl BeveloidGear {
     /// # Source
     /// Envelope of the rack plane under rolling on the reference cylinder (tangent planes of the
     /// helicoid N(τ)·p = s·r_b·cos β_b·(τ − η)), derived here [RECONSTRUCTED]; reduces to ISO
-    /// 21771:2007 §4–5 [STANDARD] for ϑ = 0; digest §8.1 "four types" (3)/(4) [RECONSTRUCTED].
+    /// 21771:2007 §4–5 [STANDARD] for ϑ = 0; docs/grinding.md "Derivation: flank and chain conventions" (the four combinations of cylindrical/conical tool and workpiece) [RECONSTRUCTED].
     pub fn flank(&self, flank: Flank) -> InvoluteFlank {
         let s = flank.sign();
         let m = self.rack_normal(flank);
@@ -215,7 +215,7 @@ impl ConeChain {
     /// # Units
     /// rad, mm.
     /// # Source
-    /// Seed 004, eqs. (29)–(31) [SEED]; pivot and sign convention digest §3.3 reading aid and
+    /// JP6903407B2, eqs. (29)–(31) [SEED]; pivot and sign convention docs/grinding.md "Derivation: flank and chain conventions" and
     /// §10.2 [RECONSTRUCTED].
     pub fn pose(&self, phi1_rad: f64, z_v1_mm: f64, z_v2_mm: f64, phi2_rad: f64) -> Isometry3<f64> {
         rz(-phi1_rad)
@@ -266,7 +266,7 @@ impl ConeChain {
 /// (29) uses C_FzV21 = 0, C_FzV22 = −1, b_zv2 = 0 ((50), (51), (58)); (30) uses C_FzV11 = −1,
 /// C_FzV12 = 0, b_zv1 = 0 ((63), (64), (71)); cylinder/cylinder (39)/(40)/(45).
 /// # Source
-/// Seed 004, eqs. (50)–(91) [SEED form; coefficients LOST]; digest §4.1 (A1) step 6 and §8.2
+/// JP6903407B2, eqs. (50)–(91) [SEED form; coefficients LOST]; docs/grinding.md "Derivation: contact path and roll-distance relation"
 /// [RECONSTRUCTED]; closed vector forms in [`ConicalPair::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ConicalPath {
@@ -328,7 +328,7 @@ impl ConicalPair {
     /// γ + β_W1 + β_W2 = 0 (R3), with β measured from each cone generatrix in the common rack
     /// plane.
     /// # Source
-    /// Seed 004 E256 (R3) [SEED]; digest §8.2 [RECONSTRUCTED].
+    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
     pub fn reference(worm: &BeveloidGear, gear: &BeveloidGear, flank: Flank) -> Result<Self> {
         let d = worm.reference_radius_mm() + gear.reference_radius_mm();
         let g = -(worm.body.beta_rad + gear.body.beta_rad);
@@ -580,7 +580,7 @@ impl ConicalPair {
     /// Direction of kinematic-correction modifications ρ_KF (tan ρ_KF = −C_Fw2).
     ///
     /// # Source
-    /// Seed 004 E291, eq. (99) [SEED]; digest §8.2 [RECONSTRUCTED].
+    /// JP6903407B2, eq. (99) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
     pub fn rho_kf_rad(&self) -> f64 {
         (-self.path.c_w2).atan()
     }
@@ -593,7 +593,7 @@ impl ConicalPair {
     /// h2 = (d − r_w1 − r_w2)·n_y + z_V2·n·g2 − r_w2·ν2_y − s·r_b2·cos β_b2·(τ2* − φ2 − η2);
     /// h1 = h2 solved for φ1. For ϑ = 0 this is the cylindrical (R4) of [`crate::contact`].
     /// # Source
-    /// Seed 004 (R4) [SEED, formula LOST]; digest §4.2 (A2) [RECONSTRUCTED]; ERRATA §7.
+    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling" [RECONSTRUCTED]; docs/grinding.md "Independent reference: brute-force envelope".
     #[inline]
     pub fn phi1_rad(&self, phi2_rad: f64, z_v1_mm: f64, z_v2_mm: f64) -> f64 {
         let s = self.worm.s();
@@ -659,7 +659,7 @@ impl ConicalPair {
     /// z_V2 from (77) with z_V1 = F_ZV1(z_V2); w_F1 = a·w_F2 + b_zv1·z_V1 + b_zv2·z_V2 + b (86);
     /// z_F1 from (76); φ2 at which the gear flank line with normal −n passes the point, φ1 (R4).
     /// # Source
-    /// Digest §4.4 (A4) steps 1–2 [RECONSTRUCTED].
+    /// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED].
     pub fn map_gear_point(
         &self,
         coupling: &FeedCoupling,
@@ -692,7 +692,7 @@ impl ConicalPair {
     /// Ratio q = cos β_bF1/cos β_bF2 (f_Ft2 = −q·f_Ft1 at associated points).
     ///
     /// # Source
-    /// Seed 004 eq. (38), O537 [SEED].
+    /// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED].
     pub fn transverse_ratio(&self) -> f64 {
         self.worm.beta_b_rad.cos() / self.gear.beta_b_rad.cos()
     }
@@ -703,12 +703,12 @@ impl ConicalPair {
     /// T1 = sin ρ_F1 + C_Fw1·cos ρ_F1, T2 = sin ρ_F2 + C_Fw2·cos ρ_F2;
     /// K_ZV1 = [T2·(T1·b_zv2 + cos ρ_F1·C_FzV21) − T1·a·C_FzV22·cos ρ_F2]
     ///       / [T1·a·C_FzV12·cos ρ_F2 − T2·(T1·b_zv1 + cos ρ_F1·C_FzV11)]
-    /// (the digest's homogeneous form with ^C_Fw1·(a, b_zv1, b_zv2) = −(^C_Fw2, ^C_FzV1, ^C_FzV2));
+    /// (the homogeneous form of docs/grinding.md "Derivation: diagonal ratio and line map" with ^C_Fw1·(a, b_zv1, b_zv2) = −(^C_Fw2, ^C_FzV1, ^C_FzV2));
     /// cylinder/cylinder: a·T1·cos ρ_F2/(cos ρ_F1·T2).
     /// # Domain
     /// Singular when the denominator vanishes (ρ_F2 = ρ_KF for cylinders) or |K| > 1e4.
     /// # Source
-    /// Seed 004 E230–E231, eq. (49) [SEED, LOST]; digest §4.4 (A4) step 3 [RECONSTRUCTED].
+    /// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, LOST]; docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED].
     pub fn diagonal_ratio(&self, rho1_rad: f64, rho2_rad: f64) -> Result<f64> {
         check_range("rho1_rad", rho1_rad, -3.2, 3.2, "-π ..= π")?;
         check_range("rho2_rad", rho2_rad, -3.2, 3.2, "-π ..= π")?;

@@ -54,8 +54,9 @@ pub struct ConicalLineMap {
 /// pure profile line w_F2 = const is ground by worm points of varying w_F1, which is not of the
 /// form (25)).
 /// # Source
-/// Seed 004 E230–E231, eqs. (36), (76), (77), (86), (49) [SEED form, LOST coefficients]; digest
-/// §4.4 (A4) steps 1–4 and §4.5 step 4 "conical cases" [RECONSTRUCTED]; algebra derived here.
+/// JP6903407B2, text to eqs. (36)/(49), eqs. (36), (76), (77), (86), (49) [SEED form, LOST
+/// coefficients]; docs/grinding.md "Derivation: diagonal ratio and line map" and "Derivation:
+/// line-class transfer" (conical chains) [RECONSTRUCTED]; algebra derived here.
 pub fn conical_line_map(
     pair: &ConicalPair,
     rho1_rad: f64,
@@ -137,7 +138,7 @@ fn times_x(p: &Poly, e: f64) -> Poly {
 /// f_Ft2(w_F2, z_F2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w_F1, z_F1), (w_F1, z_F1) from
 /// [`ConicalPair::map_gear_point`] ((77), (86), (76)).
 /// # Source
-/// Seed 004 eq. (38), O537 [SEED]; (95) [LOST] per digest §3.8 [RECONSTRUCTED].
+/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED].
 pub fn predicted_gear_f_ft_mm(
     pair: &ConicalPair,
     coupling: &FeedCoupling,
@@ -162,7 +163,7 @@ pub fn predicted_gear_f_ft_mm(
 /// # Domain
 /// a' ≠ 0; see [`conical_line_map`].
 /// # Source
-/// Seed 004 eqs. (25), (26), (38), (92)/(95) [SEED form, LOST]; digest §4.5 (A5) step 4
+/// JP6903407B2, eqs. (25), (26), (38), (92)/(95) [SEED form, LOST]; docs/grinding.md "Derivation: line-class transfer"
 /// [RECONSTRUCTED], extended here by the feed-dependent (86).
 pub fn gear_modification_from_worm(
     pair: &ConicalPair,
@@ -202,7 +203,7 @@ pub fn gear_modification_from_worm(
 /// # Domain
 /// k ≠ 0 (worm lines not parallel to the worm contact path), a' ≠ 0.
 /// # Source
-/// Digest §4.5 (A5) step 4 [RECONSTRUCTED], conical extension derived here.
+/// docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED], conical extension derived here.
 pub fn worm_modification_for_gear(
     pair: &ConicalPair,
     wanted: &LineModification,

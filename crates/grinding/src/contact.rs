@@ -15,7 +15,7 @@ use crate::flank::{Flank, InvoluteFlank, InvoluteGear};
 /// roll-distance relation (R7)/(45): w_F1 = a·w_F2 + b (a = −cos β_bF1/cos β_bF2 at reference
 /// geometry), equivalently w_F1/cos β_bF1 + w_F2/cos β_bF2 = const.
 /// # Source
-/// Seed 004, eqs. (39)–(45) [SEED form; coefficients LOST]; digest §8.2 and A1
+/// JP6903407B2, eqs. (39)–(45) [SEED form; coefficients LOST]; docs/grinding.md "Derivation: contact path and roll-distance relation"
 /// [RECONSTRUCTED, VERIFIED]: C_Fw1 = s·tan β_bF1, C_Fw2 = s·tan β_bF2.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ContactPath {
@@ -92,7 +92,7 @@ impl WormGearPair {
     /// # Formula
     /// γ + β_W1 + β_W2 = 0 (R3) with the reference helix angles; d = r1 + r2.
     /// # Source
-    /// Seed 004 E256 (R3) [SEED]; digest §8.2 [RECONSTRUCTED].
+    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
     pub fn reference(worm: &InvoluteGear, gear: &InvoluteGear, flank: Flank) -> Result<Self> {
         let d = worm.reference_radius_mm() + gear.reference_radius_mm();
         let g = -(worm.beta_rad + gear.beta_rad);
@@ -295,7 +295,7 @@ impl WormGearPair {
     /// Direction of kinematic-correction modifications ρ_KF (tan ρ_KF = −C_Fw2).
     ///
     /// # Source
-    /// Seed 004 E291, eq. (99) [SEED]; formula digest §8.2 [RECONSTRUCTED].
+    /// JP6903407B2, eq. (99) [SEED]; formula docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
     pub fn rho_kf_rad(&self) -> f64 {
         (-self.path.c_w2).atan()
     }
@@ -303,14 +303,14 @@ impl WormGearPair {
     /// Worm rotation that keeps worm and gear flank tangent (generating coupling, R4).
     ///
     /// # Formula
-    /// Tangent-plane offsets measured along the common normal n (ERRATA §7 sign trap):
+    /// Tangent-plane offsets measured along the common normal n (docs/grinding.md "Derivation: generating coupling"):
     /// h1 = s·r_b1·cos β_b1·(τ1* − φ1 − η1) + n_z·z_V1,
     /// h2 = d·n_y + n2_z·z_V2 − s·r_b2·cos β_b2·(τ2* − φ2 − η2); h1 = h2 solved for φ1.
     /// Consequences: dφ1/dφ2 = −z2/z1, dφ1/dz_V1 = tan β_b1/r_b1 (= 2π/p_z1 for s = +1),
     /// dφ1/dz_V2 = (z2/z1)·tan β_b2/r_b2.
     /// # Source
-    /// Seed 004 (R4) [SEED, formula LOST]; digest §4.2 (A2) [RECONSTRUCTED, VERIFIED];
-    /// ERRATA §7.
+    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling" [RECONSTRUCTED, VERIFIED];
+    /// docs/grinding.md "Independent reference: brute-force envelope".
     #[inline]
     pub fn phi1_rad(&self, phi2_rad: f64, z_v1_mm: f64, z_v2_mm: f64) -> f64 {
         let s = self.worm.s();
@@ -344,7 +344,7 @@ impl WormGearPair {
     /// z_V2 from (40); z_V1 = F_ZV1(z_V2) (36)/(94); w_F1 = a·w_F2 + b (R7);
     /// z_F1 = C_Fw1·w_F1 − z_V1 + C_Fc1 (39); φ2 from the flank line, φ1 from (R4).
     /// # Source
-    /// Digest §4.4 (A4) steps 1–2 [RECONSTRUCTED, VERIFIED].
+    /// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED, VERIFIED].
     #[inline]
     pub fn map_gear_point(
         &self,
@@ -371,9 +371,9 @@ impl WormGearPair {
     /// (f_Ft2 = −q·f_Ft1 at associated points).
     ///
     /// # Formula
-    /// f_Fn = f_Ft·cos β_bF (38) and f_nF2 = −f_nF1 (O537).
+    /// f_Fn = f_Ft·cos β_bF (38) and f_nF2 = −f_nF1 (JP6903407B2 text to eq. (38)).
     /// # Source
-    /// Seed 004 eq. (38), O537 [SEED].
+    /// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED].
     pub fn transverse_ratio(&self) -> f64 {
         self.worm.beta_b_rad.cos() / self.gear.beta_b_rad.cos()
     }
@@ -393,7 +393,7 @@ mod tests {
         WormGearPair::reference(&worm, &gear, flank).unwrap()
     }
 
-    /// T4/T5: digest §9.2 numbers (independent calculation), tolerance 1e-6 as printed.
+    /// T4/T5: docs/grinding.md "Independent reference: reference example" numbers (independent calculation), tolerance 1e-6 as printed.
     #[test]
     fn t4_t5_contact_path_reference_example() {
         let p = example(Flank::Right);
@@ -417,7 +417,7 @@ mod tests {
         assert_relative_eq!(p.rho_kf_rad().to_degrees(), -14.076095, epsilon = 1e-6);
     }
 
-    /// Left flank: all C_Fw and C_Fc change sign (digest §9.2).
+    /// Left flank: all C_Fw and C_Fc change sign (docs/grinding.md "Independent reference: reference example").
     #[test]
     fn t6_left_flank_mirrors_coefficients() {
         let r = example(Flank::Right);
@@ -451,7 +451,7 @@ mod tests {
         }
     }
 
-    /// T5 cross-check (digest §8.3 item 1): at the mapped state both real surfaces pass through
+    /// T5 cross-check (docs/grinding.md "Derivation: contact path and roll-distance relation"): at the mapped state both real surfaces pass through
     /// the predicted point, with normals +n (worm) and −n (gear), for arbitrary feeds.
     #[test]
     fn mapped_points_are_real_contacts() {

@@ -12,9 +12,9 @@ use crate::modification::{FlankModification, LineModification, Poly, Poly2};
 /// # Formula
 /// f(w, z) = K_F00 + K_F01·X + K_F02·X² + (K_F10 + K_F11·X)·w + K_KF1·X_K + K_KF2·X_K²,
 /// X = w·sin ρ_F + z·cos ρ_F, X_K = w·sin ρ_KF + z·cos ρ_KF.
-/// K_F10 is free (it sets the dresser swivel C5, E306); the rest follows from it.
+/// K_F10 is free (it sets the dresser swivel C5; JP6903407B2 text to (101)/(102): seven coefficients, one free); the rest follows from it.
 /// # Source
-/// Seed 004, eqs. (99)–(102), E304–E307 [SEED text; equations LOST]; digest §8.4
+/// JP6903407B2, eqs. (99)–(102), quadratic modifications in w and z [SEED text; equations LOST]; docs/grinding.md "Decomposition"
 /// [RECONSTRUCTED, VERIFIED].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Decomposition {
@@ -85,7 +85,7 @@ pub struct Sample {
 /// Singular (error) when ρ_F = ±π/2 or ρ_F = ρ_KF (det of the quadratic part is
 /// −cos ρ_F·sin²(ρ_F − ρ_KF)), or when the samples do not span the quadratic polynomials.
 /// # Source
-/// Seed 004 E295–E298 (A8) [SEED]; basis per digest §8.4 [RECONSTRUCTED].
+/// JP6903407B2, text to eq. (100) (decomposition by curve fitting) [SEED]; basis per docs/grinding.md "Decomposition" [RECONSTRUCTED].
 pub fn decompose_weighted(
     samples: &[Sample],
     rho_rad: f64,
@@ -238,7 +238,7 @@ pub struct DecompositionBasis {
     pub rho_rad: f64,
     /// Kinematic direction ρ_KF in rad.
     pub rho_kf_rad: f64,
-    /// K_F10, the constant part of F_FtL (free, E306), mm/mm.
+    /// K_F10, the constant part of F_FtL (free; JP6903407B2 text to (101)/(102)), mm/mm.
     pub k_f10: f64,
     /// Degree of F_FtC in X.
     pub worm_c_degree: usize,
@@ -405,9 +405,9 @@ impl FlankModification for GeneralDecomposition {
 /// in that order and a term whose column lies in the span of the accepted ones (relative
 /// residual < 1e-9 after two projections) is dropped, coefficient 0, and listed in
 /// `dropped`. A profile part therefore takes the pure-w content first (the dresser makes
-/// profile modifications; E289–E290), the kinematic part only what nothing else can make.
+/// profile modifications; JP6903407B2, "Superimposition with other modifications"), the kinematic part only what nothing else can make.
 /// # Source
-/// Seed 004, eqs. (97)–(100), A8 (E288–E298) [SEED; (100) LOST]; form per digest §3.8, §4.8
+/// JP6903407B2, eqs. (97)–(100), "Superimposition with other modifications" [SEED; (100) LOST]; form per docs/grinding.md "Decomposition"
 /// [RECONSTRUCTED].
 pub fn decompose_general(
     samples: &[Sample],
@@ -539,7 +539,7 @@ mod tests {
         }
     }
 
-    /// T9: digest §9.3 numbers (independent calculation), relative 1e-6 of the printed values.
+    /// T9: docs/grinding.md "Independent reference: reference example" numbers (independent calculation), relative 1e-6 of the printed values.
     #[test]
     fn t9_untwisted_crowning_decomposition() {
         let rho = 45f64.to_radians();

@@ -47,7 +47,7 @@ pub fn rho1_estimate_rad(pair: &WormGearPair) -> f64 {
 /// Singular for T2 = 0 (ρ_F2 = ρ_KF: no finite K; such modifications come from the kinematics)
 /// and for cos ρ_F1 = 0; |K_ZV1| > 1e4 is reported as singular too.
 /// # Source
-/// Seed 004 E230–E231, eq. (49) [SEED, equation LOST]; digest §4.4 (A4) step 3
+/// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, equation LOST]; docs/grinding.md "Derivation: diagonal ratio and line map"
 /// [RECONSTRUCTED, VERIFIED].
 pub fn diagonal_ratio(pair: &WormGearPair, rho1_rad: f64, rho2_rad: f64) -> Result<f64> {
     check_range("rho1_rad", rho1_rad, -3.2, 3.2, "-π ..= π")?;
@@ -88,7 +88,7 @@ pub fn diagonal_ratio(pair: &WormGearPair, rho1_rad: f64, rho2_rad: f64) -> Resu
 /// k = K·cos ρ_F1/cos ρ_F2 (or (a·T1 − K·cos ρ_F1·C_Fw2)/sin ρ_F2 when |sin ρ_F2| > |cos ρ_F2|),
 /// c0 = b·T1 + cos ρ_F1·(C_Fc1 − K·C_Fc2 − z_V01).
 /// # Source
-/// Digest §4.4 step 4 [RECONSTRUCTED, VERIFIED]; z_V01 selects the worm region (E215 [SEED]).
+/// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED, VERIFIED]; z_V01 selects the worm region (JP6903407B2, text to eq. (36) [SEED]).
 pub fn line_map(
     pair: &WormGearPair,
     rho1_rad: f64,
@@ -124,8 +124,8 @@ pub fn line_map(
 /// # Formula
 /// f_Ft2(w_F2, z_F2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w_F1, z_F1) at the associated worm point.
 /// # Source
-/// Seed 004 eq. (38), O537 [SEED]; (95) [LOST] per digest §3.8 [RECONSTRUCTED, VERIFIED
-/// against a brute-force envelope to 0.2–0.6 %, ERRATA §7].
+/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED, VERIFIED
+/// against a brute-force envelope to 0.2–0.6 %, docs/grinding.md "Independent reference: brute-force envelope"].
 #[inline]
 pub fn predicted_gear_f_ft_mm(
     pair: &WormGearPair,
@@ -146,7 +146,7 @@ pub fn predicted_gear_f_ft_mm(
 /// F_2Q = −q·a²·F_1Q∘, F_2L = −q·a·F_1L∘, F_2C = −q·F_1C∘ (∘ = composed with the line map),
 /// q = cos β_bF1/cos β_bF2.
 /// # Source
-/// Digest §4.5 (A5) step 4 [RECONSTRUCTED]; the lost eqs. (49)/(92).
+/// docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED]; the lost eqs. (49)/(92).
 pub fn gear_modification_from_worm(
     pair: &WormGearPair,
     worm_mod: &LineModification,
@@ -174,7 +174,7 @@ pub fn gear_modification_from_worm(
 /// # Domain
 /// k ≠ 0 (the worm lines must not be parallel to the worm contact path).
 /// # Source
-/// Digest §4.5 (A5) step 4 [RECONSTRUCTED].
+/// docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED].
 pub fn worm_modification_for_gear(
     pair: &WormGearPair,
     wanted: &LineModification,
@@ -210,7 +210,7 @@ pub fn worm_modification_for_gear(
 /// F_ZV1(z_V2) = (w_F1·T1 + cos ρ_F1·C_Fc1 − X_F1)/cos ρ_F1 for z_V2 (Newton from the
 /// linearised root), then z_F2 = C_Fw2·w_F2 + C_Fc2 − z_V2 (40).
 /// # Source
-/// Seed 004 E275, (R20), eqs. (94), (96) [SEED]; digest §4.7 (A7) [RECONSTRUCTED].
+/// JP6903407B2, (R20), eqs. (94), (96) [SEED]; docs/grinding.md "Derivation: variable diagonal ratio" [RECONSTRUCTED].
 pub fn worm_line_path_z2_mm(
     pair: &WormGearPair,
     coupling: &FeedCoupling,
@@ -270,7 +270,7 @@ mod tests {
         WormGearPair::reference(&worm, &gear, flank).unwrap()
     }
 
-    /// T7: digest §9.3 diagonal ratios (independent calculation), 1e-6.
+    /// T7: docs/grinding.md "Independent reference: reference example" diagonal ratios (independent calculation), 1e-6.
     #[test]
     fn t7_diagonal_ratio_values() {
         let p = pair(Flank::Right, 20.0);
@@ -295,7 +295,7 @@ mod tests {
         // pole at ρ_F2 = ρ_KF
         let e = diagonal_ratio(&p, r1, p.rho_kf_rad());
         assert!(matches!(e, Err(GrindError::Singular { .. })));
-        // digest §4.4 step 4: b, k, c0 of the example
+        // docs/grinding.md "Derivation: diagonal ratio and line map": b, k, c0 of the example
         let lm = line_map(&p, r1, 45f64.to_radians(), 5.0).unwrap();
         assert_relative_eq!(p.path.b_mm, 135.923125, epsilon = 1e-6);
         assert_relative_eq!(lm.k, -1.165704, epsilon = 1e-6);
@@ -329,7 +329,7 @@ mod tests {
         );
     }
 
-    /// T8 (analytic column of ERRATA §7): predicted gear f_Ft2 in µm at four points.
+    /// T8 (analytic values of docs/grinding.md "Independent reference: brute-force envelope"): predicted gear f_Ft2 in µm at four points.
     #[test]
     fn t8_analytic_map_values() {
         let p = pair(Flank::Right, 20.0);
@@ -402,7 +402,7 @@ mod tests {
     }
 
     /// T11: variable diagonal ratio F_ZV1 = 0.5·z_V2 + 0.01·z_V2², worm line X1 = 40 and
-    /// X1 + 0.7: translates along (1, C_Fw2) by t = −0.678982 (digest §9.3), 1e-6.
+    /// X1 + 0.7: translates along (1, C_Fw2) by t = −0.678982 (docs/grinding.md "Independent reference: reference example"), 1e-6.
     #[test]
     fn t11_variable_diagonal_paths() {
         let p = pair(Flank::Right, 20.0);

@@ -315,7 +315,7 @@ impl FlankModification for DressedWorm {
     /// # Formula
     /// f_Ft1(w1, z1) = f_nFS(w1)/cos β_b1 (38); independent of z1 for constant ΔK.
     /// # Source
-    /// Seed 004 eq. (38) [SEED]; seed 004 part 1 E97–E104 (dressed profile) [SEED].
+    /// JP6903407B2, eq. (38) [SEED]; JP6903407B2 part 1, dressed worm profile [SEED].
     #[inline]
     fn f_ft_mm(&self, w_mm: f64, _z_mm: f64) -> f64 {
         self.spline.eval(w_mm).0 * self.inv_cos_beta_b
@@ -380,7 +380,7 @@ mod tests {
     }
 
     /// (38): the transverse value is the normal one over cos β_b1 (0.342192 for the reference
-    /// worm, digest §9.2), the gradient along w is the spline slope, none along z.
+    /// worm, docs/grinding.md "Independent reference: reference example"), the gradient along w is the spline slope, none along z.
     #[test]
     fn normal_to_transverse_38() {
         let wf = worm_flank();

@@ -279,7 +279,7 @@ impl TopologicalWorm {
     /// mid-edges; for a constant diagonal ratio the map is affine, so the corners bound it).
     ///
     /// # Source
-    /// Digest §4.4 (A4) steps 1–2 [RECONSTRUCTED].
+    /// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED].
     pub fn used_region_mm(
         pair: &WormGearPair,
         coupling: &FeedCoupling,
@@ -337,7 +337,7 @@ impl FlankModification for TopologicalWorm {
     /// # Formula
     /// f_Ft1(w1, z1) = f_nFS(w1, b = z1)/cos β_b1 (38).
     /// # Source
-    /// Seed 004 eq. (38) [SEED]; seed 004 part 1 E114–E120 (topological dressing) [SEED].
+    /// JP6903407B2, eq. (38) [SEED]; JP6903407B2 part 1, topological modifications [SEED].
     #[inline]
     fn f_ft_mm(&self, w_mm: f64, z_mm: f64) -> f64 {
         self.f_n_and_gradient(w_mm, z_mm).0 * self.inv_cos_beta_b
@@ -419,7 +419,7 @@ mod tests {
     }
 
     /// (38) and the b ↔ z1 identification: f_Ft1(w1, z1) = f_n(w1, z1)/cos β_b1 with
-    /// cos β_b1 = 0.342192 (digest §9.2).
+    /// cos β_b1 = 0.342192 (docs/grinding.md "Independent reference: reference example").
     #[test]
     fn transverse_value_is_normal_over_cos_beta_b() {
         let t = grid(biquad);

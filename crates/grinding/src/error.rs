@@ -22,7 +22,7 @@ pub enum GrindError {
         /// The allowed range, in words.
         expected: &'static str,
     },
-    /// Worm and gear do not mesh: their normal base pitches differ (digest eq. (93)).
+    /// Worm and gear do not mesh: their normal base pitches differ (JP6903407B2 eq. (93)).
     #[error(
         "worm and gear do not mesh: normal base pitch {worm_pbn_mm} mm (worm) vs {gear_pbn_mm} mm \
          (gear); expected equal within 1e-9 relative (eq. (93): m_n·cos α_n must agree)"

@@ -354,7 +354,7 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
-    /// anchors.md TV4: class 6, d = 80 mm, m_n = 2 mm, b = 20 mm.
+    /// ISO 1328-1:2013 tolerance example (clause 5 formulas): class 6, d = 80 mm, m_n = 2 mm, b = 20 mm.
     /// Hand-computed trace: f = 0.2x + 0.05(x − 5)² µm at x = 0, 1, …, 10 mm.
     /// Mean line slope 0.2 (the parabola is symmetric) ⇒ f_H = 2.0 µm; mean of (x−5)² = 10 ⇒
     /// residual 0.05((x−5)² − 10) ∈ [−0.5, 0.75] ⇒ f_f = 1.25 µm; f(0) = 1.25, f(10) = 3.25,

@@ -1,7 +1,7 @@
 //! Worm–workpiece kinematics: the kinematic chain (28), the feed coupling (36)/(94) and the
 //! machine chain (34) with its inverse.
 //!
-//! Convention (fixed here, digest §3.3 reading aid [RECONSTRUCTED]): K_R maps workpiece
+//! Convention (fixed here, docs/grinding.md "Derivation: flank and chain conventions" [RECONSTRUCTED]): K_R maps workpiece
 //! coordinates p2 to tool (worm) coordinates p1 = K_R·p2. In the space frame the worm axis is
 //! z, the common perpendicular of the axes is y, the workpiece axis passes through (0, d, 0)
 //! with direction R_y(γ)·e_z.
@@ -46,7 +46,7 @@ fn tz(v: f64) -> Isometry3<f64> {
 /// # Units
 /// rad, mm.
 /// # Source
-/// Seed 004, eq. (28) [SEED] (digest §3.3).
+/// JP6903407B2, eq. (28) [SEED] (docs/grinding.md "Derivation: flank and chain conventions").
 pub fn chain_cyl_cyl(
     phi1_rad: f64,
     z_v1_mm: f64,
@@ -94,7 +94,7 @@ impl FeedCoupling {
     /// # Formula
     /// z_V1 = K_ZV1·z_V2 + z_V01 (36), or z_V1 = F_ZV1(z_V2) (94).
     /// # Source
-    /// Seed 004, eqs. (36), (94) [SEED].
+    /// JP6903407B2, eqs. (36), (94) [SEED].
     #[inline]
     pub fn z_v1_mm(&self, z_v2_mm: f64) -> f64 {
         match self {
@@ -120,7 +120,7 @@ impl FeedCoupling {
     }
 }
 
-/// Axis values of the example grinding machine of seed 004 FIG. 22 (chain (34)).
+/// Axis values of the example grinding machine of JP6903407B2, FIG. 22 (chain (34)).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MachineAxes {
     /// Tool spindle rotation φ_B1 in rad.
@@ -143,7 +143,7 @@ impl MachineAxes {
     /// # Formula
     /// H_Bsp1 = R_z(φ_B1)·T_z(−ν_V1)·R_x(90° − φ_A1)·T_z(−ν_Z1)·T_x(−ν_X1)·R_z(φ_C2)
     /// # Source
-    /// Seed 004, eq. (34) [SEED].
+    /// JP6903407B2, eq. (34) [SEED].
     pub fn pose(&self) -> Isometry3<f64> {
         rz(self.phi_b1_rad)
             * tz(-self.nu_v1_mm)
@@ -163,7 +163,7 @@ impl MachineAxes {
     /// Axes not parallel (sin θ > 1e-9). The other branch (sin θ < 0) is the machine's
     /// redundant solution and is not returned.
     /// # Source
-    /// Seed 004, eqs. (33), (34) [SEED]; inversion derived here [RECONSTRUCTED].
+    /// JP6903407B2, eqs. (33), (34) [SEED]; inversion derived here [RECONSTRUCTED].
     pub fn from_pose(pose: &Isometry3<f64>) -> Result<Self> {
         let r = pose.rotation.to_rotation_matrix();
         let m = r.matrix();

@@ -1,5 +1,5 @@
 //! Generating grinding of a cylindrical involute gear with a cylindrical (dressed) worm,
-//! after seed 004, part 2 (JP6903407B2, diagonal generating grinding).
+//! after JP6903407B2, part 2 (diagonal generating grinding).
 //!
 //! - [`flank`]: gears and worms as involute helicoids over the (w, z) plane of each flank.
 //! - [`kinematics`]: the chain (28), the feed coupling (36)/(94), the machine chain (34) and

@@ -1,4 +1,4 @@
-//! The second example grinding machine of seed 004 FIG. 22, chain (35), and its inverse (33).
+//! The second example grinding machine of JP6903407B2, FIG. 22, chain (35), and its inverse (33).
 //!
 //! # Reading of (35) (decided here)
 //! Both language versions print H_Bsp2 = R_z(φ_B1)·R_x(90° − φ_A1)·T_z(−ν_Y1)·T_z(−ν_Z1)·
@@ -12,7 +12,7 @@
 //!
 //! H_Bsp2 = R_z(φ_B1)·R_x(90° − φ_A1)·T_y(−ν_Y1)·T_z(−ν_Z1)·T_x(−ν_X1)·R_z(φ_C2)
 //!
-//! (digest §3.3 flags the same probable typo). See `docs/grinding.md`, "Machine chain (35)".
+//! (the same probable typo is discussed in the section cited below). See `docs/grinding.md`, "Machine chain (35)".
 
 use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -47,7 +47,7 @@ impl MachineAxes2 {
     /// # Formula
     /// H_Bsp2 = R_z(φ_B1)·R_x(90° − φ_A1)·T_y(−ν_Y1)·T_z(−ν_Z1)·T_x(−ν_X1)·R_z(φ_C2)
     /// # Source
-    /// Seed 004, eq. (35) [SEED], with T_z(−ν_Y1) read as T_y(−ν_Y1) (module doc)
+    /// JP6903407B2, eq. (35) [SEED], with T_z(−ν_Y1) read as T_y(−ν_Y1) (module doc)
     /// [RECONSTRUCTED].
     pub fn pose(&self) -> Isometry3<f64> {
         let theta = std::f64::consts::FRAC_PI_2 - self.phi_a1_rad;
@@ -70,7 +70,7 @@ impl MachineAxes2 {
     /// Axes not parallel (sin θ > 1e-9); the other Euler branch (sin θ < 0) is the machine's
     /// redundant solution and is not returned.
     /// # Source
-    /// Seed 004, eqs. (33), (35) [SEED]; inversion derived here [RECONSTRUCTED].
+    /// JP6903407B2, eqs. (33), (35) [SEED]; inversion derived here [RECONSTRUCTED].
     pub fn from_pose(pose: &Isometry3<f64>) -> Result<Self> {
         let r: Rotation3<f64> = pose.rotation.to_rotation_matrix();
         let m = r.matrix();

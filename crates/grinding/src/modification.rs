@@ -101,7 +101,7 @@ impl Poly {
 /// # Units
 /// mm; F_C in mm, F_L in mm/mm, F_Q in 1/mm (each a polynomial in X/mm).
 /// # Source
-/// Seed 004, eqs. (25), (26) [SEED form; (25) partly LOST, digest §3.1].
+/// JP6903407B2, eqs. (25), (26) [SEED form; (25) partly LOST, docs/grinding.md "Derivation: line-class transfer"].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct LineModification {
     /// Direction ρ in rad.
@@ -180,7 +180,7 @@ impl FlankModification for Uniform {
 /// # Formula
 /// f_p2(w, z) = c00 + c10·w + c01·z + c20·w² + c11·w·z + c02·z²
 /// # Source
-/// Seed 004, eq. (101) [LOST]; form per digest §3.9 [RECONSTRUCTED].
+/// JP6903407B2, eq. (101) [LOST]; form per docs/grinding.md "Decomposition" [RECONSTRUCTED].
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Poly2 {
     /// c00 in mm.
@@ -222,7 +222,7 @@ impl FlankModification for Poly2 {
 /// f_B(w, z) = K_B2·X² + K_B1·X + K_B0, X = w·sin ρ_B + z·cos ρ_B.
 /// ρ_B = 0: lead crowning; ρ_B = ±π/2: profile crowning; otherwise directed crowning.
 /// # Source
-/// Seed 004, eq. (103) [SEED].
+/// JP6903407B2, eq. (103) [SEED].
 pub fn crowning(rho_b_rad: f64, k_b0: f64, k_b1: f64, k_b2: f64) -> Poly2 {
     let (s, c) = rho_b_rad.sin_cos();
     Poly2 {

@@ -1,5 +1,5 @@
 //! Conical (beveloid) bodies: chains (29)–(31), beveloid flanks, contact path (76)/(77)/(86).
-//! References: the cylindrical chain (28) and contact path (digest §9.2 numbers), the ISO
+//! References: the cylindrical chain (28) and contact path (docs/grinding.md "Independent reference: reference example" numbers), the ISO
 //! tooth-thickness formula of a spur gear with the local profile shift x(z) = x0 + z·tan ϑ/m_n,
 //! the rack geometry written out here, and independent surface checks.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -204,8 +204,8 @@ fn helical_beveloid_thickness_grows_with_profile_shift() {
     assert_relative_eq!(rate, expected, epsilon = 1e-12);
 }
 
-/// ϑ1 = ϑ2 = 0: the conical construction gives the cylindrical contact path, the digest's
-/// §9.2 numbers, the feed coefficients (−1, 0, 0, −1), the same generating coupling and T7's K.
+/// ϑ1 = ϑ2 = 0: the conical construction gives the cylindrical contact path, the numbers of
+/// docs/grinding.md "Independent reference: reference example", the feed coefficients (−1, 0, 0, −1), the same generating coupling and T7's K.
 #[test]
 fn conical_path_reduces_to_cylinder() {
     for flank in [Flank::Right, Flank::Left] {
@@ -369,9 +369,9 @@ fn coefficient_structure_by_chain() {
     }
 }
 
-/// Digest E244: a cylindrical worm on a conical workpiece needs different K on the two flanks
+/// JP6903407B2: a cylindrical worm on a conical workpiece needs different K on the two flanks
 /// for the same (mirrored) direction even for a symmetric gear; on a cylindrical gear the two
-/// are equal (E232).
+/// are equal (JP6903407B2, text after eq. (49)).
 #[test]
 fn conical_workpiece_splits_the_diagonal_ratio() {
     let (r1, r2) = (20f64.to_radians(), 45f64.to_radians());

@@ -13,7 +13,7 @@ use gearcomp_grinding::modification::{LineModification, Poly};
 use gearcomp_grinding::simulate::EnvelopeMode;
 use gearcomp_grinding::GrindError;
 
-/// Gear and worm with α_n,r / α_n,l (digest T6 uses 25° / 20°).
+/// Gear and worm with α_n,r / α_n,l (T6 of docs/grinding.md "Independent reference: reference example" uses 25° / 20°).
 fn spec(alpha_r_deg: f64, alpha_l_deg: f64, rho_r2_deg: f64, rho_l2_deg: f64) -> EqualiseSpec {
     let (ar, al) = (alpha_r_deg.to_radians(), alpha_l_deg.to_radians());
     let gear = InvoluteGear::asymmetric(31, 3.0, ar, al, 15f64.to_radians(), 0.0).unwrap();
@@ -65,7 +65,7 @@ fn asymmetric_gear_is_equalised() {
     eprintln!("asym given: {e:?}");
     assert!((e.k_left - e.k_right).abs() < 1e-9, "{e:?}");
     assert!(e.cone1_rad.abs() > 1e-4 && e.cone1_rad.abs() < 10f64.to_radians());
-    // E236: ϑ1 moves the two flanks' K differently
+    // JP6903407B2 (conical worm): ϑ1 moves the two flanks' K differently
     let h = 1e-3;
     let (kl1, kr1, _, _) = flank_ratios(&s, h).unwrap();
     let (dl, dr) = ((kl1 - kl0) / h, (kr1 - kr0) / h);
@@ -85,7 +85,7 @@ fn axial_section_lines_have_no_root_in_range() {
     }
 }
 
-/// Different wanted directions on a symmetric gear (E239: "also for different directions on
+/// Different wanted directions on a symmetric gear (JP6903407B2, conical worms: "also for different directions on
 /// the two flanks"): ρ_r2 = 45°, ρ_l2 = −44°.
 #[test]
 fn different_directions_are_equalised() {
@@ -149,7 +149,7 @@ fn spread(v: &[f64; 3]) -> f64 {
     v.iter().fold(f64::MIN, |a, b| a.max(*b)) - v.iter().fold(f64::MAX, |a, b| a.min(*b))
 }
 
-/// Acceptance test of A6 (digest T14): at the found ϑ1 the envelope simulation of both flanks
+/// Acceptance test of A6 (docs/grinding.md "Independent reference: reference example", T14): at the found ϑ1 the envelope simulation of both flanks
 /// with the one common K maps a worm modification constant along the worm lines onto a gear
 /// modification constant along the wanted lines of both flanks (spread < 0.01 µm at ~26 µm),
 /// equal to the first-order prediction within T8's 0.5 %. Where the two flanks' K differ

@@ -1,5 +1,5 @@
 //! Grinding simulation (envelope over rotation and feed) against the reference numbers of
-//! digest §9.3 and ERRATA §7 (an independent brute-force calculation).
+//! docs/grinding.md "Independent reference: reference example" and docs/grinding.md "Independent reference: brute-force envelope" (an independent brute-force calculation).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use gearcomp_grinding::contact::WormGearPair;
@@ -22,7 +22,7 @@ fn none() -> LineModification {
 }
 
 /// T1: an unmodified worm grinds an unmodified gear, |f_n2| < 1e-9 mm (exact-time variant),
-/// on the digest's 15×15 grid, for axial (K = 0) and diagonal (K = −0.877) grinding, both
+/// on the 15×15 grid of docs/grinding.md "Independent reference: reference example", for axial (K = 0) and diagonal (K = −0.877) grinding, both
 /// flanks; searches start 0.3 mm (rotation) and 0.5 mm (feed) away from the analytic seed.
 #[test]
 fn t1_unmodified_worm_grinds_unmodified_gear() {
@@ -66,7 +66,7 @@ fn t2_uniform_stock() {
 }
 
 /// T3: profile crowning C_q·(w1 − w1P)² on the worm, axial grinding. Full envelope vs
-/// ERRATA §7 first column; restricted (rotation-only) envelope vs the digest's brute force;
+/// docs/grinding.md "Independent reference: brute-force envelope", true envelope; restricted (rotation-only) envelope vs the rotation-only brute force of docs/grinding.md "Independent reference: brute-force envelope";
 /// analytic map vs the last column.
 #[test]
 fn t3_profile_crowning_transfer() {
@@ -83,7 +83,7 @@ fn t3_profile_crowning_transfer() {
     let full = Grinder::new(&pair, &cpl, &worm, EnvelopeMode::RotationAndFeed);
     let restricted = Grinder::new(&pair, &cpl, &worm, EnvelopeMode::RotationOnly);
     let w2p = pair.gear.w_ref_mm;
-    for &(w2, env_um, digest_um, analytic_um) in &[
+    for &(w2, env_um, rotation_only_um, analytic_um) in &[
         (12.0, -4.9791, -4.978, -4.9494),
         (w2p, 0.0, 0.0, 0.0),
         (22.0, -5.0670, -5.067, -5.0508),
@@ -93,8 +93,8 @@ fn t3_profile_crowning_transfer() {
         let a = predicted_gear_f_ft_mm(&pair, &cpl, &worm, w2, 0.0) * 1e3;
         assert!((f - env_um).abs() < 1e-3, "full {w2}: {f} vs {env_um}");
         assert!(
-            (r - digest_um).abs() < 1e-3,
-            "restricted {w2}: {r} vs {digest_um}"
+            (r - rotation_only_um).abs() < 1e-3,
+            "restricted {w2}: {r} vs {rotation_only_um}"
         );
         assert!(
             (a - analytic_um).abs() < 1e-4,
@@ -116,7 +116,7 @@ fn t8_worm(pair: &WormGearPair, b: f64, cq: f64) -> LineModification {
     .unwrap()
 }
 
-/// T8: diagonal grinding K = K(20°, 45°), z_V01 = 5 mm; full envelope vs ERRATA §7, analytic
+/// T8: diagonal grinding K = K(20°, 45°), z_V01 = 5 mm; full envelope vs docs/grinding.md "Independent reference: brute-force envelope", analytic
 /// map within 0.5 %; a worm modification constant along ρ1 lines is constant along the
 /// ρ2 = 45° gear line X2 = 10 within 0.02 µm.
 #[test]
@@ -156,7 +156,7 @@ fn t8_diagonal_line_mapping_by_simulation() {
 }
 
 /// T4/T12: the contact path fitted from the simulation's stored feeds and worm points agrees
-/// with the analytic plane-of-action coefficients (digest tolerance 1e-3).
+/// with the analytic plane-of-action coefficients (tolerance 1e-3).
 #[test]
 fn t4_t12_contact_path_fitted_from_simulation() {
     for flank in [Flank::Right, Flank::Left] {
@@ -198,7 +198,7 @@ fn bad_points_are_errors() {
 
 /// Other hands and a spur gear: a left-hand worm on a left-hand gear and a right-hand worm on
 /// a spur gear also grind the exact involute (T1), and for the spur gear the contact path runs
-/// at constant z (C_Fw2 = 0, ρ_KF = 0; digest T4).
+/// at constant z (C_Fw2 = 0, ρ_KF = 0; T4 of docs/grinding.md "Independent reference: reference example").
 #[test]
 fn t1_t4_other_hands_and_spur_gear() {
     let a20 = 20f64.to_radians();
