@@ -113,7 +113,9 @@ fn write_replacing(
             .set_permissions(perm)
             .map_err(io_err("set permissions of", tmp.path()))?;
     }
-    tmp.as_file().sync_all().map_err(io_err("sync", tmp.path()))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(io_err("sync", tmp.path()))?;
     tmp.persist(path).map_err(|e| CoreError::Io {
         action: "rename into",
         path: path.display().to_string(),
@@ -138,8 +140,7 @@ mod tests {
     use super::*;
 
     fn temp_dir(tag: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("gearcomp-fsio-{tag}-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("gearcomp-fsio-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir
