@@ -299,7 +299,7 @@ fn cones(a: &SetupArgs) -> Result<Cones> {
         if !(v.is_finite() && v.abs() <= max_deg) {
             anyhow::bail!(
                 "{opt} = {v} is out of range: expected -{max_deg} ..= {max_deg} degrees \
-                 (cone angle limit of the grinding library, seed 004: below 50°)"
+                 (cone angle limit of the grinding library, JP6903407B2: below 50°)"
             );
         }
     }
@@ -589,7 +589,8 @@ struct ConeSetup {
 /// r_a,min = r + m_n − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone: addendum m_n
 /// over the local profile shift x(z) = z·tan ϑ2/m_n).
 /// # Source
-/// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED]; addendum h_a = m_n, ISO
+/// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED];
+/// addendum h_a = m_n, ISO
 /// 53 basic rack [STANDARD]; convention fixed here (docs/grinding.md).
 fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
     let gear = gear_body(a)?;

@@ -1,4 +1,6 @@
-//! Prints the JP6903407B2 part-2 reference numbers (docs/grinding.md "Independent reference: reference example", docs/grinding.md "Independent reference: brute-force envelope") as computed by
+//! Prints the JP6903407B2 part-2 reference numbers (docs/grinding.md "Independent reference:
+//! reference example", docs/grinding.md "Independent reference: brute-force envelope") as computed
+//! by
 //! this crate: contact path, diagonal ratios, and T3/T8 by full envelope, rotation-only
 //! envelope and analytic map.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

@@ -45,7 +45,7 @@ impl BeveloidGear {
             cone_angle_rad,
             -MAX_CONE_ANGLE_RAD,
             MAX_CONE_ANGLE_RAD,
-            "-50° ..= 50° (seed 004: cone angle below 50°)",
+            "-50° ..= 50° (JP6903407B2: cone angle below 50°)",
         )?;
         let bev = Self {
             body,
@@ -85,7 +85,8 @@ impl BeveloidGear {
     /// # Formula
     /// x(z) = x0 + z·tan ϑ/m_n
     /// # Source
-    /// Beveloid definition (rack tilted by the cone angle), docs/grinding.md "Conical tool and workpiece"
+    /// Beveloid definition (rack tilted by the cone angle), docs/grinding.md "Conical tool and
+    /// workpiece"
     /// (Zierau, TU Braunschweig report 32) [RECONSTRUCTED].
     pub fn local_profile_shift(&self, z_mm: f64) -> f64 {
         self.body.x_shift + z_mm * self.cone_angle_rad.tan() / self.body.m_n_mm
@@ -121,7 +122,9 @@ impl BeveloidGear {
     /// # Source
     /// Envelope of the rack plane under rolling on the reference cylinder (tangent planes of the
     /// helicoid N(τ)·p = s·r_b·cos β_b·(τ − η)), derived here [RECONSTRUCTED]; reduces to ISO
-    /// 21771:2007 §4–5 [STANDARD] for ϑ = 0; docs/grinding.md "Derivation: flank and chain conventions" (the four combinations of cylindrical/conical tool and workpiece) [RECONSTRUCTED].
+    /// 21771:2007 §4–5 [STANDARD] for ϑ = 0; docs/grinding.md "Derivation: flank and chain
+    /// conventions" (the four combinations of cylindrical/conical tool and workpiece)
+    /// [RECONSTRUCTED].
     pub fn flank(&self, flank: Flank) -> InvoluteFlank {
         let s = flank.sign();
         let m = self.rack_normal(flank);
@@ -215,7 +218,8 @@ impl ConeChain {
     /// # Units
     /// rad, mm.
     /// # Source
-    /// JP6903407B2, eqs. (29)–(31) [SEED]; pivot and sign convention docs/grinding.md "Derivation: flank and chain conventions" and
+    /// JP6903407B2, eqs. (29)–(31) [SEED]; pivot and sign convention docs/grinding.md "Derivation:
+    /// flank and chain conventions" and
     /// §10.2 [RECONSTRUCTED].
     pub fn pose(&self, phi1_rad: f64, z_v1_mm: f64, z_v2_mm: f64, phi2_rad: f64) -> Isometry3<f64> {
         rz(-phi1_rad)
@@ -266,7 +270,8 @@ impl ConeChain {
 /// (29) uses C_FzV21 = 0, C_FzV22 = −1, b_zv2 = 0 ((50), (51), (58)); (30) uses C_FzV11 = −1,
 /// C_FzV12 = 0, b_zv1 = 0 ((63), (64), (71)); cylinder/cylinder (39)/(40)/(45).
 /// # Source
-/// JP6903407B2, eqs. (50)–(91) [SEED form; coefficients LOST]; docs/grinding.md "Derivation: contact path and roll-distance relation"
+/// JP6903407B2, eqs. (50)–(91) [SEED form; coefficients LOST]; docs/grinding.md "Derivation:
+/// contact path and roll-distance relation"
 /// [RECONSTRUCTED]; closed vector forms in [`ConicalPair::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ConicalPath {
@@ -328,7 +333,8 @@ impl ConicalPair {
     /// γ + β_W1 + β_W2 = 0 (R3), with β measured from each cone generatrix in the common rack
     /// plane.
     /// # Source
-    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
+    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance
+    /// relation" [RECONSTRUCTED].
     pub fn reference(worm: &BeveloidGear, gear: &BeveloidGear, flank: Flank) -> Result<Self> {
         let d = worm.reference_radius_mm() + gear.reference_radius_mm();
         let g = -(worm.body.beta_rad + gear.body.beta_rad);
@@ -349,8 +355,9 @@ impl ConicalPair {
     /// C_FzV12 = κ2·u1, C_FzV22 = κ2·(u2 − g2), κ_i = ζ_i + s·C_Fwi·ε_i;
     /// a = (ε1·n)/(ε2·n); b_zv1 = −s·ε1·(u1 − g1) + s·a·ε2·u1; b_zv2 = −s·ε1·u2 + s·a·ε2·(u2 − g2).
     /// # Source
-    /// Digest §4.1 (A1) steps 1–6 and §8.2 [RECONSTRUCTED; VERIFIED for ϑ = 0]; the feed terms
-    /// are the exact derivatives of the affine construction (A1 step 6 takes differences).
+    /// docs/grinding.md "Derivation: contact path and roll-distance relation"
+    /// [RECONSTRUCTED; VERIFIED for ϑ = 0]; the feed terms are the exact derivatives of the affine
+    /// construction.
     pub fn new(
         worm: &BeveloidGear,
         gear: &BeveloidGear,
@@ -580,7 +587,8 @@ impl ConicalPair {
     /// Direction of kinematic-correction modifications ρ_KF (tan ρ_KF = −C_Fw2).
     ///
     /// # Source
-    /// JP6903407B2, eq. (99) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
+    /// JP6903407B2, eq. (99) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance
+    /// relation" [RECONSTRUCTED].
     pub fn rho_kf_rad(&self) -> f64 {
         (-self.path.c_w2).atan()
     }
@@ -593,7 +601,8 @@ impl ConicalPair {
     /// h2 = (d − r_w1 − r_w2)·n_y + z_V2·n·g2 − r_w2·ν2_y − s·r_b2·cos β_b2·(τ2* − φ2 − η2);
     /// h1 = h2 solved for φ1. For ϑ = 0 this is the cylindrical (R4) of [`crate::contact`].
     /// # Source
-    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling" [RECONSTRUCTED]; docs/grinding.md "Independent reference: brute-force envelope".
+    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling"
+    /// [RECONSTRUCTED]; docs/grinding.md "Independent reference: brute-force envelope".
     #[inline]
     pub fn phi1_rad(&self, phi2_rad: f64, z_v1_mm: f64, z_v2_mm: f64) -> f64 {
         let s = self.worm.s();
@@ -615,7 +624,7 @@ impl ConicalPair {
     /// Solve z_F2 = C_Fw2·w_F2 + C_FzV12·F_ZV1(z_V2) + C_FzV22·z_V2 + C_Fc2 for z_V2 (one
     /// step for a constant diagonal ratio; Newton otherwise).
     /// # Source
-    /// Digest §4.4 (A4) step 1 [RECONSTRUCTED].
+    /// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED].
     pub fn contact_feed_mm(&self, coupling: &FeedCoupling, w2_mm: f64, z2_mm: f64) -> Result<f64> {
         check_range(
             "w2_mm",
@@ -703,12 +712,14 @@ impl ConicalPair {
     /// T1 = sin ρ_F1 + C_Fw1·cos ρ_F1, T2 = sin ρ_F2 + C_Fw2·cos ρ_F2;
     /// K_ZV1 = [T2·(T1·b_zv2 + cos ρ_F1·C_FzV21) − T1·a·C_FzV22·cos ρ_F2]
     ///       / [T1·a·C_FzV12·cos ρ_F2 − T2·(T1·b_zv1 + cos ρ_F1·C_FzV11)]
-    /// (the homogeneous form of docs/grinding.md "Derivation: diagonal ratio and line map" with ^C_Fw1·(a, b_zv1, b_zv2) = −(^C_Fw2, ^C_FzV1, ^C_FzV2));
+    /// (the homogeneous form of docs/grinding.md "Derivation: diagonal ratio and line map" with
+    /// ^C_Fw1·(a, b_zv1, b_zv2) = −(^C_Fw2, ^C_FzV1, ^C_FzV2));
     /// cylinder/cylinder: a·T1·cos ρ_F2/(cos ρ_F1·T2).
     /// # Domain
     /// Singular when the denominator vanishes (ρ_F2 = ρ_KF for cylinders) or |K| > 1e4.
     /// # Source
-    /// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, LOST]; docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED].
+    /// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, LOST]; docs/grinding.md "Derivation:
+    /// diagonal ratio and line map" [RECONSTRUCTED].
     pub fn diagonal_ratio(&self, rho1_rad: f64, rho2_rad: f64) -> Result<f64> {
         check_range("rho1_rad", rho1_rad, -3.2, 3.2, "-π ..= π")?;
         check_range("rho2_rad", rho2_rad, -3.2, 3.2, "-π ..= π")?;
@@ -754,7 +765,8 @@ impl ConicalPair {
 /// # Formula
 /// tan ρ_F1 ≈ s/tan β_bF1 (axial-section line; β_bF1 of the conical flank).
 /// # Source
-/// Digest §10.3 [RECONSTRUCTED, estimate only]; exact value from the dressing kinematics (37).
+/// docs/grinding.md "Derivation: axial-section estimate of ρ_F1" [RECONSTRUCTED, estimate
+/// only]; exact value from the dressing kinematics, JP6903407B2 eq. (37).
 pub fn rho1_estimate_rad(worm: &InvoluteFlank) -> f64 {
     (worm.s() / worm.beta_b_rad.tan()).atan()
 }

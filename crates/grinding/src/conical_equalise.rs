@@ -5,7 +5,8 @@
 //! must agree on each flank (eq. (93)), and with the same normal module this fixes the worm
 //! rack's α_nF to the gear's. The crossing angle stays at the reference (R3). What ϑ1 changes
 //! is each worm flank's base radius and base helix angle — differently on the two flanks
-//! (docs/grinding.md "Derivation: equal diagonal ratio on both flanks") — and with them the path coefficients and K_ZV1 of each flank.
+//! (docs/grinding.md "Derivation: equal diagonal ratio on both flanks") — and with them the path
+//! coefficients and K_ZV1 of each flank.
 
 use serde::{Deserialize, Serialize};
 
@@ -68,7 +69,8 @@ pub struct Equalised {
 /// K_F(ϑ1) = K_ZV1 of [`ConicalPair::diagonal_ratio`] for flank F of the worm with cone ϑ1 at
 /// the reference setting, with (ρ_F1, ρ_F2) of that flank.
 /// # Source
-/// JP6903407B2, conical worms for different directions on the two flanks [SEED]; docs/grinding.md "Derivation: equal diagonal ratio on both flanks" [RECONSTRUCTED].
+/// JP6903407B2, conical worms for different directions on the two flanks [SEED]; docs/grinding.md
+/// "Derivation: equal diagonal ratio on both flanks" [RECONSTRUCTED].
 pub fn flank_ratios(spec: &EqualiseSpec, cone1_rad: f64) -> Result<(f64, f64, f64, f64)> {
     let worm = BeveloidGear::new(spec.worm, cone1_rad)?;
     let mut out = [0.0; 4];
@@ -105,7 +107,9 @@ const SCAN_STEPS: usize = 64;
 /// Returns [`GrindError::NoRoot`] when Δ does not change sign in the range (no cone angle in
 /// it equalises the two flanks); a sample where a flank's K is singular is skipped.
 /// # Source
-/// JP6903407B2, conical worms for different directions on the two flanks, conical worm on a conical workpiece [SEED]; docs/grinding.md "Derivation: equal diagonal ratio on both flanks", docs/grinding.md "Independent reference: reference example" [RECONSTRUCTED].
+/// JP6903407B2, conical worms for different directions on the two flanks, conical worm on a conical
+/// workpiece [SEED]; docs/grinding.md "Derivation: equal diagonal ratio on both flanks",
+/// docs/grinding.md "Independent reference: reference example" [RECONSTRUCTED].
 pub fn equalise_worm_cone_angle(spec: &EqualiseSpec) -> Result<Equalised> {
     let (lo, hi) = spec.cone_range_rad;
     check_range(

@@ -138,7 +138,8 @@ fn times_x(p: &Poly, e: f64) -> Poly {
 /// f_Ft2(w_F2, z_F2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w_F1, z_F1), (w_F1, z_F1) from
 /// [`ConicalPair::map_gear_point`] ((77), (86), (76)).
 /// # Source
-/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED].
+/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md
+/// "Derivation: line-class transfer" [RECONSTRUCTED].
 pub fn predicted_gear_f_ft_mm(
     pair: &ConicalPair,
     coupling: &FeedCoupling,
@@ -163,7 +164,8 @@ pub fn predicted_gear_f_ft_mm(
 /// # Domain
 /// a' ≠ 0; see [`conical_line_map`].
 /// # Source
-/// JP6903407B2, eqs. (25), (26), (38), (92)/(95) [SEED form, LOST]; docs/grinding.md "Derivation: line-class transfer"
+/// JP6903407B2, eqs. (25), (26), (38), (92)/(95) [SEED form, LOST]; docs/grinding.md "Derivation:
+/// line-class transfer"
 /// [RECONSTRUCTED], extended here by the feed-dependent (86).
 pub fn gear_modification_from_worm(
     pair: &ConicalPair,
@@ -203,7 +205,8 @@ pub fn gear_modification_from_worm(
 /// # Domain
 /// k ≠ 0 (worm lines not parallel to the worm contact path), a' ≠ 0.
 /// # Source
-/// docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED], conical extension derived here.
+/// docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED], conical extension derived
+/// here.
 pub fn worm_modification_for_gear(
     pair: &ConicalPair,
     wanted: &LineModification,

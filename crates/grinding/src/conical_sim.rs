@@ -21,9 +21,11 @@ pub use crate::envelope::{EnvelopeGrinder, MeshKinematics, SECOND_ORDER_ABS_MM, 
 /// z_F1* = C_Fw1·w_F1* + C_FzV11·z_V1* + C_FzV21·z_V2* + C_Fc1 (76).
 /// # Domain
 /// One coupling makes z_V1 a function of z_V2, so at least two runs whose couplings differ
-/// (e.g. two z_V01) are needed: "at least two different z_V1" (JP6903407B2, text to eqs. (50), (51), (58)).
+/// (e.g. two z_V01) are needed: "at least two different z_V1" (JP6903407B2, text to eqs. (50),
+/// (51), (58)).
 /// # Source
-/// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path fitted from the simulation" [RECONSTRUCTED].
+/// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path fitted
+/// from the simulation" [RECONSTRUCTED].
 pub fn fit_conical_path(runs: &[(&GroundFlank, &FeedCoupling)]) -> Result<ConicalPath> {
     let n: usize = runs.iter().map(|(g, _)| g.grid.len()).sum();
     let mut a2 = DMatrix::zeros(n, 4);

@@ -15,7 +15,8 @@ use crate::flank::{Flank, InvoluteFlank, InvoluteGear};
 /// roll-distance relation (R7)/(45): w_F1 = a·w_F2 + b (a = −cos β_bF1/cos β_bF2 at reference
 /// geometry), equivalently w_F1/cos β_bF1 + w_F2/cos β_bF2 = const.
 /// # Source
-/// JP6903407B2, eqs. (39)–(45) [SEED form; coefficients LOST]; docs/grinding.md "Derivation: contact path and roll-distance relation"
+/// JP6903407B2, eqs. (39)–(45) [SEED form; coefficients LOST]; docs/grinding.md "Derivation:
+/// contact path and roll-distance relation"
 /// [RECONSTRUCTED, VERIFIED]: C_Fw1 = s·tan β_bF1, C_Fw2 = s·tan β_bF2.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ContactPath {
@@ -92,7 +93,8 @@ impl WormGearPair {
     /// # Formula
     /// γ + β_W1 + β_W2 = 0 (R3) with the reference helix angles; d = r1 + r2.
     /// # Source
-    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
+    /// JP6903407B2, (R3) [SEED]; docs/grinding.md "Derivation: contact path and roll-distance
+    /// relation" [RECONSTRUCTED].
     pub fn reference(worm: &InvoluteGear, gear: &InvoluteGear, flank: Flank) -> Result<Self> {
         let d = worm.reference_radius_mm() + gear.reference_radius_mm();
         let g = -(worm.beta_rad + gear.beta_rad);
@@ -108,7 +110,8 @@ impl WormGearPair {
     /// is taken. Planes of action P_i: e_r(τ_i*)·p = r_bi; contact line L = P1 ∩ P2 (direction
     /// n). Path coefficients are read off two points of L (the relations are exactly linear).
     /// # Source
-    /// Digest §4.1 (A1) and §8.2 [RECONSTRUCTED, VERIFIED].
+    /// docs/grinding.md "Derivation: contact path and roll-distance relation"
+    /// [RECONSTRUCTED, VERIFIED].
     pub fn new(
         worm: &InvoluteGear,
         gear: &InvoluteGear,
@@ -295,7 +298,8 @@ impl WormGearPair {
     /// Direction of kinematic-correction modifications ρ_KF (tan ρ_KF = −C_Fw2).
     ///
     /// # Source
-    /// JP6903407B2, eq. (99) [SEED]; formula docs/grinding.md "Derivation: contact path and roll-distance relation" [RECONSTRUCTED].
+    /// JP6903407B2, eq. (99) [SEED]; formula docs/grinding.md "Derivation: contact path and
+    /// roll-distance relation" [RECONSTRUCTED].
     pub fn rho_kf_rad(&self) -> f64 {
         (-self.path.c_w2).atan()
     }
@@ -303,13 +307,15 @@ impl WormGearPair {
     /// Worm rotation that keeps worm and gear flank tangent (generating coupling, R4).
     ///
     /// # Formula
-    /// Tangent-plane offsets measured along the common normal n (docs/grinding.md "Derivation: generating coupling"):
+    /// Tangent-plane offsets measured along the common normal n (docs/grinding.md "Derivation:
+    /// generating coupling"):
     /// h1 = s·r_b1·cos β_b1·(τ1* − φ1 − η1) + n_z·z_V1,
     /// h2 = d·n_y + n2_z·z_V2 − s·r_b2·cos β_b2·(τ2* − φ2 − η2); h1 = h2 solved for φ1.
     /// Consequences: dφ1/dφ2 = −z2/z1, dφ1/dz_V1 = tan β_b1/r_b1 (= 2π/p_z1 for s = +1),
     /// dφ1/dz_V2 = (z2/z1)·tan β_b2/r_b2.
     /// # Source
-    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling" [RECONSTRUCTED, VERIFIED];
+    /// JP6903407B2, (R4) [SEED, formula LOST]; docs/grinding.md "Derivation: generating coupling"
+    /// [RECONSTRUCTED, VERIFIED];
     /// docs/grinding.md "Independent reference: brute-force envelope".
     #[inline]
     pub fn phi1_rad(&self, phi2_rad: f64, z_v1_mm: f64, z_v2_mm: f64) -> f64 {
@@ -393,7 +399,8 @@ mod tests {
         WormGearPair::reference(&worm, &gear, flank).unwrap()
     }
 
-    /// T4/T5: docs/grinding.md "Independent reference: reference example" numbers (independent calculation), tolerance 1e-6 as printed.
+    /// T4/T5: docs/grinding.md "Independent reference: reference example" numbers (independent
+    /// calculation), tolerance 1e-6 as printed.
     #[test]
     fn t4_t5_contact_path_reference_example() {
         let p = example(Flank::Right);
@@ -417,7 +424,8 @@ mod tests {
         assert_relative_eq!(p.rho_kf_rad().to_degrees(), -14.076095, epsilon = 1e-6);
     }
 
-    /// Left flank: all C_Fw and C_Fc change sign (docs/grinding.md "Independent reference: reference example").
+    /// Left flank: all C_Fw and C_Fc change sign (docs/grinding.md "Independent reference:
+    /// reference example").
     #[test]
     fn t6_left_flank_mirrors_coefficients() {
         let r = example(Flank::Right);
@@ -451,7 +459,8 @@ mod tests {
         }
     }
 
-    /// T5 cross-check (docs/grinding.md "Derivation: contact path and roll-distance relation"): at the mapped state both real surfaces pass through
+    /// T5 cross-check (docs/grinding.md "Derivation: contact path and roll-distance relation"): at
+    /// the mapped state both real surfaces pass through
     /// the predicted point, with normals +n (worm) and −n (gear), for arbitrary feeds.
     #[test]
     fn mapped_points_are_real_contacts() {

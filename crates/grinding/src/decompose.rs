@@ -12,9 +12,11 @@ use crate::modification::{FlankModification, LineModification, Poly, Poly2};
 /// # Formula
 /// f(w, z) = K_F00 + K_F01·X + K_F02·X² + (K_F10 + K_F11·X)·w + K_KF1·X_K + K_KF2·X_K²,
 /// X = w·sin ρ_F + z·cos ρ_F, X_K = w·sin ρ_KF + z·cos ρ_KF.
-/// K_F10 is free (it sets the dresser swivel C5; JP6903407B2 text to (101)/(102): seven coefficients, one free); the rest follows from it.
+/// K_F10 is free (it sets the dresser swivel C5; JP6903407B2 text to (101)/(102): seven
+/// coefficients, one free); the rest follows from it.
 /// # Source
-/// JP6903407B2, eqs. (99)–(102), quadratic modifications in w and z [SEED text; equations LOST]; docs/grinding.md "Decomposition"
+/// JP6903407B2, eqs. (99)–(102), quadratic modifications in w and z [SEED text; equations LOST];
+/// docs/grinding.md "Decomposition"
 /// [RECONSTRUCTED, VERIFIED].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Decomposition {
@@ -85,7 +87,8 @@ pub struct Sample {
 /// Singular (error) when ρ_F = ±π/2 or ρ_F = ρ_KF (det of the quadratic part is
 /// −cos ρ_F·sin²(ρ_F − ρ_KF)), or when the samples do not span the quadratic polynomials.
 /// # Source
-/// JP6903407B2, text to eq. (100) (decomposition by curve fitting) [SEED]; basis per docs/grinding.md "Decomposition" [RECONSTRUCTED].
+/// JP6903407B2, text to eq. (100) (decomposition by curve fitting) [SEED]; basis per
+/// docs/grinding.md "Decomposition" [RECONSTRUCTED].
 pub fn decompose_weighted(
     samples: &[Sample],
     rho_rad: f64,
@@ -209,7 +212,7 @@ fn lerp(r: (f64, f64), i: usize, n: usize) -> f64 {
 /// K_F02·(s², 2sc, c²) + K_F11·(s, c, 0) + K_KF2·(s_K², 2s_K·c_K, c_K²) = (c20, c11, c02);
 /// K_F01·(s, c) + K_F10·(1, 0) + K_KF1·(s_K, c_K) = (c10, c01); K_F00 = c00.
 /// # Source
-/// Digest §8.4 [RECONSTRUCTED, VERIFIED].
+/// docs/grinding.md "Decomposition" [RECONSTRUCTED, VERIFIED].
 pub fn decompose_poly2(
     f: &Poly2,
     rho_rad: f64,
@@ -405,9 +408,11 @@ impl FlankModification for GeneralDecomposition {
 /// in that order and a term whose column lies in the span of the accepted ones (relative
 /// residual < 1e-9 after two projections) is dropped, coefficient 0, and listed in
 /// `dropped`. A profile part therefore takes the pure-w content first (the dresser makes
-/// profile modifications; JP6903407B2, "Superimposition with other modifications"), the kinematic part only what nothing else can make.
+/// profile modifications; JP6903407B2, "Superimposition with other modifications"), the kinematic
+/// part only what nothing else can make.
 /// # Source
-/// JP6903407B2, eqs. (97)–(100), "Superimposition with other modifications" [SEED; (100) LOST]; form per docs/grinding.md "Decomposition"
+/// JP6903407B2, eqs. (97)–(100), "Superimposition with other modifications" [SEED; (100) LOST];
+/// form per docs/grinding.md "Decomposition"
 /// [RECONSTRUCTED].
 pub fn decompose_general(
     samples: &[Sample],
@@ -539,7 +544,8 @@ mod tests {
         }
     }
 
-    /// T9: docs/grinding.md "Independent reference: reference example" numbers (independent calculation), relative 1e-6 of the printed values.
+    /// T9: docs/grinding.md "Independent reference: reference example" numbers (independent
+    /// calculation), relative 1e-6 of the printed values.
     #[test]
     fn t9_untwisted_crowning_decomposition() {
         let rho = 45f64.to_radians();

@@ -31,8 +31,8 @@ pub struct LineMap {
 /// # Formula
 /// tan ρ_F1 ≈ s/tan β_bF1 (an axial-section line, dz1/dw1 ≈ −s/tan β_b1).
 /// # Source
-/// Digest §10.3 [RECONSTRUCTED, estimate only]; the exact value comes from the dressing
-/// kinematics, eq. (37) [SEED].
+/// docs/grinding.md "Derivation: axial-section estimate of ρ_F1" [RECONSTRUCTED, estimate
+/// only]; the exact value comes from the dressing kinematics, JP6903407B2 eq. (37) [SEED].
 pub fn rho1_estimate_rad(pair: &WormGearPair) -> f64 {
     (pair.worm.s() / pair.worm.beta_b_rad.tan()).atan()
 }
@@ -47,7 +47,8 @@ pub fn rho1_estimate_rad(pair: &WormGearPair) -> f64 {
 /// Singular for T2 = 0 (ρ_F2 = ρ_KF: no finite K; such modifications come from the kinematics)
 /// and for cos ρ_F1 = 0; |K_ZV1| > 1e4 is reported as singular too.
 /// # Source
-/// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, equation LOST]; docs/grinding.md "Derivation: diagonal ratio and line map"
+/// JP6903407B2, text to eqs. (36)/(49), eq. (49) [SEED, equation LOST]; docs/grinding.md
+/// "Derivation: diagonal ratio and line map"
 /// [RECONSTRUCTED, VERIFIED].
 pub fn diagonal_ratio(pair: &WormGearPair, rho1_rad: f64, rho2_rad: f64) -> Result<f64> {
     check_range("rho1_rad", rho1_rad, -3.2, 3.2, "-π ..= π")?;
@@ -88,7 +89,8 @@ pub fn diagonal_ratio(pair: &WormGearPair, rho1_rad: f64, rho2_rad: f64) -> Resu
 /// k = K·cos ρ_F1/cos ρ_F2 (or (a·T1 − K·cos ρ_F1·C_Fw2)/sin ρ_F2 when |sin ρ_F2| > |cos ρ_F2|),
 /// c0 = b·T1 + cos ρ_F1·(C_Fc1 − K·C_Fc2 − z_V01).
 /// # Source
-/// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED, VERIFIED]; z_V01 selects the worm region (JP6903407B2, text to eq. (36) [SEED]).
+/// docs/grinding.md "Derivation: diagonal ratio and line map" [RECONSTRUCTED, VERIFIED]; z_V01
+/// selects the worm region (JP6903407B2, text to eq. (36) [SEED]).
 pub fn line_map(
     pair: &WormGearPair,
     rho1_rad: f64,
@@ -124,8 +126,10 @@ pub fn line_map(
 /// # Formula
 /// f_Ft2(w_F2, z_F2) = −(cos β_bF1/cos β_bF2)·f_Ft1(w_F1, z_F1) at the associated worm point.
 /// # Source
-/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED, VERIFIED
-/// against a brute-force envelope to 0.2–0.6 %, docs/grinding.md "Independent reference: brute-force envelope"].
+/// JP6903407B2, eq. (38) and its text (f_nF2 = −f_nF1) [SEED]; (95) [LOST] per docs/grinding.md
+/// "Derivation: line-class transfer" [RECONSTRUCTED, VERIFIED
+/// against a brute-force envelope to 0.2–0.6 %, docs/grinding.md "Independent reference:
+/// brute-force envelope"].
 #[inline]
 pub fn predicted_gear_f_ft_mm(
     pair: &WormGearPair,
@@ -210,7 +214,8 @@ pub fn worm_modification_for_gear(
 /// F_ZV1(z_V2) = (w_F1·T1 + cos ρ_F1·C_Fc1 − X_F1)/cos ρ_F1 for z_V2 (Newton from the
 /// linearised root), then z_F2 = C_Fw2·w_F2 + C_Fc2 − z_V2 (40).
 /// # Source
-/// JP6903407B2, (R20), eqs. (94), (96) [SEED]; docs/grinding.md "Derivation: variable diagonal ratio" [RECONSTRUCTED].
+/// JP6903407B2, (R20), eqs. (94), (96) [SEED]; docs/grinding.md "Derivation: variable diagonal
+/// ratio" [RECONSTRUCTED].
 pub fn worm_line_path_z2_mm(
     pair: &WormGearPair,
     coupling: &FeedCoupling,
@@ -270,7 +275,8 @@ mod tests {
         WormGearPair::reference(&worm, &gear, flank).unwrap()
     }
 
-    /// T7: docs/grinding.md "Independent reference: reference example" diagonal ratios (independent calculation), 1e-6.
+    /// T7: docs/grinding.md "Independent reference: reference example" diagonal ratios (independent
+    /// calculation), 1e-6.
     #[test]
     fn t7_diagonal_ratio_values() {
         let p = pair(Flank::Right, 20.0);
@@ -329,7 +335,8 @@ mod tests {
         );
     }
 
-    /// T8 (analytic values of docs/grinding.md "Independent reference: brute-force envelope"): predicted gear f_Ft2 in µm at four points.
+    /// T8 (analytic values of docs/grinding.md "Independent reference: brute-force envelope"):
+    /// predicted gear f_Ft2 in µm at four points.
     #[test]
     fn t8_analytic_map_values() {
         let p = pair(Flank::Right, 20.0);
@@ -402,7 +409,8 @@ mod tests {
     }
 
     /// T11: variable diagonal ratio F_ZV1 = 0.5·z_V2 + 0.01·z_V2², worm line X1 = 40 and
-    /// X1 + 0.7: translates along (1, C_Fw2) by t = −0.678982 (docs/grinding.md "Independent reference: reference example"), 1e-6.
+    /// X1 + 0.7: translates along (1, C_Fw2) by t = −0.678982 (docs/grinding.md "Independent
+    /// reference: reference example"), 1e-6.
     #[test]
     fn t11_variable_diagonal_paths() {
         let p = pair(Flank::Right, 20.0);

@@ -279,7 +279,8 @@ impl DressedWorm {
     /// `pair`, from (R7) w1 = a·w2 + b.
     ///
     /// # Source
-    /// Digest §8.2 (45) [RECONSTRUCTED, VERIFIED].
+    /// JP6903407B2 (45); docs/grinding.md "Derivation: contact path and roll-distance relation"
+    /// [RECONSTRUCTED, VERIFIED].
     pub fn used_roll_range_mm(pair: &WormGearPair, w2_range_mm: (f64, f64)) -> (f64, f64) {
         let a = pair.path.a * w2_range_mm.0 + pair.path.b_mm;
         let b = pair.path.a * w2_range_mm.1 + pair.path.b_mm;
@@ -380,7 +381,8 @@ mod tests {
     }
 
     /// (38): the transverse value is the normal one over cos β_b1 (0.342192 for the reference
-    /// worm, docs/grinding.md "Independent reference: reference example"), the gradient along w is the spline slope, none along z.
+    /// worm, docs/grinding.md "Independent reference: reference example"), the gradient along w is
+    /// the spline slope, none along z.
     #[test]
     fn normal_to_transverse_38() {
         let wf = worm_flank();

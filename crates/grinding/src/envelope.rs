@@ -7,7 +7,8 @@
 //! coupling, shortens it to where it meets the worm flank. The final length is the ground
 //! normal deviation f_n2, and the worm point (w_F1, z_F1) and feed of the shortest cut are
 //! stored with it. Instead of discrete time steps (which leave feed marks) the shortest cut is
-//! found by minimising over rotation and feed directly ("exact-time" variant, docs/grinding.md "Independent reference: brute-force envelope").
+//! found by minimising over rotation and feed directly ("exact-time" variant, docs/grinding.md
+//! "Independent reference: brute-force envelope").
 //!
 //! The contact-path fits built on its results live in [`crate::simulate`] (cylindrical chain)
 //! and [`crate::conical_sim`] (any chain, two or more feed couplings).
@@ -26,9 +27,11 @@ use crate::modification::FlankModification;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum EnvelopeMode {
     /// Rotation only, at the feed where the analytic contact path (40) passes the point (the
-    /// restricted envelope: the rotation-only numbers of docs/grinding.md "Independent reference: brute-force envelope").
+    /// restricted envelope: the rotation-only numbers of docs/grinding.md "Independent reference:
+    /// brute-force envelope").
     RotationOnly,
-    /// Rotation and feed (the true envelope, docs/grinding.md "Independent reference: brute-force envelope").
+    /// Rotation and feed (the true envelope, docs/grinding.md "Independent reference: brute-force
+    /// envelope").
     RotationAndFeed,
 }
 
@@ -402,7 +405,8 @@ impl<'a, M: MeshKinematics + ?Sized> EnvelopeGrinder<'a, M> {
     /// p1 = K_R·P, d1 = K_R·N (chains (28)–(31), φ1 from (R4), z_V1 = F_ZV1(z_V2)); solve
     /// E1(w1, z1) + cos β_b1·f_Ft1(w1, z1)·N1(w1, z1) = p1 + t·d1 by Newton.
     /// # Source
-    /// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path fitted from the simulation" [RECONSTRUCTED].
+    /// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path
+    /// fitted from the simulation" [RECONSTRUCTED].
     fn distance(
         &self,
         p: &Vector3<f64>,

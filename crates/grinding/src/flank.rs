@@ -8,7 +8,8 @@ use crate::error::{check_range, GrindError, Result};
 
 /// Which flank of a tooth (or worm thread).
 ///
-/// Convention (fixed here [RECONSTRUCTED], docs/grinding.md "Derivation: flank and chain conventions"): seen from the +z end face with the
+/// Convention (fixed here [RECONSTRUCTED], docs/grinding.md "Derivation: flank and chain
+/// conventions"): seen from the +z end face with the
 /// tooth tip up, the right flank is on the right; its outward normal points clockwise, and its
 /// flank sign is s = +1. The left flank has s = −1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -128,7 +129,8 @@ impl InvoluteGear {
     /// # Formula
     /// cos β1 = z1·m_n/(2·r1) (reference radius r = z·m_n/(2 cos β)); sign of β1 from the hand.
     /// # Source
-    /// ISO 21771:2007 eq. for the reference diameter [STANDARD]; docs/grinding.md "Independent reference: reference example" (worm of the
+    /// ISO 21771:2007 eq. for the reference diameter [STANDARD]; docs/grinding.md "Independent
+    /// reference: reference example" (worm of the
     /// reference example) [RECONSTRUCTED].
     pub fn worm(
         starts: u32,
@@ -181,7 +183,8 @@ impl InvoluteGear {
     /// ψ_b = s_t/(2r) + inv α_t with s_t = m_t·(π/2 + 2x·tan α_n); η = −s·ψ_b;
     /// w_P = r_b·tan α_t (roll distance of the reference circle).
     /// # Source
-    /// ISO 21771:2007 §4–5 [STANDARD]; docs/grinding.md "Derivation: flank and chain conventions" [RECONSTRUCTED].
+    /// ISO 21771:2007 §4–5 [STANDARD]; docs/grinding.md "Derivation: flank and chain conventions"
+    /// [RECONSTRUCTED].
     pub fn flank(&self, flank: Flank) -> InvoluteFlank {
         let alpha_n = self.alpha_n_rad(flank);
         let r = self.reference_radius_mm();
@@ -269,7 +272,8 @@ impl InvoluteGear {
 /// # Units
 /// mm, rad. w ≥ 0 is the roll distance (w = √(r² − r_b²)); z is the width position.
 /// # Source
-/// docs/grinding.md "Derivation: flank and chain conventions", the lost eq. (27) [RECONSTRUCTED, VERIFIED by a Newton check of the mesh].
+/// docs/grinding.md "Derivation: flank and chain conventions", the lost eq. (27) [RECONSTRUCTED,
+/// VERIFIED by a Newton check of the mesh].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct InvoluteFlank {
     /// Which flank.
@@ -367,7 +371,8 @@ mod tests {
         InvoluteGear::new(31, 3.0, 20f64.to_radians(), 15f64.to_radians()).unwrap()
     }
 
-    /// Digest §9.2 reference numbers (independent calculation), 1e-6 as printed.
+    /// docs/grinding.md "Independent reference: reference example" numbers (independent
+    /// calculation), 1e-6 as printed.
     #[test]
     fn reference_example_dimensions() {
         let g = gear();
@@ -384,7 +389,8 @@ mod tests {
         assert_relative_eq!(wf.beta_b_rad.to_degrees(), 69.989523, epsilon = 1e-6);
         assert_relative_eq!(wf.w_ref_mm, 129.934724, epsilon = 1e-6);
         assert_relative_eq!(wf.lead_mm(), 9.425405, epsilon = 1e-6);
-        // Normal base pitch π·m_n·cos α_n = 8.856394 mm for both (docs/grinding.md "Independent reference: reference example").
+        // Normal base pitch π·m_n·cos α_n = 8.856394 mm for both (docs/grinding.md "Independent
+        // reference: reference example").
         assert_relative_eq!(
             g.normal_base_pitch_mm(Flank::Right),
             8.856394,

@@ -1,7 +1,8 @@
 //! Worm–workpiece kinematics: the kinematic chain (28), the feed coupling (36)/(94) and the
 //! machine chain (34) with its inverse.
 //!
-//! Convention (fixed here, docs/grinding.md "Derivation: flank and chain conventions" [RECONSTRUCTED]): K_R maps workpiece
+//! Convention (fixed here, docs/grinding.md "Derivation: flank and chain conventions"
+//! [RECONSTRUCTED]): K_R maps workpiece
 //! coordinates p2 to tool (worm) coordinates p1 = K_R·p2. In the space frame the worm axis is
 //! z, the common perpendicular of the axes is y, the workpiece axis passes through (0, d, 0)
 //! with direction R_y(γ)·e_z.

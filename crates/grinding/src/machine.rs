@@ -12,7 +12,8 @@
 //!
 //! H_Bsp2 = R_z(φ_B1)·R_x(90° − φ_A1)·T_y(−ν_Y1)·T_z(−ν_Z1)·T_x(−ν_X1)·R_z(φ_C2)
 //!
-//! (the same probable typo is discussed in the section cited below). See `docs/grinding.md`, "Machine chain (35)".
+//! (the same probable typo is discussed in the section cited below). See `docs/grinding.md`,
+//! "Machine chain (35)".
 
 use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};

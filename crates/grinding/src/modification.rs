@@ -101,7 +101,8 @@ impl Poly {
 /// # Units
 /// mm; F_C in mm, F_L in mm/mm, F_Q in 1/mm (each a polynomial in X/mm).
 /// # Source
-/// JP6903407B2, eqs. (25), (26) [SEED form; (25) partly LOST, docs/grinding.md "Derivation: line-class transfer"].
+/// JP6903407B2, eqs. (25), (26) [SEED form; (25) partly LOST, docs/grinding.md "Derivation:
+/// line-class transfer"].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct LineModification {
     /// Direction ρ in rad.

@@ -25,7 +25,8 @@ pub type Grinder<'a> = crate::envelope::EnvelopeGrinder<'a, WormGearPair>;
 /// w_F1* = a·w_F2 + b (R7); z_F1* + z_V1* = C_Fw1·w_F1* + C_Fc1 (39), where * marks the
 /// stored state of each point's shortest cut.
 /// # Source
-/// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path fitted from the simulation" [RECONSTRUCTED].
+/// JP6903407B2, (R6)/(R7) by simulation [SEED]; docs/grinding.md "Derivation: contact path fitted
+/// from the simulation" [RECONSTRUCTED].
 pub fn fit_contact_path(ground: &GroundFlank, coupling: &FeedCoupling) -> Result<ContactPath> {
     let g = ground.grid;
     let n = g.len();

@@ -82,7 +82,8 @@ const BASIS_DEGREES: (usize, usize, usize) = (4, 3, 2);
 /// degree ≥ 4, F_L ≥ 3, F_Q ≥ 2 in X; SVD, rank-deficient columns dropped),
 /// M_{k+1} = M_k + T⁻¹(E_k), until max|W − G_k| ≤ max(rel_tol·max|W|, abs_tol).
 /// # Source
-/// T⁻¹: docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED]; the fixed-point iteration on the envelope is
+/// T⁻¹: docs/grinding.md "Derivation: line-class transfer" [RECONSTRUCTED]; the fixed-point
+/// iteration on the envelope is
 /// ours (docs/grinding.md, "Iterated solve").
 #[allow(clippy::too_many_arguments)]
 pub fn solve_iterated(

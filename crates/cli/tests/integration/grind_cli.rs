@@ -1,5 +1,7 @@
-//! `gearcomp grind` end to end: the reference example of JP6903407B2, part 2 (docs/grinding.md "Independent reference: reference example") with the
-//! T8 worm; numbers checked against docs/grinding.md "Independent reference: brute-force envelope" (true
+//! `gearcomp grind` end to end: the reference example of JP6903407B2, part 2 (docs/grinding.md
+//! "Independent reference: reference example") with the
+//! T8 worm; numbers checked against docs/grinding.md "Independent reference: brute-force envelope"
+//! (true
 //! envelope and analytic map).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -28,8 +30,11 @@ fn at(v: &serde_json::Value, key: &str, w: f64, z: f64) -> f64 {
     v["map"][key][i][j].as_f64().unwrap()
 }
 
-/// T8 through the CLI: ground values vs the true envelope (docs/grinding.md "Independent reference: brute-force envelope", true envelope), analytic
-/// values vs the analytic values of docs/grinding.md "Independent reference: brute-force envelope"), contact path and K as in docs/grinding.md "Independent reference: reference example".
+/// T8 through the CLI: ground values vs the true envelope (docs/grinding.md "Independent reference:
+/// brute-force envelope", true envelope), analytic
+/// values vs the analytic values of docs/grinding.md "Independent reference: brute-force
+/// envelope"), contact path and K as in docs/grinding.md "Independent reference: reference
+/// example".
 #[test]
 fn grind_simulate_t8_matches_reference_envelope() {
     let v = json(&[&["grind", "simulate"][..], &T8_WORM_ARGS[..]].concat());

@@ -1,5 +1,6 @@
 //! `gearcomp grind simulate --gear-cone-deg/--worm-cone-deg`: grinding on the conical chains
-//! (29)–(31) through the CLI. References: the cylindrical run itself (cone angles 0), docs/grinding.md "Independent reference: brute-force envelope"
+//! (29)–(31) through the CLI. References: the cylindrical run itself (cone angles 0),
+//! docs/grinding.md "Independent reference: brute-force envelope"
 //! (independent brute-force envelope, T8) reached through the conical chain at a vanishing
 //! cone, zero deviation for an unmodified worm (T1 level of the library, 1e-9 mm), and the
 //! closed form f_n2 = −f_n1 for a uniform worm stock with the beveloid base helix angles
@@ -8,7 +9,8 @@
 
 use crate::common::{gearcomp, gearcomp_json, write_config, T8_WORM_ARGS};
 
-/// Reference example of docs/grinding.md "Independent reference: reference example" (defaults: z2 = 31, m_n = 3, α_n = 20°, β = 15°,
+/// Reference example of docs/grinding.md "Independent reference: reference example" (defaults: z2 =
+/// 31, m_n = 3, α_n = 20°, β = 15°,
 /// z1 = 1, r1 = 130 mm, b = 30 mm), roll range 11…23 mm.
 const ROLL: [&str; 4] = ["--roll-start-mm", "11", "--roll-end-mm", "23"];
 
@@ -68,7 +70,8 @@ fn t8_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
 
 /// (a) Cone angles 0 are the cylindrical run: the same JSON (maps, path, ISO evaluation) and
 /// the same table as without the options, and that run still hits the independent T8 numbers
-/// (docs/grinding.md "Independent reference: brute-force envelope" −13.6759 / −5.7648 µm, C_Fw2 0.250739, (R7) sum 397.213083 mm).
+/// (docs/grinding.md "Independent reference: brute-force envelope" −13.6759 / −5.7648 µm, C_Fw2
+/// 0.250739, (R7) sum 397.213083 mm).
 #[test]
 fn zero_cone_angles_are_the_cylindrical_run() {
     let plain = json(&t8_args(&[]));
@@ -91,7 +94,8 @@ fn zero_cone_angles_are_the_cylindrical_run() {
 }
 
 /// The conical branch at a vanishing cone (1e-9° on both bodies, chain (31)) reaches the
-/// independent cylindrical references: docs/grinding.md "Independent reference: brute-force envelope" values and the analytic map
+/// independent cylindrical references: docs/grinding.md "Independent reference: brute-force
+/// envelope" values and the analytic map
 /// for T8, K(20°, 45°) = −0.877178 from the conical diagonal ratio, C_Fw2 = 0.250739.
 #[test]
 fn vanishing_cone_reaches_the_cylindrical_references() {

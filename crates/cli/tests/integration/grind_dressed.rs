@@ -2,7 +2,8 @@
 //! the gear is evaluated against ISO 1328-1 (issue 7 item 5, closing the loop).
 //!
 //! References: the closed-form offset r_b·cos β_b·Δφ = 1.40954 µm per 1e-3 rad of a 1-start
-//! m_n = 3, α_n = 20° worm (= normal base pitch/2π·Δφ), docs/dressing.md "Reference case G1-Z5" (replacement D3 and its
+//! m_n = 3, α_n = 20° worm (= normal base pitch/2π·Δφ), docs/dressing.md "Reference case G1-Z5"
+//! (replacement D3 and its
 //! c = 2 µm stress case on G1-Z5: active profile, targets, ΔK), and f_n2 = −f_n1 at associated
 //! points (JP6903407B2 text to eq. (38)).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -18,7 +19,8 @@ fn write_config_here(name: &str, text: &str) -> PathBuf {
 use std::path::PathBuf;
 use std::process::Command;
 
-/// Worm G1 (docs/dressing.md "Reference case G1 and its worms") (1 start, d_S0 = 280 mm) and its dresser.
+/// Worm G1 (docs/dressing.md "Reference case G1 and its worms") (1 start, d_S0 = 280 mm) and its
+/// dresser.
 const G1: &str = r#"
 [worm]
 starts = 1
@@ -129,7 +131,8 @@ fn dphi_gives_the_closed_form_offset_through_the_chain() {
     }
 }
 
-/// (c) 3-point crowning c = 0.2 µm on G1-Z5 (docs/dressing.md "Reference case G1-Z5": active profile
+/// (c) 3-point crowning c = 0.2 µm on G1-Z5 (docs/dressing.md "Reference case G1-Z5": active
+/// profile
 /// [74.17113, 80.56555] mm, targets at 74.49085 / 77.36834 / 80.24583 mm). The gear points
 /// associated (R7) with the three targets get f_n2 = −(0, −c, 0) = (0, +c, 0): profile crowning
 /// +c on the gear, within 1 % of c; envelope and analytic map agree within 1 % of c. The 5 %
@@ -162,7 +165,8 @@ fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     );
     let d = &v["dressed_worm"];
     assert_eq!(d["correction"], "three-point");
-    // docs/dressing.md "Reference case G1-Z5", 3-point root: ΔK = (6.057e-4 rad, 0.5580°, −0.02450 mm, −1.0413 mm)
+    // docs/dressing.md "Reference case G1-Z5", 3-point root: ΔK = (6.057e-4 rad, 0.5580°, −0.02450
+    // mm, −1.0413 mm)
     let rel = |k: &str, want: f64| ((d[k].as_f64().unwrap() - want) / want).abs();
     assert!(rel("dphi_s_rad", 6.057e-4) < 1e-3 && rel("dgamma_deg", 0.5580) < 1e-3);
     assert!(rel("dd_mm", -0.02450) < 1e-3 && rel("dnu_ya_mm", -1.0413) < 1e-3);
@@ -186,7 +190,8 @@ fn three_point_crowned_worm_grinds_gear_profile_crowning() {
     assert!(v["max_abs_ground_minus_analytic_um"].as_f64().unwrap() < tol);
 }
 
-/// The c = 2 µm stress case of docs/dressing.md "Reference case G1-Z5": the dressing solve inside `grind` finds the published
+/// The c = 2 µm stress case of docs/dressing.md "Reference case G1-Z5": the dressing solve inside
+/// `grind` finds the published
 /// ΔK = (0.04008 rad, 4.2477°, −0.7150 mm, −3.4269 mm); the gear (class 6) is in tolerance,
 /// envelope and analytic map agree within 1 % of c, and the table output names the parts.
 #[test]

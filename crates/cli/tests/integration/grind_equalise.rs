@@ -1,5 +1,6 @@
 //! `gearcomp grind equalise`: the worm cone angle ϑ1 that gives both flanks the same diagonal
-//! ratio (A6/T14). Reference numbers: docs/grinding.md "Independent reference: reference example" (K = −0.877178 for ρ_F1 = 20°,
+//! ratio (A6/T14). Reference numbers: docs/grinding.md "Independent reference: reference example"
+//! (K = −0.877178 for ρ_F1 = 20°,
 //! ρ_F2 = 45°; the asymmetric gear's cylindrical-worm K_r = −0.878547), and the library's T14
 //! root for the asymmetric example (docs/grinding.md: ϑ1 = 0.114662°, K = −0.877781).
 #![allow(clippy::unwrap_used, clippy::expect_used)]

@@ -1,5 +1,6 @@
 //! Conical (beveloid) bodies: chains (29)–(31), beveloid flanks, contact path (76)/(77)/(86).
-//! References: the cylindrical chain (28) and contact path (docs/grinding.md "Independent reference: reference example" numbers), the ISO
+//! References: the cylindrical chain (28) and contact path (docs/grinding.md "Independent
+//! reference: reference example" numbers), the ISO
 //! tooth-thickness formula of a spur gear with the local profile shift x(z) = x0 + z·tan ϑ/m_n,
 //! the rack geometry written out here, and independent surface checks.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -205,7 +206,8 @@ fn helical_beveloid_thickness_grows_with_profile_shift() {
 }
 
 /// ϑ1 = ϑ2 = 0: the conical construction gives the cylindrical contact path, the numbers of
-/// docs/grinding.md "Independent reference: reference example", the feed coefficients (−1, 0, 0, −1), the same generating coupling and T7's K.
+/// docs/grinding.md "Independent reference: reference example", the feed coefficients (−1, 0, 0,
+/// −1), the same generating coupling and T7's K.
 #[test]
 fn conical_path_reduces_to_cylinder() {
     for flank in [Flank::Right, Flank::Left] {

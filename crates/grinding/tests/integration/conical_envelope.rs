@@ -116,7 +116,8 @@ fn generic_envelope_equals_cylindrical_grinder() {
     .unwrap();
     let a = Grinder::new(&p, &cpl, &m, EnvelopeMode::RotationAndFeed);
     let b = EnvelopeGrinder::new(&p, &cpl, &m, EnvelopeMode::RotationAndFeed);
-    // docs/grinding.md "Independent reference: brute-force envelope", true envelope, at (15, 0): −13.6759 µm
+    // docs/grinding.md "Independent reference: brute-force envelope", true envelope, at (15, 0):
+    // −13.6759 µm
     let qa = a.grind_point(15.0, 0.0).unwrap();
     let qb = b.grind_point(15.0, 0.0).unwrap();
     assert!((qa.f_ft_mm - qb.f_ft_mm).abs() < 1e-9);

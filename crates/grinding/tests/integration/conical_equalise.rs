@@ -13,7 +13,8 @@ use gearcomp_grinding::modification::{LineModification, Poly};
 use gearcomp_grinding::simulate::EnvelopeMode;
 use gearcomp_grinding::GrindError;
 
-/// Gear and worm with α_n,r / α_n,l (T6 of docs/grinding.md "Independent reference: reference example" uses 25° / 20°).
+/// Gear and worm with α_n,r / α_n,l (T6 of docs/grinding.md "Independent reference: reference
+/// example" uses 25° / 20°).
 fn spec(alpha_r_deg: f64, alpha_l_deg: f64, rho_r2_deg: f64, rho_l2_deg: f64) -> EqualiseSpec {
     let (ar, al) = (alpha_r_deg.to_radians(), alpha_l_deg.to_radians());
     let gear = InvoluteGear::asymmetric(31, 3.0, ar, al, 15f64.to_radians(), 0.0).unwrap();
@@ -85,7 +86,8 @@ fn axial_section_lines_have_no_root_in_range() {
     }
 }
 
-/// Different wanted directions on a symmetric gear (JP6903407B2, conical worms: "also for different directions on
+/// Different wanted directions on a symmetric gear (JP6903407B2, conical worms: "also for different
+/// directions on
 /// the two flanks"): ρ_r2 = 45°, ρ_l2 = −44°.
 #[test]
 fn different_directions_are_equalised() {
@@ -149,7 +151,8 @@ fn spread(v: &[f64; 3]) -> f64 {
     v.iter().fold(f64::MIN, |a, b| a.max(*b)) - v.iter().fold(f64::MAX, |a, b| a.min(*b))
 }
 
-/// Acceptance test of A6 (docs/grinding.md "Independent reference: reference example", T14): at the found ϑ1 the envelope simulation of both flanks
+/// Acceptance test of A6 (docs/grinding.md "Independent reference: reference example", T14): at the
+/// found ϑ1 the envelope simulation of both flanks
 /// with the one common K maps a worm modification constant along the worm lines onto a gear
 /// modification constant along the wanted lines of both flanks (spread < 0.01 µm at ~26 µm),
 /// equal to the first-order prediction within T8's 0.5 %. Where the two flanks' K differ

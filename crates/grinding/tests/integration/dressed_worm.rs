@@ -1,7 +1,8 @@
 //! Closing the loop: a worm dressed by `gearcomp-dressing` grinds a gear here.
 //!
 //! References: the closed-form offset r_b·cos β_b·Δφ of a rotated involute helicoid (T2), the
-//! docs/dressing.md "Reference case G1-Z5" profile of the 3-point crowned G1-Z5 worm (an independent reference
+//! docs/dressing.md "Reference case G1-Z5" profile of the 3-point crowned G1-Z5 worm (an
+//! independent reference
 //! calculation), and the first-order worm → gear relation f_n2 = −f_n1 at associated points
 //! (JP6903407B2 text to eq. (38), docs/grinding.md "Independent reference: reference example").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -52,7 +53,8 @@ fn dressed_profile(setup: &DressingSetup, flank: Flank, dk: &AxisCorrection) -> 
     .unwrap()
 }
 
-/// Gear G1 (docs/dressing.md "Reference case G1 and its worms"): z = 40, m_n = 3, α_n = 20°, β = 15° right hand.
+/// Gear G1 (docs/dressing.md "Reference case G1 and its worms"): z = 40, m_n = 3, α_n = 20°, β =
+/// 15° right hand.
 fn gear_g1() -> InvoluteGear {
     InvoluteGear::new(40, 3.0, 20f64.to_radians(), 15f64.to_radians()).unwrap()
 }
@@ -144,13 +146,15 @@ fn b_dphi_offset_is_uniform_and_opposite_on_the_gear() {
     }
 }
 
-/// docs/dressing.md "Reference case G1-Z5" (G1-Z5, c = 0.2 µm): the dressed profile at 0, 10, …, 100 % of
+/// docs/dressing.md "Reference case G1-Z5" (G1-Z5, c = 0.2 µm): the dressed profile at 0, 10, …,
+/// 100 % of
 /// the active profile, µm.
 const D3_PROFILE_UM: [f64; 11] = [
     0.0469, -0.0420, -0.1111, -0.1605, -0.1901, -0.2000, -0.1901, -0.1605, -0.1111, -0.0420, 0.0469,
 ];
 
-/// (c) A 3-point crowned worm (G1-Z5, c = 0.2 µm, docs/dressing.md "Reference case G1-Z5") grinds gear G1: at the gear roll
+/// (c) A 3-point crowned worm (G1-Z5, c = 0.2 µm, docs/dressing.md "Reference case G1-Z5") grinds
+/// gear G1: at the gear roll
 /// distances associated with the worm's 0, 10, …, 100 % points the ground f_n2 is the
 /// negative of the reference worm profile (so the gear gets +c of profile crowning) and agrees with
 /// the analytic map (T3 through the chain) within 1 % of c, for axial and diagonal grinding.

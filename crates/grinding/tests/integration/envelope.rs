@@ -1,5 +1,6 @@
 //! Grinding simulation (envelope over rotation and feed) against the reference numbers of
-//! docs/grinding.md "Independent reference: reference example" and docs/grinding.md "Independent reference: brute-force envelope" (an independent brute-force calculation).
+//! docs/grinding.md "Independent reference: reference example" and docs/grinding.md "Independent
+//! reference: brute-force envelope" (an independent brute-force calculation).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use gearcomp_grinding::contact::WormGearPair;
@@ -22,7 +23,8 @@ fn none() -> LineModification {
 }
 
 /// T1: an unmodified worm grinds an unmodified gear, |f_n2| < 1e-9 mm (exact-time variant),
-/// on the 15×15 grid of docs/grinding.md "Independent reference: reference example", for axial (K = 0) and diagonal (K = −0.877) grinding, both
+/// on the 15×15 grid of docs/grinding.md "Independent reference: reference example", for axial (K =
+/// 0) and diagonal (K = −0.877) grinding, both
 /// flanks; searches start 0.3 mm (rotation) and 0.5 mm (feed) away from the analytic seed.
 #[test]
 fn t1_unmodified_worm_grinds_unmodified_gear() {
@@ -66,7 +68,9 @@ fn t2_uniform_stock() {
 }
 
 /// T3: profile crowning C_q·(w1 − w1P)² on the worm, axial grinding. Full envelope vs
-/// docs/grinding.md "Independent reference: brute-force envelope", true envelope; restricted (rotation-only) envelope vs the rotation-only brute force of docs/grinding.md "Independent reference: brute-force envelope";
+/// docs/grinding.md "Independent reference: brute-force envelope", true envelope; restricted
+/// (rotation-only) envelope vs the rotation-only brute force of docs/grinding.md "Independent
+/// reference: brute-force envelope";
 /// analytic map vs the last column.
 #[test]
 fn t3_profile_crowning_transfer() {
@@ -116,7 +120,8 @@ fn t8_worm(pair: &WormGearPair, b: f64, cq: f64) -> LineModification {
     .unwrap()
 }
 
-/// T8: diagonal grinding K = K(20°, 45°), z_V01 = 5 mm; full envelope vs docs/grinding.md "Independent reference: brute-force envelope", analytic
+/// T8: diagonal grinding K = K(20°, 45°), z_V01 = 5 mm; full envelope vs docs/grinding.md
+/// "Independent reference: brute-force envelope", analytic
 /// map within 0.5 %; a worm modification constant along ρ1 lines is constant along the
 /// ρ2 = 45° gear line X2 = 10 within 0.02 µm.
 #[test]
@@ -198,7 +203,8 @@ fn bad_points_are_errors() {
 
 /// Other hands and a spur gear: a left-hand worm on a left-hand gear and a right-hand worm on
 /// a spur gear also grind the exact involute (T1), and for the spur gear the contact path runs
-/// at constant z (C_Fw2 = 0, ρ_KF = 0; T4 of docs/grinding.md "Independent reference: reference example").
+/// at constant z (C_Fw2 = 0, ρ_KF = 0; T4 of docs/grinding.md "Independent reference: reference
+/// example").
 #[test]
 fn t1_t4_other_hands_and_spur_gear() {
     let a20 = 20f64.to_radians();

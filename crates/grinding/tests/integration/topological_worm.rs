@@ -2,16 +2,19 @@
 //! dressing).
 //!
 //! Chain: the dressing crate dresses worm G1-Z5 with ΔK(ν_zS) varying linearly over the worm
-//! width (no correction at ν = 0, the docs/dressing.md "Reference case G1-Z5" crowning root plus a Δφ_S slope at
+//! width (no correction at ν = 0, the docs/dressing.md "Reference case G1-Z5" crowning root plus a
+//! Δφ_S slope at
 //! ν ≈ −40 mm: the crowning and the thread thickness both vary along the width) and tabulates
 //! f_nFS(w, b) with its quasi-static model on a grid; this crate interpolates the grid, grinds
 //! gear G1 with diagonal ratio K (ρ_F1 from the dresser contact line, ρ_F2 = 45°) by the
 //! envelope simulation over rotation and feed.
 //!
 //! Reference (independent of the grid, its interpolation and the simulation): for each gear
-//! point, the analytic map (diagonal.rs / contact.rs, docs/grinding.md "Derivation: diagonal ratio and line map") gives the worm point
+//! point, the analytic map (diagonal.rs / contact.rs, docs/grinding.md "Derivation: diagonal ratio
+//! and line map") gives the worm point
 //! (w1, z1); the dressing crate's own pointwise quasi-static value f_n1 there gives
-//! f_Ft2 = −f_n1/cos β_b2 (JP6903407B2 text to eq. (38), f_n2 = −f_n1). Tolerance: 1 % of the modification's
+//! f_Ft2 = −f_n1/cos β_b2 (JP6903407B2 text to eq. (38), f_n2 = −f_n1). Tolerance: 1 % of the
+//! modification's
 //! span over the gear region (brief of issue 7; the first-order map is within 0.5 % for T8).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -30,7 +33,8 @@ use gearcomp_grinding::simulate::{EnvelopeMode, Grinder};
 
 const FL: DFlank = DFlank::Right;
 
-/// Worm G1-Z5 (docs/dressing.md "Reference case G1-Z5"): z_S = 5, d_S0 = 160 mm, m_n = 3, α_n = 20°, dresser d_A = 100 mm.
+/// Worm G1-Z5 (docs/dressing.md "Reference case G1-Z5"): z_S = 5, d_S0 = 160 mm, m_n = 3, α_n =
+/// 20°, dresser d_A = 100 mm.
 fn setup_g1_z5() -> DressingSetup {
     let worm = Worm::design(5, 160.0, 3.0, 20f64.to_radians()).unwrap();
     let spec = DresserSpec {
@@ -41,7 +45,8 @@ fn setup_g1_z5() -> DressingSetup {
     DressingSetup::new(worm, Dresser::design(&worm, spec).unwrap())
 }
 
-/// ΔK(ν) from 0 at ν = 0 to the docs/dressing.md "Reference case G1-Z5" crowning root (+ a Δφ_S slope) at ν = −40 mm, as the
+/// ΔK(ν) from 0 at ν = 0 to the docs/dressing.md "Reference case G1-Z5" crowning root (+ a Δφ_S
+/// slope) at ν = −40 mm, as the
 /// dressing crate's own linear-schedule test.
 fn schedule() -> PolynomialSchedule {
     let ke = [6.057e-4, 0.5580f64.to_radians(), -0.02450, -1.0413];
@@ -87,7 +92,8 @@ fn dressing_and_grinding_helicoids_differ_by_a_body_rotation() {
 /// The whole chain: dressed topology → grid → diagonal envelope grinding ⇒ every ground gear
 /// point carries the (dressing crate's own) worm value at the worm point that the analytic map
 /// predicts, within 1 % of the modification span. Gear points on one gear line X2 = const
-/// (ρ_F2 = 45°) map to one worm line X1 = k·X2 + c0 (docs/grinding.md "Derivation: diagonal ratio and line map").
+/// (ρ_F2 = 45°) map to one worm line X1 = k·X2 + c0 (docs/grinding.md "Derivation: diagonal ratio
+/// and line map").
 #[test]
 fn diagonal_grinding_maps_gear_lines_to_dressed_worm_lines() {
     let s = setup_g1_z5();
