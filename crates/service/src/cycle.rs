@@ -89,8 +89,8 @@ pub enum InputMsg {
         /// flank.
         safe_point: bool,
     },
-    /// The source finished a scan of its channels: step now if anything is new (a scan of
-    /// every channel steps without it).
+    /// The source finished a scan of its channels: step now if anything is new, or in any
+    /// case when the scan carried its own time ([`InputMsg::ScanTime`], one replayed row).
     ScanEnd,
     /// The time of the next step, from a source that carries its own time (CSV replay):
     /// the step of the scan that follows runs at this time instead of the clock's, so a
@@ -775,7 +775,10 @@ impl Cycle {
             InputMsg::MachineState { safe_point } => self.safe_point = safe_point,
             InputMsg::ScanTime { time_s } => self.scan_time_s = Some(time_s),
             InputMsg::ScanEnd => {
-                if self.n_fresh > 0 {
+                // A live scan steps when something is new; a scan that carries its own time
+                // (a replayed log row) steps in any case, as the offline replay steps every
+                // row: a row of empty cells still advances the rate limit by one cycle.
+                if self.n_fresh > 0 || self.scan_time_s.is_some() {
                     self.scan_at = Some(Instant::now());
                     self.step();
                 }

@@ -24,5 +24,6 @@ mod postgres_spill;
 mod postgres_tls;
 mod replay;
 mod replay_ack;
+mod replay_props;
 mod restart;
 mod storage;
