@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 /// # Domain
 /// Both series must vary; a constant series is an error (r undefined).
 /// # Source
-/// seed 003, eqs. (1)–(2) [RECONSTRUCTED: research/seed_formulas.md]
+/// CN105397560, [0013]–[0025], eqs. (1)–(2) (docs/identification.md, "CN105397560 as implemented")
 pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
     if x.len() != y.len() || x.len() < 2 {
         return Err(invalid(
@@ -65,8 +65,8 @@ pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatri
 /// # Formula
 /// (R∘R)_ij = max_k min(r_ik, r_kj); square until R^(2k) = R^k.
 /// # Source
-/// seed 003, clustering step [RECONSTRUCTED: research/seed_formulas.md, fuzzy-equivalence
-/// clustering]
+/// CN105397560, [0010]–[0011] (fuzzy clustering by the correlation matrix); fuzzy-equivalence
+/// clustering as written in docs/identification.md, "CN105397560 as implemented"
 pub fn transitive_closure(similarity: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
     let c = similarity.nrows();
     let mut r = similarity.clone();
@@ -138,7 +138,7 @@ impl Dendrogram {
     ///
     /// # Source
     /// seed 003 ("clustering dendrogram"); single-linkage equivalence per
-    /// research/seed_formulas.md [RECONSTRUCTED]
+    /// docs/identification.md, "CN105397560 as implemented" [RECONSTRUCTED]
     pub fn single_linkage(similarity: &DMatrix<f64>) -> Self {
         let c = similarity.nrows();
         let mut edges: Vec<(f64, usize, usize)> = Vec::with_capacity(c * c / 2);
@@ -256,7 +256,7 @@ fn range_normalise(x: &[f64]) -> Vec<f64> {
 /// # Domain
 /// 0 < ρ ≤ 1 (ρ = 0.5 in the workbench); grades lie in (0, 1].
 /// # Source
-/// Deng's grey relational analysis as used by GOODDASH/soft_py `func.py` (anchors.md §3.1)
+/// Deng's grey relational analysis as used by the public workbench GOODDASH/soft_py (`func.py`)
 /// [SOURCE]
 pub fn grey_relational_grades(reference: &[f64], series: &[&[f64]], rho: f64) -> Result<Vec<f64>> {
     if !(rho > 0.0 && rho <= 1.0) {
@@ -305,7 +305,7 @@ pub fn grey_relational_grades(reference: &[f64], series: &[&[f64]], rho: f64) ->
 /// randomly).
 /// # Source
 /// Bezdek's FCM as used by GOODDASH/soft_py (skfuzzy `cmeans`, m = 2, error 1e-3,
-/// maxiter 2000; anchors.md §3.1) [SOURCE]
+/// maxiter 2000) [SOURCE]
 pub fn fuzzy_c_means(
     series: &[&[f64]],
     classes: usize,

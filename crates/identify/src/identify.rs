@@ -418,7 +418,8 @@ pub(crate) fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
 /// Identifies one model per target of `table`.
 ///
 /// # Source
-/// seed 003, steps (1)–(5) and eq. (9) [RECONSTRUCTED: research/seed_formulas.md]; the
+/// CN105397560, steps 1)–6) and eq. (9) (docs/identification.md, "CN105397560 as
+/// implemented") [RECONSTRUCTED]; the
 /// dynamic Value + Rate model and its cross-validated selection are this project's
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {

@@ -137,7 +137,7 @@ fn summarise(
 /// y = X·A + ε, X = [1 x_1 … x_p];  Â = argmin ‖y − X·A‖² solved as R·Â = Qᵀy;
 /// s.e.(Â_j) = σ̂·‖(R⁻¹)_j·‖, σ̂² = Q/(n − p − 1), Q = Σ residual²
 /// # Source
-/// seed 003, eqs. (3)–(5) [RECONSTRUCTED: research/seed_formulas.md]; QR instead of the
+/// CN105397560, [0026]–[0036], eqs. (3)–(5) (docs/identification.md) [RECONSTRUCTED]; QR instead of the
 /// normal equations of eq. (5) for accuracy (same minimiser).
 pub fn ols(columns: &[&[f64]], y: &[f64], names: &[String]) -> Result<LinearFit> {
     let a = design(columns, y, names)?;

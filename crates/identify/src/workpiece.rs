@@ -26,7 +26,8 @@ pub fn deg_to_rad(deg: f64) -> f64 {
 /// # Units
 /// m_n, d_a in mm; angles in degrees at this interface; Ta, Tb in °C; result in µm.
 /// # Source
-/// seed 003, eqs. (7)–(8) [DERIVED: research/seed_formulas.md eq. (7*)], evaluated by
+/// CN105397560, [0037]–[0049], eqs. (7)–(8) [DERIVED: docs/geometry.md, "Derivation:
+/// workpiece-shrink δT"], evaluated by
 /// `gearcomp_geometry::shrink`; helical gears in the transverse section [DERIVED]
 pub fn shrink_offset_um(w: &WorkpieceShrink, ta_c: f64) -> Result<f64> {
     let g = &w.gear;

@@ -1,5 +1,5 @@
-//! Seed 003 clustering / regression / shrink test vector (research/seed_formulas.md,
-//! "Clustering and regression test vector [DERIVED]", n = 8, c = 5).
+//! CN105397560 clustering / regression / shrink test vector (docs/identification.md,
+//! "CN105397560 as implemented", test vector: n = 8, c = 5).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_core::model::{
