@@ -4,9 +4,9 @@
 //! plan` states its evaluation range. Plus random requests (fixed seed and fresh).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::common::{gearcomp, write_config};
+use crate::common::{all_finite, gearcomp, prop_runners, write_config};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestCaseError, TestRunner};
+use proptest::test_runner::TestCaseError;
 
 /// G1-Z5 (docs/dressing.md "Reference case G1-Z5") with a [solve] table to fill in.
 const BASE: &str = r#"
@@ -176,38 +176,12 @@ fn plan_states_its_evaluation_range() {
     }
 }
 
-fn runners(cases: u32) -> [TestRunner; 2] {
-    let fixed = Config {
-        cases,
-        rng_seed: RngSeed::Fixed(0x0d2e_5514),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    [TestRunner::new(fixed), TestRunner::new(fresh)]
-}
-
-/// Every number in a JSON value is finite (serde_json writes NaN/inf as null: none allowed).
-fn all_finite(v: &serde_json::Value) -> bool {
-    match v {
-        serde_json::Value::Null => false,
-        serde_json::Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
-        serde_json::Value::Array(a) => a.iter().all(all_finite),
-        serde_json::Value::Object(o) => o.values().all(all_finite),
-        _ => true,
-    }
-}
-
 /// Random crowning and worm diameter on G1-Z5: exit 0 ⇒ finite numbers and the printed
 /// profile hits the targets (0, −c, 0) at 5/50/95 % (points 1, 10, 19 of 21); exit ≠ 0 ⇒ the
 /// message names a [solve] key with its unit.
 #[test]
 fn random_requests_through_the_binary() {
-    for (k, mut runner) in runners(3).into_iter().enumerate() {
+    for (k, mut runner) in prop_runners(3, 0x0d2e_5514).into_iter().enumerate() {
         runner
             .run(&(-0.6f64..0.6, 140.0f64..160.0), |(c, d)| {
                 let name = format!("rand{k}");
