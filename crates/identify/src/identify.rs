@@ -5,7 +5,7 @@
 use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
-use crate::regress::{self, LinearFit};
+use crate::regress::{self, augmented_r, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
@@ -294,24 +294,6 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
         .collect())
 }
 
-fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
-    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
-    let mut out = DMatrix::zeros(rows, cols);
-    let mut r0 = 0;
-    for p in parts {
-        out.rows_mut(r0, p.nrows()).copy_from(*p);
-        r0 += p.nrows();
-    }
-    out
-}
-
-fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
-    if a.nrows() == 0 {
-        return DMatrix::zeros(0, a.ncols());
-    }
-    a.qr().r()
-}
-
 /// Cross-validation by QR reduction: per fold, the R factors of [1 X Y] on the training
 /// and held-out rows. Since ‖Q·R·v‖ = ‖R·v‖, every sub-model's least-squares fit and its
 /// held-out error follow from these small matrices, exactly (no normal equations).
@@ -330,17 +312,7 @@ impl CvEngine {
         for f in 0..k {
             let rows: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] == Some(f)).collect();
             n_val += rows.len();
-            let a = DMatrix::from_fn(rows.len(), m, |r, c| {
-                let i = rows[r];
-                if c == 0 {
-                    1.0
-                } else if c <= features.len() {
-                    features[c - 1][i]
-                } else {
-                    targets[c - 1 - features.len()][i]
-                }
-            });
-            blocks.push(r_factor(a));
+            blocks.push(augmented_r(&rows, features, targets));
         }
         let train_r = (0..k)
             .map(|f| {

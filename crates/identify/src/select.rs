@@ -28,7 +28,7 @@ use crate::error::{invalid, IdentifyError, Result};
 use crate::identify::{
     predict, rmse_where, select_rows, Identification, IdentifyOptions, TargetModel,
 };
-use crate::regress::{self, exceeds, LinearFit};
+use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
@@ -132,24 +132,6 @@ struct Engine {
     n_feat: usize,
 }
 
-fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
-    if a.nrows() == 0 {
-        return DMatrix::zeros(0, a.ncols());
-    }
-    a.qr().r()
-}
-
-fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
-    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
-    let mut out = DMatrix::zeros(rows, cols);
-    let mut r0 = 0;
-    for p in parts {
-        out.rows_mut(r0, p.nrows()).copy_from(*p);
-        r0 += p.nrows();
-    }
-    out
-}
-
 /// Validation scheme: block of each training row and the folds (train blocks, val block).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scheme {
@@ -242,17 +224,7 @@ impl Engine {
                 .filter(|&i| scheme.block[i] == Some(b))
                 .collect();
             block_n.push(rows.len());
-            let a = DMatrix::from_fn(rows.len(), m, |r, c| {
-                let i = rows[r];
-                if c == 0 {
-                    1.0
-                } else if c <= features.len() {
-                    features[c - 1][i]
-                } else {
-                    targets[c - 1 - features.len()][i]
-                }
-            });
-            block_r.push(r_factor(a));
+            block_r.push(augmented_r(&rows, features, targets));
         }
         let folds = scheme
             .folds
