@@ -282,6 +282,47 @@ pub(crate) fn pcr_solve(
     Ok(beta)
 }
 
+/// Rows `parts` stacked in order into one matrix of `cols` columns.
+pub(crate) fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
+    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
+    let mut out = DMatrix::zeros(rows, cols);
+    let mut r0 = 0;
+    for p in parts {
+        out.rows_mut(r0, p.nrows()).copy_from(*p);
+        r0 += p.nrows();
+    }
+    out
+}
+
+/// The R factor of a Householder QR (an empty matrix for no rows).
+pub(crate) fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
+    if a.nrows() == 0 {
+        return DMatrix::zeros(0, a.ncols());
+    }
+    a.qr().r()
+}
+
+/// The R factor of the augmented block [1 X Y] over `rows`: intercept, `features`, `targets`.
+/// Since ‖Q·R·v‖ = ‖R·v‖, the least-squares fit and the residual of any sub-model on these
+/// rows follow from it exactly; the validation engines stack such blocks per fold.
+pub(crate) fn augmented_r<F: AsRef<[f64]>, T: AsRef<[f64]>>(
+    rows: &[usize],
+    features: &[F],
+    targets: &[T],
+) -> DMatrix<f64> {
+    let m = 1 + features.len() + targets.len();
+    r_factor(DMatrix::from_fn(rows.len(), m, |r, c| {
+        let i = rows[r];
+        if c == 0 {
+            1.0
+        } else if c <= features.len() {
+            features[c - 1].as_ref()[i]
+        } else {
+            targets[c - 1 - features.len()].as_ref()[i]
+        }
+    }))
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -331,45 +372,4 @@ mod tests {
         let e = ols(&[&x, &x], &[1.0, 2.0, 3.0, 5.0], &["a".into(), "b".into()]).unwrap_err();
         assert!(e.to_string().contains("rank deficient"), "{e}");
     }
-}
-
-/// Rows `parts` stacked in order into one matrix of `cols` columns.
-pub(crate) fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
-    let rows: usize = parts.iter().map(|p| p.nrows()).sum();
-    let mut out = DMatrix::zeros(rows, cols);
-    let mut r0 = 0;
-    for p in parts {
-        out.rows_mut(r0, p.nrows()).copy_from(*p);
-        r0 += p.nrows();
-    }
-    out
-}
-
-/// The R factor of a Householder QR (an empty matrix for no rows).
-pub(crate) fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
-    if a.nrows() == 0 {
-        return DMatrix::zeros(0, a.ncols());
-    }
-    a.qr().r()
-}
-
-/// The R factor of the augmented block [1 X Y] over `rows`: intercept, `features`, `targets`.
-/// Since ‖Q·R·v‖ = ‖R·v‖, the least-squares fit and the residual of any sub-model on these
-/// rows follow from it exactly; the validation engines stack such blocks per fold.
-pub(crate) fn augmented_r<F: AsRef<[f64]>, T: AsRef<[f64]>>(
-    rows: &[usize],
-    features: &[F],
-    targets: &[T],
-) -> DMatrix<f64> {
-    let m = 1 + features.len() + targets.len();
-    r_factor(DMatrix::from_fn(rows.len(), m, |r, c| {
-        let i = rows[r];
-        if c == 0 {
-            1.0
-        } else if c <= features.len() {
-            features[c - 1].as_ref()[i]
-        } else {
-            targets[c - 1 - features.len()].as_ref()[i]
-        }
-    }))
 }
