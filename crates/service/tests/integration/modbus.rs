@@ -6,52 +6,10 @@
 
 use crate::common;
 
-use std::future;
-use std::sync::{Arc, Mutex};
-
 use common::{engine_ab, free_port, start_with, Api};
-use tokio_modbus::prelude::*;
+// The temperature module stand-in of `modbus_output` (registers, coils, a write log).
+use crate::modbus_output::Module;
 use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
-
-#[derive(Clone, Default)]
-struct Module {
-    input: Arc<Mutex<[u16; 4]>>,
-    holding: Arc<Mutex<[u16; 16]>>,
-}
-
-impl tokio_modbus::server::Service for Module {
-    type Request = Request<'static>;
-    type Response = Response;
-    type Exception = ExceptionCode;
-    type Future = future::Ready<Result<Response, ExceptionCode>>;
-
-    fn call(&self, req: Self::Request) -> Self::Future {
-        let read = |regs: &[u16], addr: u16, cnt: u16| -> Result<Vec<u16>, ExceptionCode> {
-            let (a, n) = (addr as usize, cnt as usize);
-            regs.get(a..a + n)
-                .map(<[u16]>::to_vec)
-                .ok_or(ExceptionCode::IllegalDataAddress)
-        };
-        future::ready(match req {
-            Request::ReadInputRegisters(a, n) => {
-                read(&*self.input.lock().unwrap(), a, n).map(Response::ReadInputRegisters)
-            }
-            Request::ReadHoldingRegisters(a, n) => {
-                read(&*self.holding.lock().unwrap(), a, n).map(Response::ReadHoldingRegisters)
-            }
-            Request::WriteSingleRegister(a, v) => {
-                match self.holding.lock().unwrap().get_mut(a as usize) {
-                    Some(r) => {
-                        *r = v;
-                        Ok(Response::WriteSingleRegister(a, v))
-                    }
-                    None => Err(ExceptionCode::IllegalDataAddress),
-                }
-            }
-            _ => Err(ExceptionCode::IllegalFunction),
-        })
-    }
-}
 
 async fn serve_module(port: u16, m: Module) {
     let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
