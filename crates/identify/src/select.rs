@@ -477,17 +477,19 @@ fn family_best(
             .collect::<Vec<_>>()
             .join(", ")
     };
+    // Forward selection by least squares over every sensor, with these candidate units.
+    let ols =
+        |units: &dyn Fn(usize) -> Vec<Vec<usize>>| forward(ctx, target, units, &all, Fitter::Ols).0;
+    // The best prefix kept, its detail listing the τ / delay of each unit.
+    let described = |b: Option<Prefix>| {
+        b.map(|(u, sse, cv)| {
+            let d = describe(&u);
+            mk(u, sse, cv, Fitter::Ols, d)
+        })
+    };
     match fam {
-        Family::Static => {
-            let (b, _) = forward(
-                ctx,
-                target,
-                &|s| vec![vec![ctx.value[s]]],
-                &all,
-                Fitter::Ols,
-            );
-            b.map(|(u, sse, cv)| mk(u, sse, cv, Fitter::Ols, String::new()))
-        }
+        Family::Static => ols(&|s| vec![vec![ctx.value[s]]])
+            .map(|(u, sse, cv)| mk(u, sse, cv, Fitter::Ols, String::new())),
         Family::Ridge | Family::Pcr => {
             // The static family's forward order, up to the cap: shrinkage needs the sensors.
             let units: Vec<Vec<usize>> = static_path.iter().map(|&s| vec![ctx.value[s]]).collect();
@@ -519,14 +521,7 @@ fn family_best(
         Family::LeadLag => {
             let mut best: Option<Best> = None;
             for (ti, tau) in ctx.taus.iter().enumerate() {
-                let (b, _) = forward(
-                    ctx,
-                    target,
-                    &|s| vec![vec![ctx.value[s], ctx.lag[s][ti]]],
-                    &all,
-                    Fitter::Ols,
-                );
-                if let Some((u, sse, cv)) = b {
+                if let Some((u, sse, cv)) = ols(&|s| vec![vec![ctx.value[s], ctx.lag[s][ti]]]) {
                     if best.as_ref().is_none_or(|b| cv < b.cv) {
                         best = Some(mk(u, sse, cv, Fitter::Ols, format!("τ = {tau} s")));
                     }
@@ -534,73 +529,35 @@ fn family_best(
             }
             best
         }
-        Family::Tf1 => {
-            let (b, _) = forward(
-                ctx,
-                target,
-                &|s| ctx.lag[s].iter().map(|&l| vec![ctx.value[s], l]).collect(),
-                &all,
-                Fitter::Ols,
-            );
-            b.map(|(u, sse, cv)| {
-                let d = describe(&u);
-                mk(u, sse, cv, Fitter::Ols, d)
-            })
-        }
+        Family::Tf1 => described(ols(&|s| {
+            ctx.lag[s].iter().map(|&l| vec![ctx.value[s], l]).collect()
+        })),
         Family::Tf2 => {
             // Pole pairs from every other τ of the grid (coarse: the pair is two poles).
             let coarse: Vec<usize> = (0..ctx.taus.len()).step_by(2).collect();
-            let (b, _) = forward(
-                ctx,
-                target,
-                &|s| {
-                    let mut v = Vec::new();
-                    for (i, &a) in coarse.iter().enumerate() {
-                        for &c in &coarse[i + 1..] {
-                            v.push(vec![ctx.value[s], ctx.lag[s][a], ctx.lag[s][c]]);
-                        }
+            described(ols(&|s| {
+                let mut v = Vec::new();
+                for (i, &a) in coarse.iter().enumerate() {
+                    for &c in &coarse[i + 1..] {
+                        v.push(vec![ctx.value[s], ctx.lag[s][a], ctx.lag[s][c]]);
                     }
-                    v
-                },
-                &all,
-                Fitter::Ols,
-            );
-            b.map(|(u, sse, cv)| {
-                let d = describe(&u);
-                mk(u, sse, cv, Fitter::Ols, d)
-            })
+                }
+                v
+            }))
         }
-        Family::Delay => {
-            let (b, _) = forward(
-                ctx,
-                target,
-                &|s| {
-                    std::iter::once(vec![ctx.value[s]])
-                        .chain(ctx.delay[s].iter().map(|&d| vec![d]))
-                        .collect()
-                },
-                &all,
-                Fitter::Ols,
-            );
-            b.map(|(u, sse, cv)| {
-                let d = describe(&u);
-                mk(u, sse, cv, Fitter::Ols, d)
-            })
-        }
+        Family::Delay => described(ols(&|s| {
+            std::iter::once(vec![ctx.value[s]])
+                .chain(ctx.delay[s].iter().map(|&d| vec![d]))
+                .collect()
+        })),
         Family::Differences => {
             // Candidates: each sensor alone, or its difference with another sensor.
-            let (b, _) = forward(
-                ctx,
-                target,
-                &|s| {
-                    std::iter::once(vec![ctx.value[s]])
-                        .chain(ctx.diff.iter().filter(|d| d.0 == s).map(|d| vec![d.2]))
-                        .collect()
-                },
-                &all,
-                Fitter::Ols,
-            );
-            b.map(|(u, sse, cv)| {
+            ols(&|s| {
+                std::iter::once(vec![ctx.value[s]])
+                    .chain(ctx.diff.iter().filter(|d| d.0 == s).map(|d| vec![d.2]))
+                    .collect()
+            })
+            .map(|(u, sse, cv)| {
                 let pairs = u
                     .iter()
                     .flatten()
