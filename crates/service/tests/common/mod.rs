@@ -67,6 +67,28 @@ impl Api {
     }
 
     /// Polls `path` until `pred` holds (bounded).
+    /// Waits (bounded) until the alarm list at `path` (`/api/alarms`, optionally with a query)
+    /// holds an alarm `key`, and returns that alarm.
+    pub async fn wait_alarm(
+        &self,
+        path: &str,
+        token: &str,
+        key: &str,
+        secs: f64,
+    ) -> serde_json::Value {
+        let v = self
+            .wait_for(path, token, secs, |v| {
+                v.as_array().unwrap().iter().any(|a| a["key"] == key)
+            })
+            .await;
+        v.as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["key"] == key)
+            .unwrap()
+            .clone()
+    }
+
     pub async fn wait_for(
         &self,
         path: &str,

@@ -73,20 +73,9 @@ async fn modbus_module_in_offset_register_out() {
     // An open sensor (0x7FFF): alarm naming register, value and range; the axis freezes,
     // the register keeps −150.
     module.input.lock().unwrap()[0] = 0x7FFF;
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
-            v.as_array()
-                .unwrap()
-                .iter()
-                .any(|a| a["key"] == "modbus.0.register.0")
-        })
+    let a = api
+        .wait_alarm("/api/alarms?active=true", &ro, "modbus.0.register.0", 10.0)
         .await;
-    let a = alarms
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["key"] == "modbus.0.register.0")
-        .unwrap();
     let m = a["message"].as_str().unwrap();
     assert!(
         m.contains("32767") && m.contains("-32767…32766") && m.contains("channel A"),

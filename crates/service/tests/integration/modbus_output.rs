@@ -152,20 +152,9 @@ async fn device_restart_and_lost_register_get_the_offset_again() {
 
     // The device loses its register while connected: read back, alarmed, written again.
     m1.holding.lock().unwrap()[10] = 0;
-    let alarms = api
-        .wait_for("/api/alarms", &ro, 10.0, |v| {
-            v.as_array()
-                .unwrap()
-                .iter()
-                .any(|a| a["key"] == "modbus.offset_output.held")
-        })
-        .await;
-    let msg = alarms
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["key"] == "modbus.offset_output.held")
-        .unwrap()["message"]
+    let msg = api
+        .wait_alarm("/api/alarms", &ro, "modbus.offset_output.held", 10.0)
+        .await["message"]
         .as_str()
         .unwrap()
         .to_string();

@@ -26,21 +26,6 @@ fn fl_engine() -> String {
          [[axes.terms]]\nkind = \"difference\"\na = \"t5_c\"\nb = \"t9_c\"\nkz_um_per_c = 0.8\n"
 }
 
-/// Waits (bounded) until the alarm `key` has been raised.
-async fn wait_alarm(api: &Api, token: &str, key: &str, secs: f64) -> serde_json::Value {
-    let v = api
-        .wait_for("/api/alarms", token, secs, |v| {
-            v.as_array().unwrap().iter().any(|a| a["key"] == key)
-        })
-        .await;
-    v.as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["key"] == key)
-        .unwrap()
-        .clone()
-}
-
 /// (time_s, offset_um, law_um) of every stored offset of axis 0, in order.
 fn stored_offsets(db: &std::path::Path) -> Vec<(f64, f64, f64)> {
     let conn = rusqlite::Connection::open(db).unwrap();
@@ -97,7 +82,9 @@ async fn fl_thermal_live_replay_equals_offline_replay() {
     let api = Api::new(&run);
     let (_, st) = api.get("/api/status", Some(&ro)).await;
     assert!(st["input"].as_str().unwrap().starts_with("replay "), "{st}");
-    let ended = wait_alarm(&api, &ro, "replay.ended", 120.0).await;
+    let ended = api
+        .wait_alarm("/api/alarms", &ro, "replay.ended", 120.0)
+        .await;
     let msg = ended["message"].as_str().unwrap();
     assert!(
         msg.contains("line 11116") && msg.contains("11115 rows"),

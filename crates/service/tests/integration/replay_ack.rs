@@ -50,12 +50,7 @@ async fn replay(ack: bool) -> Vec<(f64, String)> {
     .await;
     let ro = run.generated.clone().unwrap().read_only;
     Api::new(&run)
-        .wait_for("/api/alarms", &ro, 30.0, |v| {
-            v.as_array()
-                .unwrap()
-                .iter()
-                .any(|a| a["key"] == "replay.ended")
-        })
+        .wait_alarm("/api/alarms", &ro, "replay.ended", 30.0)
         .await;
     let db = run.db.clone();
     run.stop().await.unwrap();

@@ -141,13 +141,8 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         .await;
         let ro = run.generated.clone().unwrap().read_only;
         let api = Api::new(&run);
-        api.wait_for("/api/alarms", &ro, 60.0, |v| {
-            v.as_array()
-                .unwrap()
-                .iter()
-                .any(|a| a["key"] == "replay.ended")
-        })
-        .await;
+        api.wait_alarm("/api/alarms", &ro, "replay.ended", 60.0)
+            .await;
         let db = run.db.clone();
         let n = run.stop().await.unwrap();
         (db, n)
