@@ -112,7 +112,7 @@ pub fn grinder() -> PresetBundle {
     // Nodes: 0 hydraulic oil, 1 bed top (A), 2 wheel head (B), 3 column, 4 coolant.
     let machine = MachineSpec {
         name: "grinder".into(),
-        description: "surface grinder with hydraulic Z table (seed 001)".into(),
+        description: "surface grinder with hydraulic Z table (JPH0761598B2)".into(),
         nodes: vec![
             node("oil", 1.2e6, 25.0, 0.0),
             node("bed_top", 2.5e6, 30.0, 0.0),
@@ -176,7 +176,7 @@ pub fn grinder() -> PresetBundle {
         machine,
         config,
         shift_h: 8.0,
-        summary: "seed 001 surface grinder: Cz = Kz·(A − B), Kz = −3.75 µm/°C, applied to the scale (D′ = D + Cz)".into(),
+        summary: "JPH0761598B2 surface grinder: Cz = Kz·(A − B), Kz = −3.75 µm/°C, applied to the scale (D′ = D + Cz)".into(),
     }
 }
 
@@ -185,7 +185,7 @@ pub fn shaper() -> PresetBundle {
     // Nodes: 0 base, 1 sub-base, 2 cutter-spindle housing, 3 hydraulic oil, 4 table.
     let mut machine = MachineSpec {
         name: "shaper".into(),
-        description: "hydromechanical gear shaper (seed 000)".into(),
+        description: "hydromechanical gear shaper (EP0138375)".into(),
         nodes: vec![
             node("base", 10.0e6, 60.0, 0.0),
             node("sub_base", 2.5e6, 25.0, 0.0),
@@ -310,7 +310,7 @@ pub fn shaper() -> PresetBundle {
         machine,
         config,
         shift_h: 8.0,
-        summary: "seed 000 gear shaper: TC = K_P(P̄ − X) + K_S(S̄ − Z) − K_B(B̄ − Y), N = 8 samples at the stroke switch, pulses of 0.0001 in, D = 0.0002 in, applied between cuts".into(),
+        summary: "EP0138375 gear shaper: TC = K_P(P̄ − X) + K_S(S̄ − Z) − K_B(B̄ − Y), N = 8 samples at the stroke switch, pulses of 0.0001 in, D = 0.0002 in, applied between cuts".into(),
     }
 }
 
@@ -365,7 +365,7 @@ pub fn hobbing() -> PresetBundle {
     // Nodes: 0 bed, 1 column, 2 column core (no sensor), 3 hob head, 4 table.
     let machine = MachineSpec {
         name: "hobbing".into(),
-        description: "dry hobbing machine (seed 003 setting)".into(),
+        description: "dry hobbing machine (CN105397560 setting)".into(),
         nodes: vec![
             node("bed", 8.0e6, 50.0, 0.0),
             node("column", 5.0e6, 40.0, 0.0),
