@@ -228,6 +228,24 @@ impl Output {
         &self.axes[..self.n_axes as usize]
     }
 
+    /// Starts a cycle's result: the time, no alarm yet, the latched stop; a result of
+    /// another engine (another axis count) is first reset, so axes past the engine's own
+    /// keep their neutral value and `==` on two outputs of the same engine compares only
+    /// what the cycle wrote.
+    fn begin(&mut self, time_s: f64, n_axes: u8, stop: Option<StopReason>) {
+        if self.n_axes != n_axes {
+            *self = Output::EMPTY;
+            self.n_axes = n_axes;
+        }
+        self.time_s = time_s;
+        self.status = EngineStatus::Running;
+        self.alarm = None;
+        self.alarm_count = 0;
+        self.stop = stop;
+        self.averaged = false;
+    }
+
+    /// The one way an alarm is raised: the first of the cycle is kept, all are counted.
     fn raise(&mut self, a: Alarm) {
         if self.alarm.is_none() {
             self.alarm = Some(a);
@@ -1707,44 +1725,75 @@ impl Engine {
     /// Runs one cycle, writing its result into `out` (any previous content is replaced;
     /// the result is the one [`Engine::step`] returns). Allocation-free; never panics on
     /// any input values.
+    ///
+    /// The phases of the module doc, one function each: [`Engine::accept`] (input count
+    /// and time), [`Engine::sample_now`] (trigger), [`Engine::read_channels`] (checks,
+    /// block average, time filter, limits), [`Engine::resolve_channels`] (channel alarms,
+    /// stop request), then per axis [`AxisState::update_models`],
+    /// [`AxisState::evaluate`] (law, clamp, boundary constant D) and
+    /// [`AxisState::apply`] (safe-point gate, rate limit, pulses). Every alarm goes
+    /// through [`Output::raise`].
     pub fn step_into(&mut self, inputs: &Inputs, out: &mut Output) {
-        let time_s = inputs.time_s;
-        let n_axes = self.axes.len() as u8;
-        if out.n_axes != n_axes {
-            // Axes past the engine's own keep their neutral value, so `==` on two outputs
-            // of the same engine compares only what the cycle wrote.
-            *out = Output::EMPTY;
-            out.n_axes = n_axes;
+        out.begin(inputs.time_s, self.axes.len() as u8, self.stop);
+        if let Err(a) = self.accept(inputs) {
+            out.raise(a);
+            self.freeze_all(out);
+            return;
         }
-        out.time_s = time_s;
-        out.status = EngineStatus::Running;
-        out.alarm = None;
-        out.alarm_count = 0;
-        out.stop = self.stop;
-        out.averaged = false;
+        let sample = self.sample_now(inputs.time_s, inputs.trigger);
+        let read = self.read_channels(inputs, sample);
+        self.resolve_channels(&read, out);
+        let cycle = AxisCycle {
+            time_s: inputs.time_s,
+            t_since_start_s: inputs.time_s - self.start_s,
+            fresh: read.fresh,
+            faulted: read.faulted,
+            has_value: self.has_value_mask,
+            stopped: self.stop.is_some(),
+        };
+        for (ai, ax) in self.axes.iter_mut().enumerate() {
+            ax.update_models(&self.channels, &cycle);
+            let status = match ax.evaluate(ai, &self.channels, &cycle, inputs.positions_mm) {
+                Ok(s) => s,
+                Err(a) => {
+                    out.raise(a);
+                    AxisStatus::Frozen
+                }
+            };
+            out.axes[ai] = ax.apply(status, inputs.safe_point);
+        }
+        out.status = self.status(out);
+    }
+
+    /// Input count and time: the alarm that makes the whole cycle be ignored, if any;
+    /// otherwise the cycle's time is taken as the last one (and the start, the first
+    /// time).
+    fn accept(&mut self, inputs: &Inputs) -> std::result::Result<(), Alarm> {
+        let time_s = inputs.time_s;
         if inputs.readings.len() != self.channels.len() {
-            out.raise(Alarm::InputCount {
+            return Err(Alarm::InputCount {
                 got: inputs.readings.len().min(u16::MAX as usize) as u16,
                 expected: self.channels.len() as u16,
             });
-            self.freeze_all(out);
-            return;
         }
         if !(time_s.is_finite() && time_s > self.last_time_s) {
-            out.raise(Alarm::TimeOutOfOrder {
+            return Err(Alarm::TimeOutOfOrder {
                 time_s,
                 previous_s: self.last_time_s,
             });
-            self.freeze_all(out);
-            return;
         }
         self.last_time_s = time_s;
         if self.start_s.is_nan() {
             self.start_s = time_s;
         }
-        let sample = match self.trigger {
+        Ok(())
+    }
+
+    /// True when this cycle's readings enter the block averages (the sample trigger).
+    fn sample_now(&mut self, time_s: f64, trigger: bool) -> bool {
+        match self.trigger {
             Trigger::EveryCycle {} => true,
-            Trigger::Input {} => inputs.trigger,
+            Trigger::Input {} => trigger,
             Trigger::Clock { period_s } => {
                 if time_s >= self.next_clock_s {
                     // Skip missed ticks rather than bursting to catch up.
@@ -1760,19 +1809,25 @@ impl Engine {
                     false
                 }
             }
-        };
+        }
+    }
 
-        // The loop only sets bits; alarms and the stop reason are resolved afterwards in
-        // channel order (lowest channel first, as the outputs document).
-        let mut faulted: u64 = 0;
-        let mut fresh: u64 = 0;
-        let mut over_limit: u64 = 0;
+    /// Checks every reading, then (when `sample`) feeds the block averages and time
+    /// filters. Only sets bits: alarms and the stop reason are resolved afterwards in
+    /// channel order (lowest channel first, as the outputs document).
+    fn read_channels(&mut self, inputs: &Inputs, sample: bool) -> ChannelRead {
+        let time_s = inputs.time_s;
+        let mut read = ChannelRead {
+            faulted: 0,
+            fresh: 0,
+            over_limit: 0,
+        };
         for (i, (ch, r)) in self.channels.iter_mut().zip(inputs.readings).enumerate() {
             let bit = 1u64 << i;
             let v = match ch.check(*r, time_s) {
                 Err(f) => {
                     ch.fault = Some(f);
-                    faulted |= bit;
+                    read.faulted |= bit;
                     if matches!(f, Fault::Spike | Fault::RateOfChange)
                         && ch.last_ok_value.is_finite()
                     {
@@ -1800,24 +1855,30 @@ impl Engine {
                     TimeFilter::Window(w) => w.push(avg),
                 };
                 ch.value = value;
-                fresh |= bit;
+                read.fresh |= bit;
                 // Seed 000 claims: an averaged value outside its limits stops the
                 // machine.
                 if value < ch.limit_min || value > ch.limit_max {
-                    over_limit |= bit;
+                    read.over_limit |= bit;
                 }
             }
         }
-        if faulted != 0 {
-            self.raise_channel_alarms(faulted, out);
+        read
+    }
+
+    /// Channel alarms (lowest channel first), the new averages and the latched stop
+    /// request.
+    fn resolve_channels(&mut self, read: &ChannelRead, out: &mut Output) {
+        if read.faulted != 0 {
+            self.raise_channel_alarms(read.faulted, out);
         }
-        if fresh != 0 {
-            self.has_value_mask |= fresh;
+        if read.fresh != 0 {
+            self.has_value_mask |= read.fresh;
             out.averaged = true;
         }
-        if over_limit != 0 && self.stop.is_none() {
+        if read.over_limit != 0 && self.stop.is_none() {
             // The first violation (lowest channel) is kept until acknowledged.
-            let i = over_limit.trailing_zeros() as usize;
+            let i = read.over_limit.trailing_zeros() as usize;
             let ch = &self.channels[i];
             self.stop = Some(StopReason {
                 channel: i as u16,
@@ -1827,109 +1888,17 @@ impl Engine {
             });
         }
         out.stop = self.stop;
+    }
 
-        let t_since_start_s = time_s - self.start_s;
-        let channels = &self.channels;
-        for (ai, (ax, o)) in self.axes.iter_mut().zip(out.axes.iter_mut()).enumerate() {
-            if ax.has_model && fresh & ax.mask != 0 {
-                for t in &mut ax.terms {
-                    if let Term::Model(m) = &mut t.term {
-                        m.machine.update(time_s, channels, fresh);
-                        if let Some(w) = &mut m.workpiece {
-                            w.temperature.update(time_s, channels, fresh);
-                        }
-                    }
-                }
-            }
-            let ready = ax.mask & !self.has_value_mask == 0;
-            let mut status;
-            if self.stop.is_some() {
-                status = AxisStatus::Stopped;
-            } else if ax.mask & faulted != 0 {
-                status = AxisStatus::Frozen;
-            } else if !ready {
-                status = AxisStatus::Starting;
-            } else {
-                let p_mm = if ax.needs_position {
-                    inputs.positions_mm.get(ai).copied().unwrap_or(f64::NAN)
-                } else {
-                    0.0
-                };
-                if ax.needs_position && !p_mm.is_finite() {
-                    status = AxisStatus::Frozen;
-                    out.alarm = out
-                        .alarm
-                        .or(Some(Alarm::PositionMissing { axis: ai as u8 }));
-                    out.alarm_count = out.alarm_count.saturating_add(1);
-                } else {
-                    // Averages change only at their instants: re-evaluate then, or every
-                    // cycle for time- and position-dependent laws.
-                    let mut law_um = ax.out.law_um;
-                    if ax.always_evaluate || fresh & ax.mask != 0 || law_um.is_nan() {
-                        law_um = 0.0;
-                        for t in &ax.terms {
-                            law_um += t.sign * t.term.value(channels, t_since_start_s, p_mm);
-                        }
-                    }
-                    if !law_um.is_finite() {
-                        status = AxisStatus::Frozen;
-                        out.alarm = out.alarm.or(Some(Alarm::LawNotFinite { axis: ai as u8 }));
-                        out.alarm_count = out.alarm_count.saturating_add(1);
-                    } else {
-                        ax.out.law_um = law_um;
-                        let clamped = law_um.clamp(-ax.max_offset_um, ax.max_offset_um);
-                        // Seed 000 blocks 602/604: update the running compensation only when
-                        // the required correction differs from it by at least D.
-                        if (clamped - ax.out.target_um).abs() >= ax.dead_band_um {
-                            ax.out.target_um = clamped;
-                            status = AxisStatus::Updated;
-                        } else {
-                            status = AxisStatus::Held;
-                        }
-                        if clamped != law_um {
-                            status = AxisStatus::Clamped;
-                        }
-                    }
-                }
-            }
-            // Apply: gate at safe points, then rate-limit; the target may be frozen.
-            let gap_um = ax.out.target_um - ax.out.offset_um;
-            let mut step_um = 0.0;
-            if gap_um != 0.0 {
-                if ax.safe_points_only && !inputs.safe_point {
-                    if status != AxisStatus::Stopped && status != AxisStatus::Frozen {
-                        status = AxisStatus::WaitingSafePoint;
-                    }
-                } else {
-                    step_um = gap_um.clamp(-ax.max_step_um, ax.max_step_um);
-                    ax.out.offset_um = if step_um == gap_um {
-                        ax.out.target_um
-                    } else {
-                        ax.out.offset_um + step_um
-                    };
-                    if step_um != gap_um && matches!(status, AxisStatus::Updated | AxisStatus::Held)
-                    {
-                        status = AxisStatus::Ramping;
-                    }
-                }
-            }
-            ax.out.pulses = match ax.pulse_um {
-                Some(p) if step_um != 0.0 => {
-                    law::pulses_with_carry(step_um, p, &mut ax.carry_pulses)
-                }
-                _ => 0,
-            };
-            ax.out.pulse_total = ax.out.pulse_total.saturating_add(ax.out.pulses);
-            ax.out.status = status;
-            *o = ax.out;
-        }
-        out.status = if self.stop.is_some() {
+    /// The overall state after the cycle's alarms.
+    fn status(&self, out: &Output) -> EngineStatus {
+        if self.stop.is_some() {
             EngineStatus::StopRequested
         } else if out.alarm_count > 0 {
             EngineStatus::Alarm
         } else {
             EngineStatus::Running
-        };
+        }
     }
 
     /// Raises one channel alarm per set bit of `faulted`, lowest channel first.
@@ -1964,6 +1933,130 @@ impl Engine {
         } else {
             EngineStatus::Alarm
         };
+    }
+}
+
+/// What the channel phase of a cycle found, one bit per channel.
+#[derive(Debug, Clone, Copy)]
+struct ChannelRead {
+    /// The reading failed a check.
+    faulted: u64,
+    /// A new averaged value was formed.
+    fresh: u64,
+    /// The new averaged value is outside its limits.
+    over_limit: u64,
+}
+
+/// What every axis of a cycle reads besides the channels.
+#[derive(Debug, Clone, Copy)]
+struct AxisCycle {
+    time_s: f64,
+    t_since_start_s: f64,
+    fresh: u64,
+    faulted: u64,
+    has_value: u64,
+    stopped: bool,
+}
+
+impl AxisState {
+    /// Runs the model transforms of the channels with a new averaged value.
+    fn update_models(&mut self, channels: &[ChannelState], c: &AxisCycle) {
+        if !(self.has_model && c.fresh & self.mask != 0) {
+            return;
+        }
+        for t in &mut self.terms {
+            if let Term::Model(m) = &mut t.term {
+                m.machine.update(c.time_s, channels, c.fresh);
+                if let Some(w) = &mut m.workpiece {
+                    w.temperature.update(c.time_s, channels, c.fresh);
+                }
+            }
+        }
+    }
+
+    /// Law → clamp to the maximum offset → boundary constant D against the running
+    /// compensation: the axis's status, or the alarm that freezes it (axis `ai`).
+    fn evaluate(
+        &mut self,
+        ai: usize,
+        channels: &[ChannelState],
+        c: &AxisCycle,
+        positions_mm: &[f64],
+    ) -> std::result::Result<AxisStatus, Alarm> {
+        if c.stopped {
+            return Ok(AxisStatus::Stopped);
+        }
+        if self.mask & c.faulted != 0 {
+            return Ok(AxisStatus::Frozen);
+        }
+        if self.mask & !c.has_value != 0 {
+            return Ok(AxisStatus::Starting);
+        }
+        let p_mm = if self.needs_position {
+            positions_mm.get(ai).copied().unwrap_or(f64::NAN)
+        } else {
+            0.0
+        };
+        if self.needs_position && !p_mm.is_finite() {
+            return Err(Alarm::PositionMissing { axis: ai as u8 });
+        }
+        // Averages change only at their instants: re-evaluate then, or every cycle for
+        // time- and position-dependent laws.
+        let mut law_um = self.out.law_um;
+        if self.always_evaluate || c.fresh & self.mask != 0 || law_um.is_nan() {
+            law_um = 0.0;
+            for t in &self.terms {
+                law_um += t.sign * t.term.value(channels, c.t_since_start_s, p_mm);
+            }
+        }
+        if !law_um.is_finite() {
+            return Err(Alarm::LawNotFinite { axis: ai as u8 });
+        }
+        self.out.law_um = law_um;
+        let clamped = law_um.clamp(-self.max_offset_um, self.max_offset_um);
+        // Seed 000 blocks 602/604: update the running compensation only when the required
+        // correction differs from it by at least D.
+        let mut status = if (clamped - self.out.target_um).abs() >= self.dead_band_um {
+            self.out.target_um = clamped;
+            AxisStatus::Updated
+        } else {
+            AxisStatus::Held
+        };
+        if clamped != law_um {
+            status = AxisStatus::Clamped;
+        }
+        Ok(status)
+    }
+
+    /// Safe-point gate → rate limit → pulses, moving the applied offset to the target
+    /// (which may be frozen); returns the axis's output for the cycle.
+    fn apply(&mut self, mut status: AxisStatus, safe_point: bool) -> AxisOutput {
+        let gap_um = self.out.target_um - self.out.offset_um;
+        let mut step_um = 0.0;
+        if gap_um != 0.0 {
+            if self.safe_points_only && !safe_point {
+                if status != AxisStatus::Stopped && status != AxisStatus::Frozen {
+                    status = AxisStatus::WaitingSafePoint;
+                }
+            } else {
+                step_um = gap_um.clamp(-self.max_step_um, self.max_step_um);
+                self.out.offset_um = if step_um == gap_um {
+                    self.out.target_um
+                } else {
+                    self.out.offset_um + step_um
+                };
+                if step_um != gap_um && matches!(status, AxisStatus::Updated | AxisStatus::Held) {
+                    status = AxisStatus::Ramping;
+                }
+            }
+        }
+        self.out.pulses = match self.pulse_um {
+            Some(p) if step_um != 0.0 => law::pulses_with_carry(step_um, p, &mut self.carry_pulses),
+            _ => 0,
+        };
+        self.out.pulse_total = self.out.pulse_total.saturating_add(self.out.pulses);
+        self.out.status = status;
+        self.out
     }
 }
 
