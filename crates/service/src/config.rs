@@ -560,6 +560,21 @@ pub struct MqttInput {
     /// `ca_file` and name `host`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tls: Option<MqttTls>,
+    /// Publish the stop / feed-hold state (retained, QoS 1) on `<prefix>/<machine>/stop`:
+    /// `{"stop": true|false, …}`, latched until the operator acknowledges it; a PLC that
+    /// reconnects reads it from the broker.
+    #[serde(default = "yes")]
+    pub publish_stop: bool,
+    /// Heartbeat period, s (≥ `cycle.period_s`, ≤ 3600): `{"beat": n, …}` on
+    /// `<prefix>/<machine>/heartbeat` (QoS 1) while the cycle steps; it stops when the
+    /// compensator is dead. None: no heartbeat.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heartbeat_s: Option<f64>,
+    /// Publish the infeed pulses of every axis applied as pulses on
+    /// `<prefix>/<machine>/pulses/<axis>` (QoS 1, retained): `{"pulses": n, "total": T, …}`,
+    /// one batch in flight, counted sent only on the broker's PUBACK.
+    #[serde(default = "yes")]
+    pub publish_pulses: bool,
 }
 
 /// TLS to the MQTT broker.
@@ -671,6 +686,62 @@ pub struct ModbusInput {
     /// The heartbeat output (first module), if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heartbeat: Option<ModbusHeartbeat>,
+    /// The infeed-pulse counter of an axis applied as pulses (first module), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pulse_output: Option<ModbusPulseOutput>,
+    /// Axis positions read from registers of the first module (position-dependent laws).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub positions: Vec<ModbusPosition>,
+}
+
+/// The infeed pulses of an axis applied as pulses (EP0138375): the cumulative count of
+/// pulses issued, an i32 in two holding registers (`address` = high word, `address + 1` =
+/// low word, written together with function 16). The PLC applies the difference to the
+/// count it last applied; a batch counts as sent only on the device's write response.
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusPulseOutput {
+    /// Axis name (its engine `apply` must be `pulses`).
+    pub axis: String,
+    /// Address of the high word.
+    pub address: u16,
+}
+
+/// An axis position read from a register of the first module.
+///
+/// position_mm = register·mm_per_count + offset_mm (register: i16, or i32 over two
+/// registers high word first when `words = 2`).
+#[cfg(feature = "modbus")]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModbusPosition {
+    /// Axis name.
+    pub axis: String,
+    /// Register address (the high word when `words = 2`).
+    pub address: u16,
+    /// Input or holding register.
+    #[serde(default = "input_table")]
+    pub table: RegisterTable,
+    /// 1 (i16) or 2 (i32, high word first).
+    #[serde(default = "one_word")]
+    pub words: u8,
+    /// mm per count (≠ 0, |·| ≤ 1000).
+    #[serde(default = "micron_mm")]
+    pub mm_per_count: f64,
+    /// mm added after scaling.
+    #[serde(default)]
+    pub offset_mm: f64,
+}
+
+#[cfg(feature = "modbus")]
+fn one_word() -> u8 {
+    1
+}
+
+#[cfg(feature = "modbus")]
+fn micron_mm() -> f64 {
+    0.001
 }
 
 /// Where a Modbus flag is written.
@@ -832,7 +903,8 @@ pub use crate::sources::replay::ReplayInput;
 
 #[cfg(feature = "opcua")]
 pub use crate::sources::opcua_config::{
-    OpcUaChannel, OpcUaInput, OpcUaOffsetOutput, OpcUaProgramState, OpcUaTrigger,
+    OpcUaChannel, OpcUaInput, OpcUaNumericType, OpcUaOffsetOutput, OpcUaProgramState,
+    OpcUaTrigger,
 };
 
 impl ServiceConfig {
@@ -900,6 +972,17 @@ impl ServiceConfig {
         if let InputSection::OpcUa(o) = &mut cfg.input {
             if o.pki_dir.is_relative() {
                 o.pki_dir = dir.join(&o.pki_dir);
+            }
+            for f in [
+                &mut o.password_file,
+                &mut o.user_certificate,
+                &mut o.user_private_key,
+            ]
+            .into_iter()
+            .flatten()
+            .filter(|f| f.is_relative())
+            {
+                *f = dir.join(&*f);
             }
         }
         Ok(cfg)
@@ -1015,6 +1098,16 @@ impl ServiceConfig {
                     "16…16777216 bytes",
                 )?;
                 m.check_login()?;
+                if let Some(h) = m.heartbeat_s {
+                    let lo = self.cycle.period_s;
+                    check_range(
+                        "input.heartbeat_s",
+                        h,
+                        lo,
+                        3600.0,
+                        &format!("{lo}…3600 s (≥ cycle.period_s)"),
+                    )?;
+                }
             }
             #[cfg(feature = "modbus")]
             InputSection::Modbus(m) => {
@@ -1066,6 +1159,20 @@ impl ServiceConfig {
                         3600.0,
                         "0.05…3600 s",
                     )?;
+                }
+                for (i, p) in m.positions.iter().enumerate() {
+                    let f = format!("input.positions[{i}]");
+                    if p.words != 1 && p.words != 2 {
+                        return Err(invalid(format!("{f}.words"), p.words, "1 or 2"));
+                    }
+                    check_range(
+                        &format!("{f}.mm_per_count"),
+                        p.mm_per_count.abs(),
+                        1e-9,
+                        1000.0,
+                        "≠ 0, |mm_per_count| ≤ 1000 mm",
+                    )?;
+                    check_range(&format!("{f}.offset_mm"), p.offset_mm, -1e6, 1e6, "finite")?;
                 }
                 if let Some(h) = &m.heartbeat {
                     // The cycle steps at least every cycle.period_s: a shorter heartbeat
@@ -1422,7 +1529,7 @@ fn shared_resources(cfg: &ServiceConfig) -> Vec<(&'static str, String)> {
         }
         #[cfg(feature = "opcua")]
         InputSection::OpcUa(u) => {
-            if let Some(o) = &u.offset_output {
+            for (_, o) in u.outputs() {
                 keys.push((
                     "input.offset_output",
                     format!("opcua {} node {}", u.endpoint, o.node),

@@ -36,16 +36,16 @@ use opcua::client::{
     Client, ClientBuilder, DataChangeCallback, IdentityToken, MonitoredItem, Session,
     SessionPollResult,
 };
-use opcua::crypto::SecurityPolicy;
+use opcua::crypto::{CertificateStore, SecurityPolicy, X509};
 use opcua::types::{
-    AttributeId, DataValue, MessageSecurityMode, MonitoredItemCreateRequest, MonitoringMode,
-    MonitoringParameters, NodeId, NumericRange, ReadValueId, TimestampsToReturn, Variant,
-    WriteValue,
+    AttributeId, DataValue, EndpointDescription, MessageSecurityMode, MonitoredItemCreateRequest,
+    MonitoringMode, MonitoringParameters, NodeId, NumericRange, ReadValueId, StatusCode,
+    TimestampsToReturn, UserTokenType, Variant, WriteValue,
 };
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-use crate::config::OpcUaInput;
+use crate::config::{OpcUaInput, OpcUaNumericType};
 use crate::cycle::{Clock, InputMsg, OffsetOut};
 use crate::error::{invalid, Result};
 
@@ -175,22 +175,193 @@ pub fn trigger_fires(prev: Option<i64>, new: i64, boolean: bool) -> bool {
     }
 }
 
-/// The value written to the offset node.
+/// The value written to the offset node, in the node's data type.
 ///
 /// # Formula
-/// node = offset_um · scale   (scale = 1 for µm, 0.001 for mm)
+/// node = offset_um · scale (Double; Float rounded to the nearest f32; Int16 and Int32
+/// `round(offset_um · scale)` counts, half away from zero), scale = 1 for µm, 0.001 for
+/// mm, 10 for counts of 0.1 µm. A value outside the type's range is an error (the caller
+/// holds the node's last value), never a wrapped or saturated one.
 /// # Source
 /// absolute compensation value as SINUMERIK's temperature-compensation setting data or a
-/// TwinCAT external-compensation variable take it [CONVENTION, docs/service.md]
-pub fn encode_offset(offset_um: f64, scale: f64) -> std::result::Result<f64, String> {
+/// TwinCAT external-compensation variable take it; OPC UA Part 6 §5.1.2 built-in types
+/// (Int16 −32768…32767, Int32 −2³¹…2³¹−1, Float IEEE 754 binary32) [STANDARD]
+pub fn encode_offset(
+    offset_um: f64,
+    scale: f64,
+    ty: OpcUaNumericType,
+) -> std::result::Result<Variant, String> {
     let v = offset_um * scale;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!(
+    if !v.is_finite() {
+        return Err(format!(
             "offset {offset_um} µm × scale {scale} = {v}: not a finite value"
-        ))
+        ));
     }
+    let out_of_range = |lo: f64, hi: f64, what: &str| {
+        format!(
+            "offset {offset_um} µm × scale {scale} = {v} does not fit {} ({what}, {lo}…{hi}); \
+             the node keeps its last value",
+            ty.name()
+        )
+    };
+    Ok(match ty {
+        OpcUaNumericType::Double => Variant::Double(v),
+        OpcUaNumericType::Float => {
+            let f = v as f32;
+            if !f.is_finite() {
+                return Err(out_of_range(
+                    -f64::from(f32::MAX),
+                    f64::from(f32::MAX),
+                    "node units",
+                ));
+            }
+            Variant::Float(f)
+        }
+        OpcUaNumericType::Int16 => {
+            let r = v.round();
+            if !(f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&r) {
+                return Err(out_of_range(
+                    f64::from(i16::MIN),
+                    f64::from(i16::MAX),
+                    "counts",
+                ));
+            }
+            Variant::Int16(r as i16)
+        }
+        OpcUaNumericType::Int32 => {
+            let r = v.round();
+            if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&r) {
+                return Err(out_of_range(
+                    f64::from(i32::MIN),
+                    f64::from(i32::MAX),
+                    "counts",
+                ));
+            }
+            Variant::Int32(r as i32)
+        }
+    })
+}
+
+/// The OPC UA data type id (namespace 0) of a numeric output type.
+fn type_id(ty: OpcUaNumericType) -> u32 {
+    match ty {
+        OpcUaNumericType::Double => 11,
+        OpcUaNumericType::Float => 10,
+        OpcUaNumericType::Int16 => 4,
+        OpcUaNumericType::Int32 => 6,
+    }
+}
+
+/// The name of a namespace-0 data type id, for messages.
+fn data_type_name(id: &NodeId) -> String {
+    let name = match (id.namespace, &id.identifier) {
+        (0, opcua::types::Identifier::Numeric(n)) => match n {
+            1 => "Boolean",
+            2 => "SByte",
+            3 => "Byte",
+            4 => "Int16",
+            5 => "UInt16",
+            6 => "Int32",
+            7 => "UInt32",
+            8 => "Int64",
+            9 => "UInt64",
+            10 => "Float",
+            11 => "Double",
+            12 => "String",
+            13 => "DateTime",
+            24 => "BaseDataType",
+            26 => "Number",
+            27 => "Integer",
+            28 => "UInteger",
+            _ => "",
+        },
+        _ => "",
+    };
+    if name.is_empty() {
+        format!("{id}")
+    } else {
+        format!("{name} ({id})")
+    }
+}
+
+/// Whether a node declaring data type `declared` takes a value of type `want` (a type id
+/// of namespace 0): the same type, or an abstract type above it (BaseDataType, Number, and
+/// Integer for the integer types).
+pub fn type_accepts(declared: &NodeId, want: u32) -> bool {
+    let opcua::types::Identifier::Numeric(d) = declared.identifier else {
+        return false;
+    };
+    declared.namespace == 0
+        && (d == want || d == 24 || d == 26 && want != 1 || d == 27 && matches!(want, 4 | 6))
+}
+
+/// AccessLevel bit CurrentWrite (OPC UA Part 3 §5.6.2, Table 8).
+const CURRENT_WRITE: u8 = 0x02;
+
+/// Checks at connect that an output node exists, declares the data type written to it and
+/// may be written (AccessLevel and this user's UserAccessLevel); Err says which and how.
+async fn check_output_node(
+    session: &Arc<Session>,
+    node: &NodeId,
+    want: u32,
+    want_name: &str,
+) -> std::result::Result<(), String> {
+    let ids = [
+        AttributeId::DataType,
+        AttributeId::AccessLevel,
+        AttributeId::UserAccessLevel,
+    ]
+    .map(|a| ReadValueId {
+        node_id: node.clone(),
+        attribute_id: a as u32,
+        ..Default::default()
+    });
+    let res = tokio::time::timeout(
+        Duration::from_secs(5),
+        session.read(&ids, TimestampsToReturn::Neither, 0.0),
+    )
+    .await;
+    let values = match res {
+        Ok(Ok(v)) if v.len() == 3 => v,
+        Ok(Ok(_)) => return Err("the server answered the attribute read incompletely".into()),
+        Ok(Err(e)) => return Err(format!("cannot read its attributes ({e})")),
+        Err(_) => return Err("no answer to the attribute read within 5 s".into()),
+    };
+    let status = |dv: &DataValue| dv.status.unwrap_or(StatusCode::Good);
+    let dt_status = status(&values[0]);
+    if dt_status == StatusCode::BadNodeIdUnknown {
+        return Err("does not exist on the server (BadNodeIdUnknown)".into());
+    }
+    match &values[0].value {
+        Some(Variant::NodeId(dt)) if dt_status.is_good() => {
+            if !type_accepts(dt, want) {
+                return Err(format!(
+                    "has data type {}, the configuration writes {want_name}",
+                    data_type_name(dt)
+                ));
+            }
+        }
+        _ => {
+            return Err(format!(
+                "its DataType attribute cannot be read ({dt_status}); a variable node is needed"
+            ))
+        }
+    }
+    for (dv, attr) in values[1..].iter().zip(["AccessLevel", "UserAccessLevel"]) {
+        if let (Some(Variant::Byte(b)), true) = (&dv.value, status(dv).is_good()) {
+            if b & CURRENT_WRITE == 0 {
+                return Err(format!(
+                    "is not writable: {attr} = {b:#04x} lacks CurrentWrite (0x02){}",
+                    if attr == "UserAccessLevel" {
+                        " for this login"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// What a monitored item feeds.
@@ -226,6 +397,18 @@ struct PositionNode {
     offset: f64,
 }
 
+/// An offset output node with its engine axis.
+#[derive(Debug, Clone)]
+struct OutSpec {
+    node: NodeId,
+    axis: usize,
+    axis_name: String,
+    /// The configuration key, e.g. `input.offset_outputs[1]`.
+    field: String,
+    scale: f64,
+    ty: OpcUaNumericType,
+}
+
 /// The configuration with node ids parsed and names resolved against the engine.
 #[derive(Debug, Clone)]
 pub struct Resolved {
@@ -233,9 +416,9 @@ pub struct Resolved {
     positions: Vec<PositionNode>,
     trigger: Option<NodeId>,
     program_state: Option<(NodeId, Vec<i64>)>,
-    output: Option<(NodeId, usize, f64)>,
+    outputs: Vec<OutSpec>,
     stop: Option<NodeId>,
-    beat: Option<(NodeId, Duration)>,
+    beat: Option<(NodeId, Duration, OpcUaNumericType)>,
 }
 
 /// Checks every node id, mapped channel and the offset axis.
@@ -289,23 +472,24 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         )),
         None => None,
     };
-    let output = match &cfg.offset_output {
-        Some(o) => {
-            let axis = axes.iter().position(|a| a == &o.axis).ok_or_else(|| {
-                invalid(
-                    "input.offset_output.axis",
-                    &o.axis,
-                    format!("an engine axis: {}", axes.join(", ")),
-                )
-            })?;
-            Some((
-                parse_node("input.offset_output.node", &o.node)?,
-                axis,
-                o.scale,
-            ))
-        }
-        None => None,
-    };
+    let mut outputs = Vec::new();
+    for (field, o) in cfg.outputs() {
+        let axis = axes.iter().position(|a| a == &o.axis).ok_or_else(|| {
+            invalid(
+                format!("{field}.axis"),
+                &o.axis,
+                format!("an engine axis: {}", axes.join(", ")),
+            )
+        })?;
+        outputs.push(OutSpec {
+            node: parse_node(&format!("{field}.node"), &o.node)?,
+            axis,
+            axis_name: o.axis.clone(),
+            field,
+            scale: o.scale,
+            ty: o.data_type,
+        });
+    }
     let stop = match &cfg.stop_output {
         Some(s) => Some(parse_node("input.stop_output.node", &s.node)?),
         None => None,
@@ -314,6 +498,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         Some(h) => Some((
             parse_node("input.heartbeat.node", &h.node)?,
             Duration::from_secs_f64(h.period_s),
+            h.data_type,
         )),
         None => None,
     };
@@ -322,7 +507,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         positions,
         trigger,
         program_state,
-        output,
+        outputs,
         stop,
         beat,
     })
@@ -350,7 +535,11 @@ pub struct OpcUaParts {
 struct Flags {
     stop: Option<NodeId>,
     stop_written: Option<bool>,
-    beat: Option<(NodeId, Duration)>,
+    /// The stop node passed the connect check in this session.
+    stop_ok: bool,
+    beat: Option<(NodeId, Duration, OpcUaNumericType)>,
+    /// The heartbeat node passed the connect check in this session.
+    beat_ok: bool,
     counter: i32,
     last_alive: u64,
     next_beat: Instant,
@@ -394,7 +583,7 @@ async fn write_flags(
     offsets: &watch::Receiver<OffsetOut>,
     tx: &SyncSender<InputMsg>,
 ) {
-    if let Some(node) = &f.stop {
+    if let (Some(node), true) = (&f.stop, f.stop_ok) {
         let want = offsets.borrow().stop;
         if f.stop_written != Some(want) {
             match write_value(session, node, Variant::Boolean(want)).await {
@@ -417,15 +606,25 @@ async fn write_flags(
             }
         }
     }
-    if let Some((node, period)) = &f.beat {
+    if let (Some((node, period, ty)), true) = (&f.beat, f.beat_ok) {
         let now = Instant::now();
         if now >= f.next_beat {
             f.next_beat = now + *period;
             let a = f.alive.load(std::sync::atomic::Ordering::Acquire);
             if a != f.last_alive {
                 f.last_alive = a;
-                let c = f.counter.wrapping_add(1);
-                match write_value(session, node, Variant::Int32(c)).await {
+                // The counter wraps within the node's type (Int16: 32767 → −32768).
+                let (c, v) = match ty {
+                    OpcUaNumericType::Int16 => {
+                        let c = (f.counter as i16).wrapping_add(1);
+                        (i32::from(c), Variant::Int16(c))
+                    }
+                    _ => {
+                        let c = f.counter.wrapping_add(1);
+                        (c, Variant::Int32(c))
+                    }
+                };
+                match write_value(session, node, v).await {
                     Ok(()) => {
                         f.counter = c;
                         send(
@@ -454,7 +653,14 @@ fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
 }
 
 const CONN_KEY: &str = "opcua.connection";
+/// Prefix of the offset outputs' alarm keys: `opcua.offset_output.<axis>`.
 const OUT_KEY: &str = "opcua.offset_output";
+/// The server refused the login (user name / password or user certificate).
+const LOGIN_KEY: &str = "opcua.login";
+/// A certificate was refused: the server's here, or ours on the server.
+const CERT_KEY: &str = "opcua.certificate";
+/// The server offers no endpoint with the configured security policy and mode.
+const POLICY_KEY: &str = "opcua.security_policy";
 
 fn node_key(n: &NodeId) -> String {
     format!("opcua.node.{n}")
@@ -463,13 +669,15 @@ fn node_key(n: &NodeId) -> String {
 /// The offset output's state, kept across reconnects so a sequence number confirmed once
 /// is not written again without need.
 struct Output {
-    node: NodeId,
-    axis: usize,
-    scale: f64,
+    spec: OutSpec,
+    /// `opcua.offset_output.<axis>`.
+    key: String,
+    /// The node passed the connect check (exists, data type, writable) in this session.
+    usable: bool,
     written_seq: u64,
     /// The node value last confirmed: a new sequence number that only changed another
     /// axis leaves it as it is.
-    written_value: Option<f64>,
+    written_value: Option<Variant>,
     /// Write the newest value even if its sequence number was confirmed: set at the start
     /// of a session, since the server may have restarted and lost the value.
     rewrite: bool,
@@ -640,10 +848,235 @@ fn build_client(cfg: &OpcUaInput) -> Result<Client> {
 }
 
 fn identity(cfg: &OpcUaInput) -> Result<IdentityToken> {
+    if let (Some(c), Some(k)) = (&cfg.user_certificate, &cfg.user_private_key) {
+        let cert = CertificateStore::read_cert(c).map_err(|e| {
+            invalid(
+                "input.user_certificate",
+                c.display(),
+                format!("a readable X.509 certificate, .der or .pem ({e})"),
+            )
+        })?;
+        let key = CertificateStore::read_pkey(k).map_err(|e| {
+            invalid(
+                "input.user_private_key",
+                k.display(),
+                format!("a readable PEM private key ({e})"),
+            )
+        })?;
+        return Ok(IdentityToken::new_x509(cert, key));
+    }
     Ok(match (&cfg.user, cfg.password()?) {
         (Some(u), Some(p)) => IdentityToken::new_user_name(u.clone(), p),
         _ => IdentityToken::new_anonymous(),
     })
+}
+
+/// Makes every certificate in `pki_dir/trusted` trusted whatever its file name: the
+/// stack looks a server certificate up by the name `CN [thumbprint].der` only, so a
+/// certificate copied in under another name (`cnc.der`, `cnc.pem`) is written once more
+/// under that name, and a copy of it in `rejected/` (where a first refused connect put it)
+/// is removed. Returns the thumbprints (hex) of the trusted certificates.
+pub fn normalise_trusted(pki_dir: &std::path::Path) -> Vec<String> {
+    let trusted = pki_dir.join("trusted");
+    let rejected = pki_dir.join("rejected");
+    let mut thumbprints = Vec::new();
+    let Ok(entries) = std::fs::read_dir(&trusted) else {
+        return thumbprints;
+    };
+    for e in entries.flatten() {
+        let path = e.path();
+        let Ok(bytes) = std::fs::read(&path) else {
+            continue;
+        };
+        let cert = match X509::from_der(&bytes) {
+            Ok(c) => c,
+            Err(_) => match X509::from_pem(&bytes) {
+                Ok(c) => c,
+                Err(_) => continue,
+            },
+        };
+        thumbprints.push(cert.thumbprint().as_hex_string());
+        let name = CertificateStore::cert_file_name(&cert);
+        let canonical = trusted.join(&name);
+        if !canonical.exists() {
+            if let Ok(der) = cert.to_der() {
+                let _ = std::fs::write(&canonical, der);
+            }
+        }
+        let _ = std::fs::remove_file(rejected.join(&name));
+    }
+    thumbprints
+}
+
+/// The named alarm key of a connect failure's status code, if it has one.
+fn failure_key(code: StatusCode) -> Option<&'static str> {
+    use StatusCode as S;
+    match code {
+        S::BadUserAccessDenied | S::BadIdentityTokenInvalid | S::BadIdentityTokenRejected => {
+            Some(LOGIN_KEY)
+        }
+        S::BadCertificateUntrusted
+        | S::BadSecurityChecksFailed
+        | S::BadCertificateInvalid
+        | S::BadCertificateTimeInvalid
+        | S::BadCertificateHostNameInvalid
+        | S::BadCertificateUriInvalid
+        | S::BadCertificateUseNotAllowed
+        | S::BadCertificateRevoked => Some(CERT_KEY),
+        _ => None,
+    }
+}
+
+/// Why a session did not come up or ended: a message, and the named alarm key of the
+/// cause when it is a login, certificate or security-policy problem.
+struct Ended {
+    key: Option<&'static str>,
+    why: String,
+}
+
+impl From<String> for Ended {
+    fn from(why: String) -> Self {
+        Ended { key: None, why }
+    }
+}
+
+impl From<&str> for Ended {
+    fn from(why: &str) -> Self {
+        Ended {
+            key: None,
+            why: why.into(),
+        }
+    }
+}
+
+/// The message of a connect failure with status `code`, with what to do for the named
+/// causes. Never contains the password.
+fn explain(cfg: &OpcUaInput, code: StatusCode, what: &str) -> Ended {
+    let key = failure_key(code);
+    let pki = cfg.pki_dir.display();
+    let why = match key {
+        Some(LOGIN_KEY) => match (&cfg.user, &cfg.user_certificate) {
+            (Some(u), _) => format!(
+                "the server refused the login of user {u:?} ({code}): check the password \
+                 (input.password_env / password_file / password) and the user's rights"
+            ),
+            (None, Some(c)) => format!(
+                "the server refused the login with user certificate {} ({code}): the server \
+                 must know and trust it",
+                c.display()
+            ),
+            _ => format!("the server refused the anonymous login ({code}): set input.user"),
+        },
+        Some(_) => format!(
+            "certificate refused ({code}): the server does not trust this client's \
+             certificate {pki}/own/cert.der (trust it on the server), or the server's \
+             certificate is not valid for {} (time, host name or application URI)",
+            cfg.endpoint
+        ),
+        None => format!("{what} ({code})"),
+    };
+    Ended { key, why }
+}
+
+/// `Policy/Mode` of an endpoint, for messages.
+fn endpoint_name(e: &EndpointDescription) -> String {
+    format!(
+        "{}/{}",
+        SecurityPolicy::from_uri(e.security_policy_uri.as_ref()),
+        e.security_mode
+    )
+}
+
+/// Picks the server's endpoint matching the configured policy and mode, and checks that
+/// the server's certificate is trusted and that the endpoint takes the configured login;
+/// Err names the mismatch and what the server offers.
+fn pick_endpoint(
+    cfg: &OpcUaInput,
+    endpoints: &[EndpointDescription],
+    policy: SecurityPolicy,
+    mode: MessageSecurityMode,
+    token: &IdentityToken,
+) -> std::result::Result<EndpointDescription, Ended> {
+    let offered: Vec<String> = endpoints.iter().map(endpoint_name).collect();
+    let Some(ep) = Client::find_matching_endpoint(endpoints, &cfg.endpoint, policy, mode) else {
+        let all_secure = !endpoints.is_empty()
+            && endpoints
+                .iter()
+                .all(|e| e.security_mode != MessageSecurityMode::None);
+        let why = if policy == SecurityPolicy::None && all_secure {
+            format!(
+                "the server requires a secure policy: it offers {} and no None endpoint; \
+                 set input.security_policy and input.security_mode to one of them \
+                 (e.g. security_policy = \"Basic256Sha256\", security_mode = \"SignAndEncrypt\")",
+                offered.join(", ")
+            )
+        } else {
+            format!(
+                "the server offers no endpoint with input.security_policy = {:?} and \
+                 input.security_mode = {:?}; it offers {}",
+                cfg.security_policy,
+                cfg.security_mode,
+                if offered.is_empty() {
+                    "none".to_string()
+                } else {
+                    offered.join(", ")
+                }
+            )
+        };
+        return Err(Ended {
+            key: Some(POLICY_KEY),
+            why,
+        });
+    };
+    // The login must be one the endpoint takes.
+    let (want, name) = match token {
+        IdentityToken::UserName(..) => (UserTokenType::UserName, "user name / password"),
+        IdentityToken::X509(..) => (UserTokenType::Certificate, "user certificate"),
+        _ => (UserTokenType::Anonymous, "anonymous"),
+    };
+    let tokens = ep.user_identity_tokens.as_deref().unwrap_or(&[]);
+    if !tokens.iter().any(|t| t.token_type == want) {
+        let kinds: Vec<String> = tokens
+            .iter()
+            .map(|t| format!("{:?}", t.token_type))
+            .collect();
+        return Err(Ended {
+            key: Some(LOGIN_KEY),
+            why: format!(
+                "the server's {} endpoint takes no {name} login (it takes {})",
+                endpoint_name(&ep),
+                kinds.join(", ")
+            ),
+        });
+    }
+    // The server's certificate must be trusted (by thumbprint, whatever the file name).
+    if policy != SecurityPolicy::None && !cfg.trust_server_cert {
+        let trusted = normalise_trusted(&cfg.pki_dir);
+        if let Ok(cert) = X509::from_byte_string(&ep.server_certificate) {
+            let thumb = cert.thumbprint().as_hex_string();
+            if !trusted.contains(&thumb) {
+                let name = CertificateStore::cert_file_name(&cert);
+                let rejected = cfg.pki_dir.join("rejected");
+                let _ = std::fs::create_dir_all(&rejected);
+                let kept = rejected.join(&name);
+                if let Ok(der) = cert.to_der() {
+                    let _ = std::fs::write(&kept, der);
+                }
+                return Err(Ended {
+                    key: Some(CERT_KEY),
+                    why: format!(
+                        "the server's certificate {:?} (SHA-1 thumbprint {thumb}) is not trusted: \
+                         after checking the thumbprint with the CNC, copy {} into {} \
+                         (any file name)",
+                        cert.subject_name(),
+                        kept.display(),
+                        cfg.pki_dir.join("trusted").display()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(ep)
 }
 
 /// The adapter, checked and ready to run.
@@ -683,28 +1116,34 @@ async fn run(a: Adapter) {
         token,
     } = a;
     let mut offsets = p.offsets.clone();
-    let mut output = r.output.clone().map(|(node, axis, scale)| Output {
-        node,
-        axis,
-        scale,
-        written_seq: 0,
-        written_value: None,
-        rewrite: true,
-        failures: 0,
-        next_try: Instant::now(),
-    });
+    let mut outputs: Vec<Output> = r
+        .outputs
+        .iter()
+        .map(|spec| Output {
+            key: format!("{OUT_KEY}.{}", spec.axis_name),
+            spec: spec.clone(),
+            usable: false,
+            written_seq: 0,
+            written_value: None,
+            rewrite: true,
+            failures: 0,
+            next_try: Instant::now(),
+        })
+        .collect();
     let mut failures = 0u32;
     let mut flags = Flags {
         stop: r.stop.clone(),
         stop_written: None,
+        stop_ok: false,
         beat: r.beat.clone(),
+        beat_ok: false,
         counter: 0,
         last_alive: 0,
         next_beat: Instant::now(),
         alive: p.alive.clone(),
     };
     loop {
-        let why = session(
+        let ended = session(
             &mut client,
             &p.cfg,
             token.clone(),
@@ -712,7 +1151,7 @@ async fn run(a: Adapter) {
             p.clock,
             &p.tx,
             &mut offsets,
-            &mut output,
+            &mut outputs,
             &mut flags,
             &mut failures,
         )
@@ -733,14 +1172,24 @@ async fn run(a: Adapter) {
         }
         failures = failures.saturating_add(1);
         let wait_s = p.cfg.reconnect.wait_s(failures);
+        let message = format!(
+            "OPC UA server {}: {}; retrying with back-off ({wait_s} s)",
+            p.cfg.endpoint, ended.why
+        );
+        if let Some(key) = ended.key {
+            send(
+                &p.tx,
+                InputMsg::RaiseAlarm {
+                    key: key.into(),
+                    message: message.clone(),
+                },
+            );
+        }
         send(
             &p.tx,
             InputMsg::RaiseAlarm {
                 key: CONN_KEY.into(),
-                message: format!(
-                    "OPC UA server {}: {why}; retrying with back-off ({wait_s} s)",
-                    p.cfg.endpoint
-                ),
+                message,
             },
         );
         tokio::time::sleep(Duration::from_secs_f64(wait_s)).await;
@@ -758,30 +1207,41 @@ async fn session(
     clock: Clock,
     tx: &SyncSender<InputMsg>,
     offsets: &mut watch::Receiver<OffsetOut>,
-    output: &mut Option<Output>,
+    outputs: &mut [Output],
     flags: &mut Flags,
     failures: &mut u32,
-) -> String {
+) -> Ended {
     let policy = SecurityPolicy::from_str(&cfg.security_policy).unwrap_or(SecurityPolicy::None);
     let mode = match cfg.security_mode.as_str() {
         "Sign" => MessageSecurityMode::Sign,
         "SignAndEncrypt" => MessageSecurityMode::SignAndEncrypt,
         _ => MessageSecurityMode::None,
     };
-    let endpoint = (cfg.endpoint.as_str(), policy.to_uri(), mode);
-    let connect = tokio::time::timeout(
+    // The server's endpoints first (an unsecured GetEndpoints every server answers), so a
+    // policy mismatch, an untrusted server certificate or a login the endpoint does not take
+    // is named instead of the stack's BadTcpEndpointUrlInvalid.
+    let endpoints = tokio::time::timeout(
         Duration::from_secs(10),
-        client.connect_to_matching_endpoint(endpoint, token),
+        client.get_server_endpoints_from_url(cfg.endpoint.as_str()),
     )
     .await;
-    let (session, event_loop) = match connect {
-        Ok(Ok(s)) => s,
-        Ok(Err(e)) => return format!("cannot open a session ({e})"),
+    let endpoints = match endpoints {
+        Ok(Ok(e)) => e,
+        Ok(Err(e)) => return format!("cannot get the server's endpoints ({e})").into(),
         Err(_) => return "no answer within 10 s".into(),
+    };
+    let ep = match pick_endpoint(cfg, &endpoints, policy, mode, &token) {
+        Ok(ep) => ep,
+        Err(e) => return e,
+    };
+    let (session, event_loop) = match client.connect_to_endpoint_directly(ep, token) {
+        Ok(s) => s,
+        Err(e) => return explain(cfg, e.status(), "cannot open a session"),
     };
     // The event loop drives the connection; it runs in a JoinSet so that it ends with
     // this future (service stop aborts the adapter task).
-    let (state_tx, mut state_rx) = watch::channel::<Option<std::result::Result<(), String>>>(None);
+    let (state_tx, mut state_rx) =
+        watch::channel::<Option<std::result::Result<(), (StatusCode, String)>>>(None);
     let mut tasks = tokio::task::JoinSet::new();
     tasks.spawn(async move {
         let stream = event_loop.enter();
@@ -792,32 +1252,32 @@ async fn session(
                     let _ = state_tx.send(Some(Ok(())));
                 }
                 Some(Ok(SessionPollResult::ConnectionLost(c))) => {
-                    break format!("connection lost ({c})")
+                    break (c, "connection lost".to_string())
                 }
                 Some(Ok(SessionPollResult::ReconnectFailed(c))) => {
-                    break format!("cannot connect ({c})")
+                    break (c, "cannot connect".to_string())
                 }
                 Some(Ok(_)) => {}
-                Some(Err(c)) => break format!("session ended ({c})"),
-                None => break "session closed".into(),
+                Some(Err(c)) => break (c, "session ended".to_string()),
+                None => break (StatusCode::BadConnectionClosed, "session closed".into()),
             }
         };
         let _ = state_tx.send(Some(Err(end)));
     });
-    let failed: Option<String> = {
+    let failed: Option<Ended> = {
         let up =
             tokio::time::timeout(Duration::from_secs(10), state_rx.wait_for(Option::is_some)).await;
         match up {
             Ok(Ok(s)) => match &*s {
-                Some(Err(why)) => Some(why.clone()),
+                Some(Err((code, what))) => Some(explain(cfg, *code, what)),
                 _ => None,
             },
             Ok(Err(_)) => Some("session ended".into()),
             Err(_) => Some("no session within 10 s".into()),
         }
     };
-    if let Some(why) = failed {
-        return why;
+    if let Some(e) = failed {
+        return e;
     }
 
     let roles = monitored_roles(r);
@@ -838,7 +1298,7 @@ async fn session(
         .await;
     let sub = match sub {
         Ok(s) => s,
-        Err(e) => return format!("cannot create the subscription ({e})"),
+        Err(e) => return format!("cannot create the subscription ({e})").into(),
     };
     let items: Vec<MonitoredItemCreateRequest> = roles
         .iter()
@@ -888,21 +1348,80 @@ async fn session(
                     }
                 }
             }
-            Err(e) => return format!("cannot create the monitored items ({e})"),
+            Err(e) => return format!("cannot create the monitored items ({e})").into(),
         }
     }
     *failures = 0;
-    send(
-        tx,
-        InputMsg::ClearAlarm {
-            key: CONN_KEY.into(),
-        },
-    );
+    for key in [CONN_KEY, LOGIN_KEY, CERT_KEY, POLICY_KEY] {
+        send(tx, InputMsg::ClearAlarm { key: key.into() });
+    }
+
+    // Every output node is checked once per session: it exists, declares the data type
+    // written to it and may be written. A node failing the check raises its output's alarm
+    // and is not written in this session (instead of BadTypeMismatch at every write).
+    for o in outputs.iter_mut() {
+        let spec = &o.spec;
+        let checked =
+            check_output_node(&session, &spec.node, type_id(spec.ty), spec.ty.name()).await;
+        o.usable = checked.is_ok();
+        if let Err(why) = checked {
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: o.key.clone(),
+                    message: format!(
+                        "OPC UA offset output of axis {} ({}): node {} {why} ({}.data_type = \"{}\"; \
+                         Double | Float | Int16 | Int32); nothing is written to it until it is \
+                         fixed (checked at every connect)",
+                        spec.axis_name,
+                        spec.field,
+                        spec.node,
+                        spec.field,
+                        spec.ty.name()
+                    ),
+                },
+            );
+        }
+    }
+    if let Some(node) = &flags.stop {
+        let checked = check_output_node(&session, node, 1, "Boolean").await;
+        flags.stop_ok = checked.is_ok();
+        if let Err(why) = checked {
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: STOP_KEY.into(),
+                    message: format!(
+                        "OPC UA stop output (input.stop_output): node {node} {why} (a writable \
+                         Boolean is needed); not written until fixed (checked at every connect)"
+                    ),
+                },
+            );
+        }
+    }
+    if let Some((node, _, ty)) = &flags.beat {
+        let checked = check_output_node(&session, node, type_id(*ty), ty.name()).await;
+        flags.beat_ok = checked.is_ok();
+        if let Err(why) = checked {
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: BEAT_KEY.into(),
+                    message: format!(
+                        "OPC UA heartbeat (input.heartbeat): node {node} {why} \
+                         (input.heartbeat.data_type = \"{}\"; Int16 | Int32); not written until \
+                         fixed (checked at every connect)",
+                        ty.name()
+                    ),
+                },
+            );
+        }
+    }
 
     // A CNC restarted while the service ran holds 0 (or whatever it kept): write the
     // current offset at once, not at the next change. The value is absolute, so writing it
     // again where it is already in place changes nothing.
-    if let Some(o) = output.as_mut() {
+    for o in outputs.iter_mut() {
         o.rewrite = true;
         o.failures = 0;
         o.next_try = Instant::now();
@@ -917,18 +1436,20 @@ async fn session(
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut offsets_open = true;
     loop {
-        let retry_at = output.as_ref().map_or_else(
-            || Instant::now() + Duration::from_secs(3600),
-            |o| o.next_try,
-        );
+        let retry_at = outputs
+            .iter()
+            .filter(|o| o.usable)
+            .map(|o| o.next_try)
+            .min()
+            .unwrap_or_else(|| Instant::now() + Duration::from_secs(3600));
         tokio::select! {
             ch = state_rx.changed() => {
-                let why = match (ch, state_rx.borrow().clone()) {
-                    (Ok(()), Some(Err(why))) => why,
+                let ended = match (ch, state_rx.borrow().clone()) {
+                    (Ok(()), Some(Err((code, what)))) => explain(cfg, code, &what),
                     (Ok(()), _) => continue,
-                    (Err(_), _) => "session ended".to_string(),
+                    (Err(_), _) => "session ended".into(),
                 };
-                return why;
+                return ended;
             }
             Some((h, dv)) = dv_rx.recv() => {
                 if let Some((_, role)) = (h as usize).checked_sub(1).and_then(|i| roles.get(i)) {
@@ -941,10 +1462,10 @@ async fn session(
                     offsets_open = false;
                 }
             }
-            _ = tokio::time::sleep_until(retry_at), if output.is_some() => {}
+            _ = tokio::time::sleep_until(retry_at), if !outputs.is_empty() => {}
             _ = tokio::time::sleep_until(flags.next_beat), if flags.beat.is_some() => {}
         }
-        if let Some(o) = output.as_mut() {
+        for o in outputs.iter_mut() {
             write_offset(&session, o, offsets, tx).await;
         }
         write_flags(&session, flags, offsets, tx).await;
@@ -952,7 +1473,7 @@ async fn session(
 }
 
 /// Writes the newest offset if its sequence number has not been written (or a rewrite is
-/// due) and no back-off is running.
+/// due), no back-off is running and the node passed the connect check.
 async fn write_offset(
     session: &Arc<Session>,
     o: &mut Output,
@@ -960,70 +1481,51 @@ async fn write_offset(
     tx: &SyncSender<InputMsg>,
 ) {
     let snap = *offsets.borrow();
+    let axis = o.spec.axis;
     // Nothing before the axis has a valid offset: a session opened before the first
     // scan must not write the 0 that only means "no value yet".
-    if (snap.seq == o.written_seq && !o.rewrite)
-        || o.axis >= snap.n_axes as usize
-        || !snap.valid[o.axis]
+    if !o.usable
+        || (snap.seq == o.written_seq && !o.rewrite)
+        || axis >= snap.n_axes as usize
+        || !snap.valid[axis]
         || Instant::now() < o.next_try
     {
         return;
     }
-    let value = match encode_offset(snap.offsets_um[o.axis], o.scale) {
+    let value = match encode_offset(snap.offsets_um[axis], o.spec.scale, o.spec.ty) {
         Ok(v) => v,
         Err(msg) => {
+            // Hold: the node keeps the last value written; the alarm stays until a value
+            // fits again and is written.
             o.written_seq = snap.seq;
-            o.written_value = None;
-            o.rewrite = false;
             send(
                 tx,
                 InputMsg::RaiseAlarm {
-                    key: OUT_KEY.into(),
-                    message: format!("OPC UA offset node {}: {msg}", o.node),
+                    key: o.key.clone(),
+                    message: format!(
+                        "OPC UA offset output of axis {} (node {}): {msg}",
+                        o.spec.axis_name, o.spec.node
+                    ),
                 },
             );
             return;
         }
     };
-    if !o.rewrite && o.written_value == Some(value) {
+    if !o.rewrite && o.written_value.as_ref() == Some(&value) {
         o.written_seq = snap.seq;
         return;
     }
     // Value only, no timestamps: many CNC servers refuse writes carrying them.
-    let wv = WriteValue {
-        node_id: o.node.clone(),
-        attribute_id: AttributeId::Value as u32,
-        index_range: NumericRange::None,
-        value: DataValue {
-            value: Some(Variant::Double(value)),
-            ..Default::default()
-        },
-    };
-    let res = tokio::time::timeout(Duration::from_secs(5), session.write(&[wv])).await;
-    let failure = match res {
-        Ok(Ok(codes)) => match codes.first() {
-            Some(c) if c.is_good() => None,
-            Some(c) => Some(format!("{c}")),
-            None => Some("no result".into()),
-        },
-        Ok(Err(e)) => Some(format!("{e}")),
-        Err(_) => Some("no answer within 5 s".into()),
-    };
-    match failure {
-        None => {
+    match write_value(session, &o.spec.node, value.clone()).await {
+        Ok(()) => {
             // Confirmed: this sequence number is not written again in this session.
             o.written_seq = snap.seq;
             o.written_value = Some(value);
             o.rewrite = false;
             o.failures = 0;
-            send(
-                tx,
-                InputMsg::ClearAlarm {
-                    key: OUT_KEY.into(),
-                },
-            );
+            send(tx, InputMsg::ClearAlarm { key: o.key.clone() });
         }
-        Some(why) => {
+        Err(why) => {
             // An unanswered write may still have landed: the node's value is unknown now.
             o.written_value = None;
             o.failures = o.failures.saturating_add(1);
@@ -1032,10 +1534,15 @@ async fn write_offset(
             send(
                 tx,
                 InputMsg::RaiseAlarm {
-                    key: OUT_KEY.into(),
+                    key: o.key.clone(),
                     message: format!(
-                        "OPC UA offset write of {value} (= {} µm × {}) to node {}: {why}; retrying with back-off",
-                        snap.offsets_um[o.axis], o.scale, o.node
+                        "OPC UA offset write of {} {value} (= {} µm × {}) to node {} (axis {}): {why}; \
+                         retrying with back-off",
+                        o.spec.ty.name(),
+                        snap.offsets_um[axis],
+                        o.spec.scale,
+                        o.spec.node,
+                        o.spec.axis_name
                     ),
                 },
             );

@@ -33,6 +33,16 @@ pub struct OpcUaInput {
     /// Environment variable holding the password of `user`, so it stays out of the file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub password_env: Option<String>,
+    /// File holding the password of `user` (first line; relative to the configuration file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub password_file: Option<PathBuf>,
+    /// X.509 user login: the user's certificate (DER `.der` or PEM `.pem`; relative to the
+    /// configuration file), instead of `user`; needs `user_private_key`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user_certificate: Option<PathBuf>,
+    /// The private key of `user_certificate` (PEM; relative to the configuration file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user_private_key: Option<PathBuf>,
     /// Client certificate store: own certificate (created at first start when a secure
     /// policy is used), `trusted/` and `rejected/` server certificates.
     #[serde(default = "default_pki_dir")]
@@ -67,9 +77,13 @@ pub struct OpcUaInput {
     /// The program state, telling the engine when the machine is between cuts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub program_state: Option<OpcUaProgramState>,
-    /// Where the offset is written, if anywhere.
+    /// Where the offset is written, if anywhere (one output; the earlier form, still
+    /// accepted: it counts as the first of `offset_outputs`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_output: Option<OpcUaOffsetOutput>,
+    /// One offset output per axis (Z and X each to their own node).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub offset_outputs: Vec<OpcUaOffsetOutput>,
     /// The stop / feed-hold output: a writable Boolean node, true while the engine's stop
     /// request is latched (until the operator acknowledges it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -92,8 +106,11 @@ pub struct OpcUaStopOutput {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpcUaHeartbeat {
-    /// Node id of a writable Int32.
+    /// Node id of a writable Int32 (or Int16 with `data_type = "Int16"`).
     pub node: String,
+    /// The node's data type: Int32 (default) or Int16; the counter wraps within it.
+    #[serde(default = "int32")]
+    pub data_type: OpcUaNumericType,
     /// Period, s (0.05…3600; at least `cycle.period_s` so a live cycle always moves it).
     #[serde(default = "one")]
     pub period_s: f64,
@@ -116,6 +133,40 @@ fn default_keep_alive_s() -> f64 {
 }
 fn one() -> f64 {
     1.0
+}
+fn int32() -> OpcUaNumericType {
+    OpcUaNumericType::Int32
+}
+
+/// The data type of an output node, as the server declares it (its `DataType` attribute).
+/// IEC 61131-3 names are accepted as aliases (LREAL, REAL, INT, DINT).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum OpcUaNumericType {
+    /// 64-bit IEEE 754 (LREAL).
+    #[default]
+    #[serde(alias = "LREAL")]
+    Double,
+    /// 32-bit IEEE 754 (REAL).
+    #[serde(alias = "REAL")]
+    Float,
+    /// 16-bit signed integer (INT), in counts.
+    #[serde(alias = "INT")]
+    Int16,
+    /// 32-bit signed integer (DINT), in counts.
+    #[serde(alias = "DINT")]
+    Int32,
+}
+
+impl OpcUaNumericType {
+    /// The OPC UA name (Part 6 built-in type).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Double => "Double",
+            Self::Float => "Float",
+            Self::Int16 => "Int16",
+            Self::Int32 => "Int32",
+        }
+    }
 }
 
 /// One node read as one engine channel: `value = node·scale + offset`.
@@ -168,18 +219,23 @@ pub struct OpcUaProgramState {
     pub safe_values: Vec<i64>,
 }
 
-/// The offset written to a node (absolute value, as a Double).
+/// The offset written to a node (absolute value, in the node's data type).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpcUaOffsetOutput {
     /// Axis name.
     pub axis: String,
-    /// Node id of a writable Double (a CNC's temperature-compensation value).
+    /// Node id of a writable variable (a CNC's temperature-compensation value).
     pub node: String,
-    /// Node units per µm: 1 for µm, 0.001 for mm; negative flips the sign. 1e-6…1e6 in
-    /// magnitude.
+    /// Node units per µm: 1 for µm, 0.001 for mm, 10 for Int16 counts of 0.1 µm; negative
+    /// flips the sign. 1e-6…1e6 in magnitude.
     #[serde(default = "one")]
     pub scale: f64,
+    /// The node's data type: Double (default), Float (REAL), Int16 (INT), Int32 (DINT).
+    /// Integer nodes get `round(offset_um·scale)` counts; a value outside the type's range
+    /// raises an alarm and the node keeps its last value (never wraps).
+    #[serde(default)]
+    pub data_type: OpcUaNumericType,
 }
 
 /// The security policies this client accepts, by the names used in the configuration.
@@ -227,25 +283,58 @@ impl OpcUaInput {
                 "None exactly when security_policy = \"None\" (Sign or SignAndEncrypt otherwise)",
             ));
         }
-        match (&self.user, &self.password, &self.password_env) {
-            (None, None, None) => {}
-            (Some(u), p, e) => {
+        let sources = [
+            self.password.is_some(),
+            self.password_env.is_some(),
+            self.password_file.is_some(),
+        ]
+        .iter()
+        .filter(|b| **b)
+        .count();
+        match &self.user {
+            None if sources > 0 => {
+                return Err(invalid(
+                    "input.user",
+                    "(missing)",
+                    "a user name when password, password_env or password_file is given",
+                ))
+            }
+            None => {}
+            Some(u) => {
                 if u.is_empty() {
                     return Err(invalid("input.user", "\"\"", "a user name"));
                 }
-                if p.is_some() == e.is_some() {
+                if sources != 1 {
                     return Err(invalid(
-                        "input.password / input.password_env",
-                        if p.is_some() { "both" } else { "neither" },
+                        "input.password / input.password_env / input.password_file",
+                        if sources == 0 { "none" } else { "several" },
                         "exactly one of them with input.user",
                     ));
                 }
             }
-            (None, _, _) => {
+        }
+        match (&self.user_certificate, &self.user_private_key) {
+            (None, None) => {}
+            (Some(_), Some(_)) if self.user.is_some() => {
                 return Err(invalid(
-                    "input.user",
+                    "input.user_certificate",
+                    "given with input.user",
+                    "one login: user + password, or user_certificate + user_private_key",
+                ))
+            }
+            (Some(_), Some(_)) => {}
+            (Some(_), None) => {
+                return Err(invalid(
+                    "input.user_private_key",
                     "(missing)",
-                    "a user name when password or password_env is given",
+                    "the PEM private key of input.user_certificate",
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    "input.user_certificate",
+                    "(missing)",
+                    "the certificate (.der or .pem) of input.user_private_key",
                 ))
             }
         }
@@ -271,7 +360,7 @@ impl OpcUaInput {
             "0.1…3600 s",
         )?;
         self.reconnect.validate("input.reconnect")?;
-        if self.channels.is_empty() && self.offset_output.is_none() {
+        if self.channels.is_empty() && self.outputs().is_empty() {
             return Err(invalid(
                 "input.channels",
                 0,
@@ -321,6 +410,16 @@ impl OpcUaInput {
         }
         if let Some(h) = &self.heartbeat {
             crate::sources::opcua::parse_node("input.heartbeat.node", &h.node)?;
+            if !matches!(
+                h.data_type,
+                OpcUaNumericType::Int16 | OpcUaNumericType::Int32
+            ) {
+                return Err(invalid(
+                    "input.heartbeat.data_type",
+                    h.data_type.name(),
+                    "Int16 | Int32 (a counter)",
+                ));
+            }
             crate::error::check_range(
                 "input.heartbeat.period_s",
                 h.period_s,
@@ -329,24 +428,75 @@ impl OpcUaInput {
                 "0.05…3600 s",
             )?;
         }
-        if let Some(o) = &self.offset_output {
-            crate::sources::opcua::parse_node("input.offset_output.node", &o.node)?;
+        let outputs = self.outputs();
+        for (i, (f, o)) in outputs.iter().enumerate() {
+            crate::sources::opcua::parse_node(&format!("{f}.node"), &o.node)?;
             let a = o.scale.abs();
             if !(o.scale.is_finite() && (1e-6..=1e6).contains(&a)) {
                 return Err(invalid(
-                    "input.offset_output.scale",
+                    format!("{f}.scale"),
                     o.scale,
                     "1e-6…1e6 in magnitude (1 = µm, 0.001 = mm), sign free",
+                ));
+            }
+            if outputs[..i].iter().any(|(_, p)| p.axis == o.axis) {
+                return Err(invalid(
+                    format!("{f}.axis"),
+                    format!("{:?}", o.axis),
+                    "an axis not already given an offset output (one output per axis)",
+                ));
+            }
+            if outputs[..i].iter().any(|(_, p)| p.node == o.node) {
+                return Err(invalid(
+                    format!("{f}.node"),
+                    format!("{:?}", o.node),
+                    "a node not already written by another offset output",
                 ));
             }
         }
         Ok(())
     }
 
-    /// The password: from the file or from the environment variable named.
+    /// Every offset output with its key: `input.offset_output` (the single-output form)
+    /// first, then `input.offset_outputs[i]`.
+    pub fn outputs(&self) -> Vec<(String, &OpcUaOffsetOutput)> {
+        let mut v: Vec<(String, &OpcUaOffsetOutput)> = self
+            .offset_output
+            .iter()
+            .map(|o| ("input.offset_output".to_string(), o))
+            .collect();
+        v.extend(
+            self.offset_outputs
+                .iter()
+                .enumerate()
+                .map(|(i, o)| (format!("input.offset_outputs[{i}]"), o)),
+        );
+        v
+    }
+
+    /// The password: from the configuration, the environment variable named or the
+    /// password file (its first line). The error never contains the password.
     pub fn password(&self) -> Result<Option<String>> {
         if let Some(p) = &self.password {
             return Ok(Some(p.clone()));
+        }
+        if let Some(f) = &self.password_file {
+            let text = std::fs::read_to_string(f).map_err(|e| {
+                invalid(
+                    "input.password_file",
+                    f.display(),
+                    format!("a readable file holding the password ({e})"),
+                )
+            })?;
+            let line = text.lines().next().unwrap_or("").trim_end_matches('\r');
+            if line.is_empty() {
+                return Err(invalid(
+                    "input.password_file",
+                    f.display(),
+                    "a file whose first line is the password (it is empty)",
+                ));
+            }
+            return Ok(Some(line.to_string()));
         }
         match &self.password_env {
             Some(v) => std::env::var(v)

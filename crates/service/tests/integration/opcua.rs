@@ -296,10 +296,10 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     cnc.set("Temp.A", Variant::Double(24.4));
     let alarms = api
         .wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
-            active(v, "opcua.offset_output") && !active(v, key)
+            active(v, "opcua.offset_output.Z") && !active(v, key)
         })
         .await;
-    let m = message(&alarms, "opcua.offset_output");
+    let m = message(&alarms, "opcua.offset_output.Z");
     assert!(
         m.contains("BadOutOfService") && m.contains("ns=2;s=TempComp") && m.contains("retrying"),
         "{m}"
@@ -310,7 +310,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     let want = -3.75 * (24.4 - 20.0);
     cnc.wait_comp(want, 15.0).await;
     api.wait_for("/api/alarms?active=true", &ro, 5.0, |v| {
-        !active(v, "opcua.offset_output")
+        !active(v, "opcua.offset_output.Z")
     })
     .await;
     no_value_written_twice_in_a_row(&cnc.log());
