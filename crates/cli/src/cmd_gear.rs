@@ -8,6 +8,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
+use gearcomp_geometry::units::{deg_to_rad as rad, rad_to_deg as deg};
 use gearcomp_geometry::{
     shift_sum_for_centre_distance, BallMeasurement, BasicRack, Gear, GearDimensions, GearPair,
     GearSpec, GeometryError, Hand, Mesh, PairGeometry, Span,
@@ -123,16 +124,6 @@ pub struct Args {
     json: bool,
 }
 
-/// Degrees (interface) to radians (library): the one place input angles are converted.
-fn rad(deg: f64) -> f64 {
-    deg.to_radians()
-}
-
-/// Radians (library) to degrees (interface): the one place output angles are converted.
-fn deg(rad: f64) -> f64 {
-    rad.to_degrees()
-}
-
 impl Args {
     /// Fills every option not given on the command line from the TOML file.
     fn merge_file(mut self) -> anyhow::Result<Args> {
@@ -206,17 +197,10 @@ impl GearOut {
         let s = g.spec();
         let d: &GearDimensions = g.dims();
         let spur = s.helix_angle_rad == 0.0;
-        let signed = match s.hand {
-            Hand::Right => 1.0,
-            Hand::Left => -1.0,
-        };
+        let signed = s.hand.sign();
         GearOut {
             mesh: s.mesh,
-            hand: match (spur, s.hand) {
-                (true, _) => "spur",
-                (false, Hand::Right) => "right",
-                (false, Hand::Left) => "left",
-            },
+            hand: if spur { "spur" } else { s.hand.name() },
             teeth: s.teeth,
             normal_module_mm: s.normal_module_mm,
             normal_pressure_angle_deg: deg(s.normal_pressure_angle_rad),

@@ -78,7 +78,9 @@ struct CycleReport {
 struct GearSummary {
     workpiece_teeth: u32,
     cutter_teeth: u32,
+    #[serde(serialize_with = "variant_name")]
     mesh: Mesh,
+    #[serde(serialize_with = "variant_name")]
     hand: Hand,
     normal_module_mm: f64,
     helix_deg: f64,
@@ -119,6 +121,12 @@ struct SimSummary {
     f_h_beta_tolerance_um: f64,
     iso_class: u8,
     within_tolerance: bool,
+}
+
+/// Writes `External` / `Right` (the variant's name) into the JSON report, as this command
+/// always has, while TOML elsewhere uses the lower-case names of the shared vocabulary.
+fn variant_name<T: std::fmt::Debug, S: serde::Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(&format_args!("{v:?}"))
 }
 
 fn load_machine(a: &RunArgs) -> anyhow::Result<MachineData> {

@@ -43,7 +43,7 @@ pub fn helical_params(
     let cb = beta_rad.cos();
     let m_t = m_n_mm / cb;
     let r = z * m_t / 2.0;
-    let alpha_t = (alpha_n_rad.tan() / cb).atan();
+    let alpha_t = gearcomp_geometry::transverse_pressure_angle_rad(alpha_n_rad, beta_rad);
     let r_b = r * alpha_t.cos();
     let beta_b = (beta_rad.tan() * alpha_t.cos()).atan();
     let lead = if beta_b.abs() < 1e-15 {

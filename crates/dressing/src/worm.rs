@@ -6,37 +6,15 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// Flank of the worm thread.
+/// Flank of the worm thread: the shared gear vocabulary's [`Flank`].
 ///
-/// `Right` is the flank whose outward normal points towards +z (the −z side of the gap that
-/// the dresser sits in at φ_S = 0); `Left` the other one. With this choice the right flank of a
-/// right-hand worm reproduces the signs of the reference solution
-/// docs/dressing.md "Reference case G1-Z5".
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Flank {
-    /// Left flank (outward normal towards −z).
-    Left,
-    /// Right flank (outward normal towards +z).
-    Right,
-}
-
-impl Flank {
-    /// s_F of the flank parameterisation (−1 left, +1 right).
-    pub fn sign(self) -> f64 {
-        match self {
-            Flank::Left => -1.0,
-            Flank::Right => 1.0,
-        }
-    }
-    /// The other flank of the same gap.
-    pub fn opposite(self) -> Flank {
-        match self {
-            Flank::Left => Flank::Right,
-            Flank::Right => Flank::Left,
-        }
-    }
-}
+/// In the worm frame of this crate `Right` is the flank whose outward normal points towards +z
+/// (the −z side of the gap that the dresser sits in at φ_S = 0), `Left` the other one; s_F =
+/// [`Flank::sign`] (+1 right, −1 left). For the right-hand worm modelled here this is the same
+/// flank as the grinding crate's end-face definition (docs/grinding.md "Dressed worm"), so the
+/// two crates share one type. With this choice the right flank reproduces the signs of the
+/// reference solution docs/dressing.md "Reference case G1-Z5".
+pub use gearcomp_geometry::Flank;
 
 /// A right-hand cylindrical involute worm at its current diameter.
 ///

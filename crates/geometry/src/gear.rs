@@ -65,6 +65,102 @@ impl Hand {
             Hand::Left => Hand::Right,
         }
     }
+    /// The sign of the signed helix angle: +1 right hand, −1 left hand.
+    #[inline]
+    pub fn sign(self) -> f64 {
+        match self {
+            Hand::Right => 1.0,
+            Hand::Left => -1.0,
+        }
+    }
+    /// Lower-case name, as written in TOML and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Hand::Right => "right",
+            Hand::Left => "left",
+        }
+    }
+}
+
+/// Which flank of a tooth (or of a worm thread).
+///
+/// Convention (docs/grinding.md "Derivation: flank and chain conventions"): seen from the +z
+/// end face with the tooth tip up, the right flank is on the right; its outward normal points
+/// clockwise, and its flank sign is s = +1. The left flank has s = −1.
+///
+/// For the right-hand grinding worm of the dressing crate this is the same flank as the one
+/// whose outward normal points towards +z along the worm axis (docs/dressing.md), so dressing
+/// and grinding share this type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Flank {
+    /// s = +1.
+    Right,
+    /// s = −1.
+    Left,
+}
+
+impl Flank {
+    /// The flank sign s_F (+1 right, −1 left).
+    #[inline]
+    pub fn sign(self) -> f64 {
+        match self {
+            Flank::Right => 1.0,
+            Flank::Left => -1.0,
+        }
+    }
+    /// Lower-case name, as written in TOML and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Flank::Right => "right",
+            Flank::Left => "left",
+        }
+    }
+    /// The other flank of the same tooth (or gap).
+    pub fn opposite(self) -> Flank {
+        match self {
+            Flank::Right => Flank::Left,
+            Flank::Left => Flank::Right,
+        }
+    }
+}
+
+/// Command-line values `right` / `left` (feature `clap`; no per-value help, so `--help` lists
+/// only the names).
+#[cfg(feature = "clap")]
+mod clap_values {
+    use super::{Flank, Hand};
+    use clap::builder::PossibleValue;
+
+    impl clap::ValueEnum for Hand {
+        fn value_variants<'a>() -> &'a [Self] {
+            &[Hand::Right, Hand::Left]
+        }
+        fn to_possible_value(&self) -> Option<PossibleValue> {
+            Some(PossibleValue::new(self.name()))
+        }
+    }
+
+    impl clap::ValueEnum for Flank {
+        fn value_variants<'a>() -> &'a [Self] {
+            &[Flank::Right, Flank::Left]
+        }
+        fn to_possible_value(&self) -> Option<PossibleValue> {
+            Some(PossibleValue::new(self.name()))
+        }
+    }
+}
+
+/// Transverse pressure angle α_t from the normal pressure angle α_n and the helix angle β
+/// (both in rad; β signed or a magnitude, the result does not depend on its sign).
+///
+/// # Formula
+/// tan α_t = tan α_n / cos β
+/// # Source
+/// ISO 21771:2007, 4.3 (transverse section of a helical gear) [STANDARD]
+#[inline]
+pub fn transverse_pressure_angle_rad(normal_pressure_angle_rad: f64, helix_angle_rad: f64) -> f64 {
+    (normal_pressure_angle_rad.tan() / helix_angle_rad.cos()).atan()
 }
 
 /// Basic rack profile of the generating tool, as coefficients of the normal module.
@@ -518,7 +614,7 @@ pub(crate) fn transverse_basics(spec: &GearSpec) -> Result<TransverseBasics> {
     let beta = check_angle("helix_angle", spec.helix_angle_rad, 0.0, 60.0, false)?;
     check_range("teeth", f64::from(spec.teeth), 3.0, 10_000.0, "", false)?;
     let m_t = m_n / beta.cos();
-    let alpha_t = (alpha_n.tan() / beta.cos()).atan();
+    let alpha_t = transverse_pressure_angle_rad(alpha_n, beta);
     Ok(TransverseBasics {
         m_n,
         beta,

@@ -10,6 +10,8 @@
 //! - [`GearPair`]: working pressure angle, Σx ↔ centre distance, contact ratios, backlash.
 //! - [`GeneratingWorm`] (hob / grinding worm as a ZI helicoid) and [`ShaperCutter`].
 //! - [`involute`]: inv α and its inverse; [`shrink`]: CN105397560 workpiece shrink.
+//! - The gear vocabulary every gear crate shares: [`Hand`], [`Flank`], [`Mesh`],
+//!   [`transverse_pressure_angle_rad`] and the interface [`units`] (degrees, µm, rpm).
 //!
 //! Lengths are mm and angles rad everywhere; degrees appear only in error messages and at
 //! the CLI. Conventions (internal gears, signs, the k and ball rules) are in
@@ -37,10 +39,13 @@ pub mod shrink;
 pub mod span;
 pub mod thickness;
 pub mod tool;
+pub mod units;
 
 pub use balls::BallMeasurement;
 pub use error::{GeometryError, Result};
-pub use gear::{BasicRack, Gear, GearDimensions, GearSpec, Hand, Mesh};
+pub use gear::{
+    transverse_pressure_angle_rad, BasicRack, Flank, Gear, GearDimensions, GearSpec, Hand, Mesh,
+};
 pub use pair::{
     centre_distance_for_shift_sum, shift_sum_for_centre_distance, Backlash, GearPair, PairGeometry,
 };

@@ -33,6 +33,34 @@ pub struct ShrinkInput {
     pub reference: ShrinkReference,
 }
 
+impl ShrinkInput {
+    /// The input for a cylindrical gear given by its normal module m_n (mm), tooth count z,
+    /// normal pressure angle α_n and helix angle β (rad): r = m_n·z/(2 cos β) and
+    /// tan α_t = tan α_n / cos β. This is the one place the gear data of a workpiece-shrink
+    /// configuration become shrink inputs.
+    pub fn for_gear(
+        normal_module_mm: f64,
+        teeth: u32,
+        normal_pressure_angle_rad: f64,
+        helix_angle_rad: f64,
+        expansion_per_k: f64,
+        delta_temp_k: f64,
+        reference: ShrinkReference,
+    ) -> Self {
+        ShrinkInput {
+            reference_radius_mm: normal_module_mm * f64::from(teeth)
+                / (2.0 * helix_angle_rad.cos()),
+            transverse_pressure_angle_rad: crate::gear::transverse_pressure_angle_rad(
+                normal_pressure_angle_rad,
+                helix_angle_rad,
+            ),
+            expansion_per_k,
+            delta_temp_k,
+            reference,
+        }
+    }
+}
+
 /// Why a shrink offset cannot be computed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]

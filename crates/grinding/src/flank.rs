@@ -4,58 +4,11 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use gearcomp_geometry::transverse_pressure_angle_rad;
+
 use crate::error::{check_range, GrindError, Result};
 
-/// Which flank of a tooth (or worm thread).
-///
-/// Convention (fixed here [RECONSTRUCTED], docs/grinding.md "Derivation: flank and chain
-/// conventions"): seen from the +z end face with the
-/// tooth tip up, the right flank is on the right; its outward normal points clockwise, and its
-/// flank sign is s = +1. The left flank has s = −1.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Flank {
-    /// s = +1.
-    Right,
-    /// s = −1.
-    Left,
-}
-
-impl Flank {
-    /// The flank sign s_F (+1 right, −1 left).
-    pub fn sign(self) -> f64 {
-        match self {
-            Flank::Right => 1.0,
-            Flank::Left => -1.0,
-        }
-    }
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Flank::Right => "right",
-            Flank::Left => "left",
-        }
-    }
-}
-
-/// Hand of a helix.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Hand {
-    /// Right hand: positive signed helix angle.
-    Right,
-    /// Left hand: negative signed helix angle.
-    Left,
-}
-
-impl Hand {
-    fn sign(self) -> f64 {
-        match self {
-            Hand::Right => 1.0,
-            Hand::Left => -1.0,
-        }
-    }
-}
+pub use gearcomp_geometry::{Flank, Hand};
 
 /// A cylindrical involute gear or worm (a worm is a gear with `teeth` = number of starts and a
 /// helix angle close to 90°). Asymmetric teeth have different normal pressure angles per flank.
@@ -188,7 +141,7 @@ impl InvoluteGear {
     pub fn flank(&self, flank: Flank) -> InvoluteFlank {
         let alpha_n = self.alpha_n_rad(flank);
         let r = self.reference_radius_mm();
-        let alpha_t = (alpha_n.tan() / self.beta_rad.cos()).atan();
+        let alpha_t = transverse_pressure_angle_rad(alpha_n, self.beta_rad);
         let r_b = r * alpha_t.cos();
         let beta_b = (self.beta_rad.sin() * alpha_n.cos()).asin();
         let m_t = self.m_n_mm / self.beta_rad.cos();

@@ -11,24 +11,11 @@ use std::f64::consts::PI;
 use crate::error::{check_range, Result, ShapingError};
 use crate::ratio::Ratio;
 
-/// Whether the workpiece is an external gear or an internal (ring) gear.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Mesh {
-    /// External workpiece: cutter and workpiece counter-rotate.
-    External,
-    /// Internal workpiece: cutter and workpiece turn the same way.
-    Internal,
-}
-
-/// Helix hand of the workpiece (the cutter has the opposite hand in external mesh, the
-/// same hand in internal mesh).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Hand {
-    /// Right-hand helix.
-    Right,
-    /// Left-hand helix.
-    Left,
-}
+/// Helix hand and external/internal workpiece: the gear vocabulary shared by all gear crates.
+/// For the helical guide, [`Hand`] is the hand of the workpiece (the cutter has the opposite
+/// hand in external mesh, the same hand in internal mesh); in [`Mesh::External`] cutter and
+/// workpiece counter-rotate, in [`Mesh::Internal`] they turn the same way.
+pub use gearcomp_geometry::{Hand, Mesh};
 
 /// Largest helix angle accepted (ISO 1328-1:2013 scope is β ≤ 45°).
 pub const MAX_HELIX_DEG: f64 = 45.0;

@@ -155,7 +155,7 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     let tol_raw =
         tolerances_unrounded(d_mm, cut.m_n_mm(), cfg.face_width_mm, cfg.iso_class)?.f_h_beta_t_um;
     // Base radius r_b = r·cos α_t, tan α_t = tan α_n / cos β (ISO 21771:2007, 5.2).
-    let alpha_t = (cfg.pressure_angle_rad.tan() / beta.cos()).atan();
+    let alpha_t = gearcomp_geometry::transverse_pressure_angle_rad(cfg.pressure_angle_rad, beta);
     let r_b1_mm = 0.5 * d_mm * alpha_t.cos();
 
     let rho = cut.generating_ratio().to_f64();
