@@ -13,8 +13,16 @@
 //! (b₁s + b₀)/(τs + 1) in partial fractions), second-order transfer function per sensor
 //! (value + two lags: (b₂s² + b₁s + b₀)/((τ₁s + 1)(τ₂s + 1)) in partial fractions, poles
 //! on the τ grid), pure delay per sensor, and sensor differences (A − B). Sensors enter by
-//! forward selection up to the sensor cap; the number of sensors, τ, delays, α and the
-//! number of components are chosen by the validation error. The family with the lowest
+//! forward selection up to the sensor cap.
+//!
+//! **Nested selection.** The sensor path (which sensor, which τ or delay per sensor) is
+//! chosen by the least-squares fit on training rows only: inside each fold on that fold's
+//! training rows, for the model kept on every training row. The validation blocks only
+//! judge the procedure: the path length, the shared τ, α and the number of components, and
+//! the family. (Choosing each step by the validation error, as before, let hundreds of
+//! candidate steps fit the three validation blocks: on FL_THERMAL validation errors of
+//! 1.6 µm came with test errors of 9.4 µm.) A path is used truncated (least squares) or
+//! whole with ridge shrinkage, whichever validates better. The family with the lowest
 //! pooled validation RMSE is kept.
 //!
 //! **Cost.** Per fold the R factor of [1 F Y] (every candidate regressor F, every target
@@ -129,6 +137,8 @@ struct Engine {
     block_r: Vec<DMatrix<f64>>,
     block_n: Vec<usize>,
     folds: Vec<Fold>,
+    /// R factor of [1 F Y] over every training row (the final fit's sensor path).
+    all_r: DMatrix<f64>,
     n_feat: usize,
 }
 
@@ -238,34 +248,66 @@ impl Engine {
                 }
             })
             .collect();
+        let parts: Vec<&DMatrix<f64>> = block_r.iter().collect();
+        let all_r = r_factor(stack(&parts, m));
         Self {
             block_r,
             block_n,
             folds,
+            all_r,
             n_feat: features.len(),
         }
     }
 
-    /// Per-fold held-out SSE of the sub-model on feature columns `cols` for `target`.
-    fn fold_sse(&self, cols: &[usize], target: usize, fitter: Fitter) -> Option<Vec<f64>> {
-        let p = cols.len();
-        let mut sel = Vec::with_capacity(p + 2);
+    /// Columns of [1 F Y] of the sub-model on feature columns `cols` for `target`.
+    fn columns(&self, cols: &[usize], target: usize) -> Vec<usize> {
+        let mut sel = Vec::with_capacity(cols.len() + 2);
         sel.push(0usize);
         sel.extend(cols.iter().map(|c| c + 1));
         sel.push(1 + self.n_feat + target);
-        let mut out = Vec::with_capacity(self.folds.len());
-        for f in &self.folds {
-            let coef = solve_reduced(&f.train_r.select_columns(&sel), f.n_train, p, fitter)?;
-            // Residual on the held-out block: ‖R_val·w‖ with w = (−b, +1 for y).
-            let v = self.block_r[f.val].select_columns(&sel);
-            let mut w = DVector::zeros(p + 2);
-            for j in 0..=p {
-                w[j] = -coef[j];
-            }
-            w[p + 1] = 1.0;
-            out.push((v * w).norm_squared());
+        sel
+    }
+
+    /// Least-squares residual SSE of the sub-model on the training rows of `fold` (`None`:
+    /// every training row); `None` when it is rank deficient there.
+    fn train_sse(&self, fold: Option<usize>, cols: &[usize], target: usize) -> Option<f64> {
+        let (r, n) = match fold {
+            Some(f) => (&self.folds[f].train_r, self.folds[f].n_train),
+            None => (&self.all_r, self.block_n.iter().sum()),
+        };
+        let p = cols.len();
+        if r.nrows() < p + 2 || n < p + 2 {
+            return None;
         }
-        Some(out)
+        let q = r.select_columns(&self.columns(cols, target)).qr().r();
+        let max_p = (0..=p).map(|j| q[(j, j)].abs()).fold(0.0, f64::max);
+        if (0..=p).any(|j| !exceeds(q[(j, j)].abs(), 1e-11 * max_p)) {
+            return None;
+        }
+        Some(q[(p + 1, p + 1)].powi(2))
+    }
+
+    /// Held-out SSE of fold `fold` for the sub-model fitted on that fold's training rows.
+    fn val_sse(&self, fold: usize, cols: &[usize], target: usize, fitter: Fitter) -> Option<f64> {
+        let p = cols.len();
+        let sel = self.columns(cols, target);
+        let f = &self.folds[fold];
+        let coef = solve_reduced(&f.train_r.select_columns(&sel), f.n_train, p, fitter)?;
+        // Residual on the held-out block: ‖R_val·w‖ with w = (−b, +1 for y).
+        let v = self.block_r[f.val].select_columns(&sel);
+        let mut w = DVector::zeros(p + 2);
+        for j in 0..=p {
+            w[j] = -coef[j];
+        }
+        w[p + 1] = 1.0;
+        Some((v * w).norm_squared())
+    }
+
+    /// Per-fold held-out SSE of the sub-model on feature columns `cols` for `target`.
+    fn fold_sse(&self, cols: &[usize], target: usize, fitter: Fitter) -> Option<Vec<f64>> {
+        (0..self.folds.len())
+            .map(|f| self.val_sse(f, cols, target, fitter))
+            .collect()
     }
 
     fn val_rows(&self) -> usize {
@@ -384,64 +426,142 @@ struct Ctx<'a> {
 /// A forward-selection result: units, per-fold SSE, pooled RMSE.
 type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64);
 
-/// Forward selection of units (one per sensor; a unit is a set of feature columns).
-/// Returns the best prefix (units, sse) and the whole path of sensors.
+/// Greedy forward path by the least-squares fit on the training rows of `fold` (`None`:
+/// every training row): at each step the unit (one per sensor, a unit is a set of feature
+/// columns) that lowers the training residual most. The validation rows are never looked
+/// at here. Returns the units in order and the sensor path.
+fn greedy(
+    ctx: &Ctx,
+    target: usize,
+    units: &dyn Fn(usize) -> Vec<Vec<usize>>,
+    candidates: &[usize],
+    fold: Option<usize>,
+) -> (Vec<Vec<usize>>, Vec<usize>) {
+    let mut chosen: Vec<Vec<usize>> = Vec::new();
+    let mut path: Vec<usize> = Vec::new();
+    loop {
+        let mut step: Option<(f64, Vec<usize>, usize)> = None;
+        for &cand in candidates.iter().filter(|c| !path.contains(c)) {
+            for unit in units(cand) {
+                let mut trial = chosen.clone();
+                trial.push(unit.clone());
+                if sensors_of_units(ctx.feats, &trial).len() > ctx.cap {
+                    continue;
+                }
+                let cols: Vec<usize> = trial.iter().flatten().copied().collect();
+                if let Some(v) = ctx.eng.train_sse(fold, &cols, target) {
+                    if v.is_finite() && step.as_ref().is_none_or(|s| v < s.0) {
+                        step = Some((v, unit, cand));
+                    }
+                }
+            }
+        }
+        let Some((_, unit, cand)) = step else {
+            break;
+        };
+        chosen.push(unit);
+        path.push(cand);
+        let now = sensors_of_units(ctx.feats, &chosen).len();
+        if now >= ctx.cap || now >= ctx.n_in {
+            break;
+        }
+    }
+    (chosen, path)
+}
+
+/// A nested forward selection: the prefix kept, and the paths it was chosen from.
+struct Forward {
+    /// The kept prefix of the path on every training row, with the procedure's fold SSE.
+    kept: Option<Prefix>,
+    /// Units of the path on every training row, in order.
+    units: Vec<Vec<usize>>,
+    /// Units of each fold's path (chosen on the fold's training rows).
+    fold_units: Vec<Vec<Vec<usize>>>,
+}
+
+/// Nested forward selection (issue 12: a selection the validation can judge honestly).
+/// In every fold the sensor path is chosen on that fold's training rows only (by the
+/// least-squares fit) and each of its prefixes is scored on the held-out block; the number
+/// of steps k is the one with the lowest pooled held-out RMSE of these fold paths (ties:
+/// fewer). The model kept is the first k steps of the path chosen the same way on every
+/// training row; its validation figures are those of the procedure (the fold paths), not of
+/// a path that has seen the held-out blocks.
 fn forward(
     ctx: &Ctx,
     target: usize,
     units: &dyn Fn(usize) -> Vec<Vec<usize>>,
     candidates: &[usize],
-    fitter: Fitter,
-) -> (Option<Prefix>, Vec<usize>) {
-    let mut chosen: Vec<Vec<usize>> = Vec::new();
-    let mut path: Vec<usize> = Vec::new();
-    let mut best: Option<Prefix> = None;
-    let sensors_of = |u: &[Vec<usize>]| -> Vec<usize> {
-        let mut s: Vec<usize> = Vec::new();
-        for unit in u {
-            for &c in unit {
-                let f = ctx.feats[c];
-                for x in std::iter::once(f.sensor).chain(f.minus) {
-                    if !s.contains(&x) {
-                        s.push(x);
-                    }
+) -> Forward {
+    let nf = ctx.eng.folds.len();
+    let (full_units, _) = greedy(ctx, target, units, candidates, None);
+    let mut fold_units = Vec::with_capacity(nf);
+    // sse[k][f]: held-out SSE of fold f's path prefix of k + 1 steps.
+    let mut steps = full_units.len();
+    let mut sse: Vec<Vec<f64>> = vec![Vec::with_capacity(nf); steps];
+    for f in 0..nf {
+        let (u, _) = greedy(ctx, target, units, candidates, Some(f));
+        let mut cols: Vec<usize> = Vec::new();
+        let mut k_ok = 0;
+        for (k, unit) in u.iter().enumerate().take(steps) {
+            cols.extend(unit);
+            match ctx.eng.val_sse(f, &cols, target, Fitter::Ols) {
+                Some(v) if v.is_finite() => {
+                    sse[k].push(v);
+                    k_ok = k + 1;
                 }
+                _ => break,
             }
         }
-        s
-    };
-    loop {
-        let mut step: Option<(f64, Vec<f64>, Vec<usize>, usize)> = None;
-        for &cand in candidates.iter().filter(|c| !path.contains(c)) {
-            for unit in units(cand) {
-                let mut trial = chosen.clone();
-                trial.push(unit.clone());
-                if sensors_of(&trial).len() > ctx.cap {
-                    continue;
-                }
-                let cols: Vec<usize> = trial.iter().flatten().copied().collect();
-                if let Some(sse) = ctx.eng.fold_sse(&cols, target, fitter) {
-                    let v = ctx.eng.pooled(&sse);
-                    if v.is_finite() && step.as_ref().is_none_or(|s| v < s.0) {
-                        step = Some((v, sse, unit, cand));
-                    }
-                }
-            }
-        }
-        let Some((v, sse, unit, cand)) = step else {
-            break;
-        };
-        chosen.push(unit);
-        path.push(cand);
-        if best.as_ref().is_none_or(|b| v < b.2) {
-            best = Some((chosen.clone(), sse, v));
-        }
-        let now = sensors_of(&chosen).len();
-        if now >= ctx.cap || now >= ctx.n_in {
-            break;
+        steps = steps.min(k_ok);
+        fold_units.push(u);
+    }
+    let mut kept: Option<Prefix> = None;
+    for (k, s) in sse.into_iter().enumerate().take(steps) {
+        let v = ctx.eng.pooled(&s);
+        if v.is_finite() && kept.as_ref().is_none_or(|b| v < b.2) {
+            kept = Some((full_units[..=k].to_vec(), s, v));
         }
     }
-    (best, path)
+    Forward {
+        kept,
+        units: full_units,
+        fold_units,
+    }
+}
+
+/// A shrunk path: units, per-fold SSE, pooled RMSE, fitter.
+type Shrunk = (Vec<Vec<usize>>, Vec<f64>, f64, Fitter);
+
+/// Shrinkage of a whole forward path instead of truncating it: ridge (α) or principal
+/// components (k) on every unit of each fold's path, validated on that fold's held-out
+/// block. Returns the best: units of the full path, fold SSE, pooled RMSE, fitter.
+fn shrink_path(ctx: &Ctx, target: usize, fw: &Forward, fitters: &[Fitter]) -> Option<Shrunk> {
+    if fw.units.is_empty() || fw.fold_units.iter().any(|u| u.is_empty()) {
+        return None;
+    }
+    let flat = |u: &[Vec<usize>]| -> Vec<usize> { u.iter().flatten().copied().collect() };
+    let mut best: Option<Shrunk> = None;
+    for &fit in fitters {
+        let sse: Option<Vec<f64>> = fw
+            .fold_units
+            .iter()
+            .enumerate()
+            .map(|(f, u)| {
+                let cols = flat(u);
+                match fit {
+                    Fitter::Pcr(n) if n > cols.len() => None,
+                    _ => ctx.eng.val_sse(f, &cols, target, fit),
+                }
+            })
+            .collect();
+        if let Some(sse) = sse {
+            let v = ctx.eng.pooled(&sse);
+            if v.is_finite() && best.as_ref().is_none_or(|b| v < b.2) {
+                best = Some((fw.units.clone(), sse, v, fit));
+            }
+        }
+    }
+    best
 }
 
 fn family_best(
@@ -449,7 +569,7 @@ fn family_best(
     fam: Family,
     target: usize,
     opts: &IdentifyOptions,
-    static_path: &[usize],
+    static_path: &Forward,
 ) -> Option<Best> {
     let all: Vec<usize> = (0..ctx.n_in).collect();
     let mk = |units: Vec<Vec<usize>>, sse: Vec<f64>, cv: f64, fitter, detail: String| Best {
@@ -478,64 +598,97 @@ fn family_best(
             .join(", ")
     };
     // Forward selection by least squares over every sensor, with these candidate units.
-    let ols =
-        |units: &dyn Fn(usize) -> Vec<Vec<usize>>| forward(ctx, target, units, &all, Fitter::Ols).0;
-    // The best prefix kept, its detail listing the τ / delay of each unit.
-    let described = |b: Option<Prefix>| {
-        b.map(|(u, sse, cv)| {
-            let d = describe(&u);
-            mk(u, sse, cv, Fitter::Ols, d)
-        })
+    let ols = |units: &dyn Fn(usize) -> Vec<Vec<usize>>| forward(ctx, target, units, &all).kept;
+    // The path truncated (least squares) or shrunk whole (ridge), whichever validates
+    // better; its detail lists the τ / delay of each unit.
+    let ridge: Vec<Fitter> = opts
+        .ridge_alphas
+        .iter()
+        .map(|&a| Fitter::Ridge(a))
+        .collect();
+    let described = |units: &dyn Fn(usize) -> Vec<Vec<usize>>| {
+        let fw = forward(ctx, target, units, &all);
+        let shrunk = shrink_path(ctx, target, &fw, &ridge);
+        let mut best: Option<Best> = None;
+        let cands = fw
+            .kept
+            .map(|(u, sse, cv)| (u, sse, cv, Fitter::Ols))
+            .into_iter()
+            .chain(shrunk);
+        for (u, sse, cv, f) in cands {
+            if best.as_ref().is_none_or(|b| cv < b.cv) {
+                let mut d = describe(&u);
+                if let Fitter::Ridge(a) = f {
+                    d = format!("{d}; ridge α = {a}");
+                }
+                best = Some(mk(u, sse, cv, f, d));
+            }
+        }
+        best
     };
     match fam {
         Family::Static => ols(&|s| vec![vec![ctx.value[s]]])
             .map(|(u, sse, cv)| mk(u, sse, cv, Fitter::Ols, String::new())),
         Family::Ridge | Family::Pcr => {
-            // The static family's forward order, up to the cap: shrinkage needs the sensors.
-            let units: Vec<Vec<usize>> = static_path.iter().map(|&s| vec![ctx.value[s]]).collect();
-            if units.is_empty() {
-                return None;
-            }
-            let cols: Vec<usize> = units.iter().flatten().copied().collect();
-            let fitters: Vec<(Fitter, String)> = if fam == Family::Ridge {
+            // The static family's path, shrunk instead of truncated (each fold shrinks its
+            // own path, chosen on its training rows).
+            let cols = static_path.units.iter().flatten().count();
+            let fitters: Vec<Fitter> = if fam == Family::Ridge {
                 opts.ridge_alphas
                     .iter()
-                    .map(|&a| (Fitter::Ridge(a), format!("α = {a}")))
+                    .map(|&a| Fitter::Ridge(a))
                     .collect()
             } else {
-                (1..=cols.len())
-                    .map(|k| (Fitter::Pcr(k), format!("{k} of {} components", cols.len())))
-                    .collect()
+                (1..=cols).map(Fitter::Pcr).collect()
             };
-            let mut best: Option<Best> = None;
-            for (f, d) in fitters {
-                if let Some(sse) = ctx.eng.fold_sse(&cols, target, f) {
-                    let v = ctx.eng.pooled(&sse);
-                    if v.is_finite() && best.as_ref().is_none_or(|b| v < b.cv) {
-                        best = Some(mk(units.clone(), sse, v, f, d));
-                    }
-                }
-            }
-            best
+            shrink_path(ctx, target, static_path, &fitters).map(|(u, sse, cv, f)| {
+                let d = match f {
+                    Fitter::Ridge(a) => format!("α = {a}"),
+                    Fitter::Pcr(k) => format!("{k} of {cols} components"),
+                    Fitter::Ols => String::new(),
+                };
+                mk(u, sse, cv, f, d)
+            })
         }
         Family::LeadLag => {
+            // Per τ: the path truncated (least squares) or shrunk whole (ridge).
+            let ridge: Vec<Fitter> = opts
+                .ridge_alphas
+                .iter()
+                .map(|&a| Fitter::Ridge(a))
+                .collect();
             let mut best: Option<Best> = None;
             for (ti, tau) in ctx.taus.iter().enumerate() {
-                if let Some((u, sse, cv)) = ols(&|s| vec![vec![ctx.value[s], ctx.lag[s][ti]]]) {
+                let fw = forward(
+                    ctx,
+                    target,
+                    &|s| vec![vec![ctx.value[s], ctx.lag[s][ti]]],
+                    &all,
+                );
+                let shrunk = shrink_path(ctx, target, &fw, &ridge);
+                let cands = fw
+                    .kept
+                    .clone()
+                    .map(|(u, sse, cv)| (u, sse, cv, Fitter::Ols))
+                    .into_iter()
+                    .chain(shrunk);
+                for (u, sse, cv, f) in cands {
                     if best.as_ref().is_none_or(|b| cv < b.cv) {
-                        best = Some(mk(u, sse, cv, Fitter::Ols, format!("τ = {tau} s")));
+                        let d = match f {
+                            Fitter::Ridge(a) => format!("τ = {tau} s, ridge α = {a}"),
+                            _ => format!("τ = {tau} s"),
+                        };
+                        best = Some(mk(u, sse, cv, f, d));
                     }
                 }
             }
             best
         }
-        Family::Tf1 => described(ols(&|s| {
-            ctx.lag[s].iter().map(|&l| vec![ctx.value[s], l]).collect()
-        })),
+        Family::Tf1 => described(&|s| ctx.lag[s].iter().map(|&l| vec![ctx.value[s], l]).collect()),
         Family::Tf2 => {
             // Pole pairs from every other τ of the grid (coarse: the pair is two poles).
             let coarse: Vec<usize> = (0..ctx.taus.len()).step_by(2).collect();
-            described(ols(&|s| {
+            described(&|s| {
                 let mut v = Vec::new();
                 for (i, &a) in coarse.iter().enumerate() {
                     for &c in &coarse[i + 1..] {
@@ -543,13 +696,13 @@ fn family_best(
                     }
                 }
                 v
-            }))
+            })
         }
-        Family::Delay => described(ols(&|s| {
+        Family::Delay => described(&|s| {
             std::iter::once(vec![ctx.value[s]])
                 .chain(ctx.delay[s].iter().map(|&d| vec![d]))
                 .collect()
-        })),
+        }),
         Family::Differences => {
             // Candidates: each sensor alone, or its difference with another sensor.
             ols(&|s| {
@@ -710,7 +863,7 @@ pub fn identify_auto(
 
     let one_target = |j: usize| -> Result<TargetModel> {
         let all: Vec<usize> = (0..c).collect();
-        let (_, static_path) = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all, Fitter::Ols);
+        let static_path = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all);
         let mut comparison = Vec::new();
         // Plain least squares on every input: the floor, eligible within the cap.
         let all_cols: Vec<usize> = (0..c).map(|s| ctx.value[s]).collect();

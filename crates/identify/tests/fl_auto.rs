@@ -45,20 +45,26 @@ fn fl_thermal_default_uses_training_rows_only_and_at_most_8_sensors() {
         );
     }
     let base = plain_least_squares(&t, &Split::TimeBefore(86_400.0)).unwrap();
-    // Measured (docs/identification.md): ch1 2.775, ch3 9.403, ch5 5.996 µm; plain LS on
-    // all 16 inputs 3.937, 7.476, 16.471 µm. The 2.0 / 3.7 / 3.5 µm are not met.
-    let measured = [2.775, 9.403, 5.996];
+    // The targets (2.0 / 3.7 / 3.5 µm) are NOT met without looking at the test
+    // period (docs/identification.md gives the figures and the reason). Measured with the
+    // nested selection: ch1 3.666, ch3 4.926, ch5 3.720 µm; plain LS on all 16 inputs
+    // 3.937, 7.476, 16.471 µm (before the nested selection: 2.775, 9.403, 5.996 µm).
+    let targets = [2.0, 3.7, 3.5];
+    let measured = [3.666, 4.926, 3.720];
     for (j, m) in id.targets.iter().enumerate() {
         let test = m.test_rmse.unwrap();
+        let ls = base[j].1.unwrap();
         println!(
-            "{}: {} {} sensors, test {test:.3} µm (plain LS {:.3})",
+            "{}: {} {} sensors, validation {:.3}, test {test:.3} µm (target {}, plain LS {ls:.3})",
             m.target,
             m.family,
             m.sensors.len(),
-            base[j].1.unwrap()
+            m.cv_rmse,
+            targets[j],
         );
         assert!(m.sensors.len() <= 8, "{}", m.target);
         assert!(m.model.channels().len() <= 8, "{}", m.target);
+        assert!(test < ls, "{}: {test} vs plain LS {ls}", m.target);
         assert!((test - measured[j]).abs() < 5e-3, "{}: {test}", m.target);
         assert!(m.fold_rmse.len() == 3 && m.fold_rmse.iter().all(|v| v.is_finite()));
     }

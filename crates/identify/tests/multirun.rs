@@ -85,7 +85,9 @@ fn hobbing_runs_default_beats_plain_least_squares_out_of_run() {
     assert_eq!(t.run_names.len(), 5);
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("hobbing outer LORO: default {auto:?}, plain LS {ls:?}");
-    // The column core lags the column (τ ≈ 9 h): a lag model must do strictly better.
+    // The column core lags the column (τ ≈ 9 h): a lag model must do strictly better
+    // (measured 0.511 vs 0.693 µm), and never more than 2 % worse.
+    assert!(auto[0] <= 1.02 * ls[0], "{auto:?} vs {ls:?}");
     assert!(auto[0] < ls[0], "{auto:?} vs {ls:?}");
 }
 
@@ -111,12 +113,13 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
     assert_eq!(t.run_names.len(), 6);
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("FL_THERMAL outer LORO: default {auto:?}, plain LS {ls:?}");
-    // Measured: ch1 2.448 vs 6.886, ch5 4.629 vs 6.426 µm (far better); ch3 6.331 vs
-    // 6.049 µm: 4.7 % worse than plain LS on all 16 inputs (the default reads at most 8),
-    // short of the 2 % (docs/identification.md). Guarded at its measured level.
-    assert!(auto[0] <= 1.02 * ls[0], "{auto:?} vs {ls:?}");
-    assert!(auto[2] <= 1.02 * ls[2], "{auto:?} vs {ls:?}");
-    assert!(auto[1] <= 1.05 * ls[1], "{auto:?} vs {ls:?}");
+    // Measured (nested selection): ch1 2.547 vs 6.886, ch3 3.193 vs 6.049, ch5 5.185 vs
+    // 6.426 µm (docs/identification.md). Never more than 2 % worse than plain LS on all 16
+    // inputs (the default reads at most 8), and strictly better: every channel lags.
+    for j in 0..3 {
+        assert!(auto[j] <= 1.02 * ls[j], "{j}: {auto:?} vs {ls:?}");
+        assert!(auto[j] < ls[j], "{j}: {auto:?} vs {ls:?}");
+    }
 }
 
 /// Every family's model, written as the model file the engine loads, runs in the
