@@ -9,8 +9,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use gearcomp_thermal::{
-    Alarm, AxisStatus, Engine, EngineConfig, EngineStatus, Fault, Inputs, Output, Reading,
-    StopReason, MAX_AXES,
+    Alarm, Application, AxisStatus, Engine, EngineConfig, EngineStatus, Fault, Inputs, Output,
+    Reading, StopReason, MAX_AXES,
 };
 use serde::Serialize;
 
@@ -132,6 +132,15 @@ pub enum InputMsg {
     SwapEngine(Box<Engine>, Box<EngineConfig>),
     /// The operator acknowledged the stop request.
     AckStop,
+    /// A pulse output's device acknowledged every pulse of an axis up to this total (a
+    /// Modbus write response, an MQTT PUBACK): kept in the resume state, so a restarted
+    /// service sends only what the device has not acknowledged.
+    PulsesAcked {
+        /// Axis index (engine order).
+        axis: u8,
+        /// Cumulative pulses acknowledged.
+        total: i64,
+    },
     /// Finish the cycle, flush and end.
     Shutdown,
 }
@@ -154,6 +163,15 @@ pub struct OffsetOut {
     /// The engine's latched stop request (until the operator acknowledges it), for a
     /// stop / feed-hold output.
     pub stop: bool,
+    /// Per axis: the size of one infeed pulse, µm, for an axis applied as pulses
+    /// (EP0138375); 0 for any other axis.
+    pub pulse_um: [f64; MAX_AXES],
+    /// Per pulse axis: the cumulative pulses issued for the applied offset (the count
+    /// the device should hold).
+    pub pulse_total: [i64; MAX_AXES],
+    /// Per pulse axis: the cumulative pulses the device had acknowledged when this run
+    /// started or last reported (where a pulse output resumes).
+    pub pulses_acked: [i64; MAX_AXES],
     /// Wall-clock instant the scan that caused it completed.
     pub scan_at: Option<Instant>,
 }
@@ -167,6 +185,9 @@ impl Default for OffsetOut {
             n_axes: 0,
             valid: [false; MAX_AXES],
             stop: false,
+            pulse_um: [0.0; MAX_AXES],
+            pulse_total: [0; MAX_AXES],
+            pulses_acked: [0; MAX_AXES],
             scan_at: None,
         }
     }
@@ -343,9 +364,17 @@ pub struct ResumeState {
     pub applied_um: Vec<f64>,
     /// `Engine::save_state`.
     pub engine: Vec<f64>,
+    /// Per axis: cumulative infeed pulses issued for the applied offset.
+    pub pulse_total: Vec<i64>,
+    /// Per axis: the rounding remainder carried to the next pulse, in pulses.
+    pub pulse_carry: Vec<f64>,
+    /// Per axis: cumulative pulses the device acknowledged.
+    pub pulses_acked: Vec<i64>,
 }
 
-const RESUME_TAG: &str = "gearcomp-resume-1";
+/// The first form (no pulse section): still read, its pulse counts as 0.
+const RESUME_TAG_1: &str = "gearcomp-resume-1";
+const RESUME_TAG: &str = "gearcomp-resume-2";
 
 impl ResumeState {
     /// Text form: every number as the 16 hex digits of its bits, so nothing is rounded.
@@ -365,15 +394,29 @@ impl ResumeState {
         for v in self.applied_um.iter().chain(&self.engine) {
             let _ = write!(s, " {:016x}", v.to_bits());
         }
+        for i in 0..self.applied_um.len() {
+            let total = self.pulse_total.get(i).copied().unwrap_or(0);
+            let carry = self.pulse_carry.get(i).copied().unwrap_or(0.0);
+            let acked = self.pulses_acked.get(i).copied().unwrap_or(0);
+            let _ = write!(
+                s,
+                " {:016x} {:016x} {:016x}",
+                total as u64,
+                carry.to_bits(),
+                acked as u64
+            );
+        }
         s
     }
 
     /// Parses [`ResumeState::encode`]'s text; None if it is not one.
     pub fn decode(text: &str) -> Option<Self> {
         let mut it = text.split_ascii_whitespace();
-        if it.next()? != RESUME_TAG {
-            return None;
-        }
+        let with_pulses = match it.next()? {
+            RESUME_TAG => true,
+            RESUME_TAG_1 => false,
+            _ => return None,
+        };
         let config_hash = u64::from_str_radix(it.next()?, 16).ok()?;
         let n_axes: usize = it.next()?.parse().ok()?;
         let n_engine: usize = it.next()?.parse().ok()?;
@@ -388,24 +431,37 @@ impl ResumeState {
                 _ => return None,
             });
         }
-        let mut num = || -> Option<f64> {
+        let mut word = || -> Option<u64> {
             let t = it.next()?;
             (t.len() == 16).then_some(())?;
-            Some(f64::from_bits(u64::from_str_radix(t, 16).ok()?))
+            u64::from_str_radix(t, 16).ok()
         };
         let mut applied_um = Vec::with_capacity(n_axes);
         for _ in 0..n_axes {
-            applied_um.push(num()?);
+            applied_um.push(f64::from_bits(word()?));
         }
         let mut engine = Vec::with_capacity(n_engine);
         for _ in 0..n_engine {
-            engine.push(num()?);
+            engine.push(f64::from_bits(word()?));
+        }
+        let mut pulse_total = vec![0i64; n_axes];
+        let mut pulse_carry = vec![0.0; n_axes];
+        let mut pulses_acked = vec![0i64; n_axes];
+        if with_pulses {
+            for i in 0..n_axes {
+                pulse_total[i] = word()? as i64;
+                pulse_carry[i] = f64::from_bits(word()?);
+                pulses_acked[i] = word()? as i64;
+            }
         }
         it.next().is_none().then_some(Self {
             config_hash,
             valid,
             applied_um,
             engine,
+            pulse_total,
+            pulse_carry,
+            pulses_acked,
         })
     }
 }
@@ -482,6 +538,57 @@ fn engine_alarm_key(a: Alarm) -> Option<&'static str> {
         Alarm::InputCount { .. } => Some("engine.input_count"),
         Alarm::PositionMissing { .. } => Some("engine.position_missing"),
         Alarm::LawNotFinite { .. } => Some("engine.law_not_finite"),
+        Alarm::Envelope { .. } => Some("engine.envelope"),
+    }
+}
+
+/// Infeed pulses for the applied offset of every axis applied as pulses (EP0138375,
+/// Fig. 9 blocks 606–608): each change of the applied offset becomes a count of pulses
+/// with the rounding remainder carried, by the thermal crate's own
+/// [`gearcomp_thermal::law::pulses_with_carry`] (the rule `gearcomp`'s offline pulse
+/// application uses). The issued total, the remainder and the total the device has
+/// acknowledged are kept in the resume state, so a restart neither loses nor repeats a
+/// pulse.
+#[derive(Debug, Clone, Copy)]
+pub struct Pulses {
+    /// Pulse size per axis, µm (0: the axis is not applied as pulses).
+    pub pulse_um: [f64; MAX_AXES],
+    /// Cumulative pulses issued.
+    pub total: [i64; MAX_AXES],
+    /// Remainder carried, pulses (|r| ≤ ½).
+    pub carry: [f64; MAX_AXES],
+    /// Cumulative pulses the device acknowledged.
+    pub acked: [i64; MAX_AXES],
+}
+
+impl Pulses {
+    /// The pulse axes of an engine configuration, nothing issued yet.
+    pub fn of(cfg: &EngineConfig) -> Self {
+        let mut pulse_um = [0.0; MAX_AXES];
+        for (p, a) in pulse_um.iter_mut().zip(&cfg.axes) {
+            if let Application::Pulses { pulse_um } = a.apply {
+                *p = pulse_um;
+            }
+        }
+        Self {
+            pulse_um,
+            total: [0; MAX_AXES],
+            carry: [0.0; MAX_AXES],
+            acked: [0; MAX_AXES],
+        }
+    }
+
+    /// Issues the pulses of a change of axis `i`'s applied offset from `from_um` to
+    /// `to_um`; returns the count (0 for an axis not applied as pulses).
+    pub fn issue(&mut self, i: usize, from_um: f64, to_um: f64) -> i64 {
+        let p = self.pulse_um.get(i).copied().unwrap_or(0.0);
+        let delta = to_um - from_um;
+        if p <= 0.0 || delta == 0.0 || !delta.is_finite() {
+            return 0;
+        }
+        let n = gearcomp_thermal::law::pulses_with_carry(delta, p, &mut self.carry[i]);
+        self.total[i] = self.total[i].saturating_add(n);
+        n
     }
 }
 
@@ -517,6 +624,8 @@ pub struct Cycle {
     applied_um: [f64; MAX_AXES],
     /// Per axis: a valid offset exists (see [`OffsetOut::valid`]).
     valid: [bool; MAX_AXES],
+    /// Infeed pulses of the applied offset (see [`Pulses`]).
+    pulses: Pulses,
     /// Where the resume state is saved (None: not kept, e.g. benchmarks).
     persist: Option<Persist>,
     /// The stop request as last published to the outputs.
@@ -566,6 +675,13 @@ impl Cycle {
         let n = p.engine.channel_names().len();
         let n_axes = p.engine.axis_names().len().min(MAX_AXES);
         let clock = p.clock;
+        let pulses = Pulses::of(&p.config);
+        // The outputs learn which axes are pulse axes before any offset (sequence 0:
+        // nothing is written for it).
+        p.offsets.send_modify(|o| {
+            o.pulse_um = pulses.pulse_um;
+            o.n_axes = n_axes as u8;
+        });
         Self {
             period: clock.wall(p.period_s),
             bumpless_step_um: p.bumpless_step_um,
@@ -591,6 +707,7 @@ impl Cycle {
             bumpless: Bumpless::default(),
             applied_um: [0.0; MAX_AXES],
             valid: [false; MAX_AXES],
+            pulses,
             persist: None,
             published_stop: false,
             alive: Arc::new(std::sync::atomic::AtomicU64::new(0)),
@@ -652,17 +769,15 @@ impl Cycle {
                 self.applied_um[i] = y;
                 self.valid[i] = true;
             }
+            // The pulses issued for the applied offset and those the device acknowledged
+            // go on from where they were: the output sends only the difference.
+            self.pulses.total[i] = r.pulse_total.get(i).copied().unwrap_or(0);
+            let carry = r.pulse_carry.get(i).copied().unwrap_or(0.0);
+            self.pulses.carry[i] = if carry.is_finite() { carry } else { 0.0 };
+            self.pulses.acked[i] = r.pulses_acked.get(i).copied().unwrap_or(0);
         }
         self.seq += 1;
-        self.offsets.send_replace(OffsetOut {
-            time_s: f64::NAN,
-            seq: self.seq,
-            offsets_um: self.applied_um,
-            n_axes: n as u8,
-            valid: self.valid,
-            stop: self.published_stop,
-            scan_at: None,
-        });
+        self.offsets.send_replace(self.offset_out(f64::NAN, None));
         if let Ok(mut live) = self.live.lock() {
             for (i, l) in live.axes.iter_mut().enumerate() {
                 l.offset_um = self.applied_um[i];
@@ -678,13 +793,39 @@ impl Cycle {
 
     /// The state to resume from now.
     pub fn resume_state(&self) -> ResumeState {
+        self.state_with(config_hash(
+            &self.config.to_toml_string().unwrap_or_default(),
+        ))
+    }
+
+    fn state_with(&self, config_hash: u64) -> ResumeState {
         let mut engine = Vec::new();
         self.engine.save_state(&mut engine);
+        let n = self.n_axes;
         ResumeState {
-            config_hash: config_hash(&self.config.to_toml_string().unwrap_or_default()),
-            valid: self.valid[..self.n_axes].to_vec(),
-            applied_um: self.applied_um[..self.n_axes].to_vec(),
+            config_hash,
+            valid: self.valid[..n].to_vec(),
+            applied_um: self.applied_um[..n].to_vec(),
             engine,
+            pulse_total: self.pulses.total[..n].to_vec(),
+            pulse_carry: self.pulses.carry[..n].to_vec(),
+            pulses_acked: self.pulses.acked[..n].to_vec(),
+        }
+    }
+
+    /// The output cell's value for the current state.
+    fn offset_out(&self, time_s: f64, scan_at: Option<Instant>) -> OffsetOut {
+        OffsetOut {
+            time_s,
+            seq: self.seq,
+            offsets_um: self.applied_um,
+            n_axes: self.n_axes as u8,
+            valid: self.valid,
+            stop: self.published_stop,
+            pulse_um: self.pulses.pulse_um,
+            pulse_total: self.pulses.total,
+            pulses_acked: self.pulses.acked,
+            scan_at,
         }
     }
 
@@ -695,14 +836,7 @@ impl Cycle {
         p.last = Instant::now();
         p.dirty = false;
         let hash = p.hash;
-        let mut engine = Vec::new();
-        self.engine.save_state(&mut engine);
-        let st = ResumeState {
-            config_hash: hash,
-            valid: self.valid[..self.n_axes].to_vec(),
-            applied_um: self.applied_um[..self.n_axes].to_vec(),
-            engine,
-        };
+        let st = self.state_with(hash);
         self.record(Record::Resume {
             time_s,
             state: st.encode(),
@@ -824,6 +958,16 @@ impl Cycle {
                 }
             }
             InputMsg::AckStop => self.engine.acknowledge_stop(),
+            InputMsg::PulsesAcked { axis, total } => {
+                if let Some(a) = self.pulses.acked[..self.n_axes].get_mut(axis as usize) {
+                    if *a != total {
+                        *a = total;
+                        if let Some(p) = self.persist.as_mut() {
+                            p.dirty = true;
+                        }
+                    }
+                }
+            }
             InputMsg::Shutdown => return false,
         }
         true
@@ -915,7 +1059,13 @@ impl Cycle {
                 self.prev_fault[i] = f;
             }
         }
-        let engine_alarm = out.alarm.and_then(engine_alarm_key);
+        // A warning (the model extrapolating: compensation goes on) shows when no engine
+        // alarm does.
+        let shown = out
+            .alarm
+            .filter(|a| engine_alarm_key(*a).is_some())
+            .or(out.warning);
+        let engine_alarm = shown.and_then(engine_alarm_key);
         if engine_alarm != self.prev_engine_alarm {
             if let Some(k) = self.prev_engine_alarm {
                 self.record(Record::AlarmCleared {
@@ -923,8 +1073,10 @@ impl Cycle {
                     key: k.into(),
                 });
             }
-            if let (Some(k), Some(a)) = (engine_alarm, out.alarm) {
-                self.raise(t, k.into(), format!("{a:?}"));
+            if let (Some(k), Some(a)) = (engine_alarm, shown) {
+                let names = (self.engine.channel_names(), self.engine.axis_names());
+                let text = gearcomp_thermal::replay::describe_alarm(&a, names.0, names.1);
+                self.raise(t, k.into(), text);
             }
             self.prev_engine_alarm = engine_alarm;
         }
@@ -965,6 +1117,9 @@ impl Cycle {
             let y = self.bumpless.apply(i, a.offset_um, ready);
             next[i] = y;
             if y != self.applied_um[i] {
+                if self.valid[i] {
+                    self.pulses.issue(i, self.applied_um[i], y);
+                }
                 changed = true;
             }
         }
@@ -988,15 +1143,7 @@ impl Cycle {
         self.published_stop = stop;
         if (changed && self.valid[..n_axes].iter().any(|v| *v)) || stop_changed {
             self.seq += 1;
-            let o = OffsetOut {
-                time_s: t,
-                seq: self.seq,
-                offsets_um: next,
-                n_axes: n_axes as u8,
-                valid: self.valid,
-                stop,
-                scan_at: self.scan_at,
-            };
+            let o = self.offset_out(t, self.scan_at);
             self.offsets.send_replace(o);
         }
         let averaged = out.averaged;
@@ -1208,7 +1355,11 @@ mod tests {
     );
 
     fn rig(origin_s: f64) -> Rig {
-        let cfg = EngineConfig::from_toml_str(RATE_ENGINE).unwrap();
+        rig_with(RATE_ENGINE, origin_s)
+    }
+
+    fn rig_with(engine_toml: &str, origin_s: f64) -> Rig {
+        let cfg = EngineConfig::from_toml_str(engine_toml).unwrap();
         let engine = Engine::new(&cfg).unwrap();
         let (rec_tx, rec_rx) = std::sync::mpsc::sync_channel(1 << 16);
         let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
@@ -1259,6 +1410,9 @@ mod tests {
                 5e-324,
                 1.0 / 3.0,
             ],
+            pulse_total: vec![-7, i64::MAX],
+            pulse_carry: vec![-0.5, 0.25],
+            pulses_acked: vec![-6, i64::MIN],
         };
         let back = ResumeState::decode(&st.encode()).unwrap();
         assert_eq!(back.config_hash, st.config_hash);
@@ -1266,6 +1420,20 @@ mod tests {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&back.applied_um), bits(&st.applied_um));
         assert_eq!(bits(&back.engine), bits(&st.engine));
+        assert_eq!(back.pulse_total, st.pulse_total);
+        assert_eq!(bits(&back.pulse_carry), bits(&st.pulse_carry));
+        assert_eq!(back.pulses_acked, st.pulses_acked);
+        // The first form (no pulse section) is still read, with no pulses.
+        let v1 = format!(
+            "gearcomp-resume-1 {:016x} 1 0 1 {:016x}",
+            7u64,
+            (-22.5f64).to_bits()
+        );
+        let old = ResumeState::decode(&v1).unwrap();
+        assert_eq!(
+            (old.applied_um, old.pulse_total, old.pulses_acked),
+            (vec![-22.5], vec![0], vec![0])
+        );
         // Truncated, extended or foreign text is refused.
         let text = st.encode();
         assert!(ResumeState::decode(&text[..text.len() - 1]).is_none());
@@ -1332,6 +1500,58 @@ mod tests {
             assert_eq!(scan(&mut r4, f64::NAN, true).0, 0);
         }
         assert!(!r4.2.borrow().valid[0]);
+    }
+
+    /// As RATE_ENGINE, applied as infeed pulses of 0.7 µm at any time.
+    const PULSE_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+        valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+        [[channels]]\nname = \"B\"\nsensor = { kind = \"celsius\" }\n\
+        valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+        [[axes]]\nname = \"Z\"\napply = { kind = \"pulses\", pulse_um = 0.7 }\n\
+        max_offset_um = 100.0\nmax_step_um = 0.5\n\
+        [[axes.terms]]\nkind = \"difference\"\na = \"A\"\nb = \"B\"\nkz_um_per_c = -3.75\n";
+
+    /// Pulses follow the applied offset with the remainder carried, so after every cycle
+    /// the total is round(applied / pulse) (closed form: Σn = X − r with |r| ≤ ½); the
+    /// issued total, remainder and acknowledged total survive a restart.
+    #[test]
+    fn pulses_follow_the_applied_offset_across_a_restart() {
+        const P: f64 = 0.7;
+        let mut r1 = rig_with(PULSE_ENGINE, 0.0);
+        for k in 1..=12 {
+            scan(&mut r1, 24.0, true);
+            let o = *r1.2.borrow();
+            let y = -0.5 * f64::from(k);
+            assert_eq!(o.offsets_um[0], y);
+            assert_eq!(o.pulse_um[0], P);
+            assert_eq!(o.pulse_total[0], (y / P).round() as i64, "cycle {k}");
+        }
+        // −6 µm / 0.7 µm = −8.571… → −9 pulses issued; the device acknowledged −5.
+        assert!(r1.0.handle(InputMsg::PulsesAcked { axis: 0, total: -5 }));
+        let state = r1.0.resume_state();
+        assert_eq!(
+            (state.pulse_total.clone(), state.pulses_acked.clone()),
+            (vec![-9], vec![-5])
+        );
+        let back = ResumeState::decode(&state.encode()).unwrap();
+
+        let mut r2 = rig_with(PULSE_ENGINE, 100.0);
+        assert_eq!(r2.0.resume(&back), Resumed::OffsetsAndEngine);
+        let first = *r2.2.borrow();
+        // The output resumes: 4 pulses issued but not acknowledged are still to be sent.
+        assert_eq!((first.pulse_total[0], first.pulses_acked[0]), (-9, -5));
+        for k in 13..=22 {
+            scan(&mut r2, 26.0, true);
+            let o = *r2.2.borrow();
+            let y = -0.5 * f64::from(k);
+            assert_eq!(o.offsets_um[0], y);
+            assert_eq!(o.pulse_total[0], (y / P).round() as i64, "cycle {k}");
+        }
+        // An axis applied otherwise issues no pulses.
+        let mut r3 = rig(0.0);
+        scan(&mut r3, 24.0, true);
+        let o = *r3.2.borrow();
+        assert_eq!((o.pulse_um[0], o.pulse_total[0]), (0.0, 0));
     }
 
     #[test]

@@ -431,7 +431,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         }
     }
     #[cfg_attr(
-        not(any(feature = "modbus", feature = "opcua")),
+        not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
         allow(unused_variables)
     )]
     let alive = cycle.alive();
@@ -497,6 +497,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                     clock,
                     tx: in_tx.clone(),
                     offsets: off_rx.clone(),
+                    alive: alive.clone(),
                 },
             )));
         }

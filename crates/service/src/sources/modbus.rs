@@ -16,8 +16,8 @@ use tokio::sync::watch;
 use tokio_modbus::prelude::*;
 
 use crate::config::{
-    FlagTable, ModbusHeartbeat, ModbusInput, ModbusModule, ModbusStopOutput, RegisterMap,
-    RegisterTable,
+    FlagTable, ModbusHeartbeat, ModbusInput, ModbusModule, ModbusPosition, ModbusPulseOutput,
+    ModbusStopOutput, RegisterMap, RegisterTable,
 };
 use crate::cycle::{Clock, InputMsg, OffsetOut};
 
@@ -58,6 +58,52 @@ pub fn encode_offset(offset_um: f64, um_per_count: f64) -> Result<u16, String> {
         ));
     }
     Ok((c as i16) as u16)
+}
+
+/// Converts the words of a position register into mm.
+///
+/// # Formula
+/// r = word as i16 (one word) or (high·65536 + low) as i32 (two words, high first);
+/// position_mm = r·mm_per_count + offset_mm
+/// # Source
+/// Modbus application protocol V1.1b3 §4.2 (16-bit big-endian registers) [STANDARD]; the
+/// high-word-first i32 and the linear scale are this service's [CONVENTION,
+/// docs/service.md]
+pub fn decode_position(words: &[u16], p: &ModbusPosition) -> Result<f64, String> {
+    let r: i64 = match (p.words, words) {
+        (1, [w, ..]) => i64::from(*w as i16),
+        (2, [hi, lo, ..]) => i64::from(((u32::from(*hi) << 16) | u32::from(*lo)) as i32),
+        _ => {
+            return Err(format!(
+                "position register {} of axis {}: {} word(s) read, {} expected",
+                p.address,
+                p.axis,
+                words.len(),
+                p.words
+            ))
+        }
+    };
+    Ok(r as f64 * p.mm_per_count + p.offset_mm)
+}
+
+/// The two words (high first) of a cumulative pulse count, as an i32.
+///
+/// # Formula
+/// high = (total as i32 as u32) >> 16, low = (total as i32 as u32) & 0xFFFF
+/// # Source
+/// Modbus application protocol V1.1b3 §6.12 (Write Multiple Registers) [STANDARD];
+/// high word first is this service's [CONVENTION, docs/service.md]
+pub fn encode_pulse_total(total: i64) -> Result<[u16; 2], String> {
+    let t = i32::try_from(total).map_err(|_| {
+        format!("pulse total {total} outside the i32 range of the counter registers")
+    })?;
+    let u = t as u32;
+    Ok([(u >> 16) as u16, (u & 0xFFFF) as u16])
+}
+
+/// The cumulative pulse count of two words, high first.
+pub fn decode_pulse_total(words: [u16; 2]) -> i64 {
+    i64::from(((u32::from(words[0]) << 16) | u32::from(words[1])) as i32)
 }
 
 /// Everything the Modbus adapter needs.
@@ -112,6 +158,24 @@ pub fn resolve(
             ));
         }
     }
+    if let Some(o) = &cfg.pulse_output {
+        if !axes.contains(&o.axis) {
+            return Err(crate::error::invalid(
+                "input.pulse_output.axis",
+                &o.axis,
+                format!("an engine axis: {}", axes.join(", ")),
+            ));
+        }
+    }
+    for (i, p) in cfg.positions.iter().enumerate() {
+        if !axes.contains(&p.axis) {
+            return Err(crate::error::invalid(
+                format!("input.positions[{i}].axis"),
+                &p.axis,
+                format!("an engine axis: {}", axes.join(", ")),
+            ));
+        }
+    }
     Ok(out)
 }
 
@@ -148,12 +212,26 @@ pub async fn run(p: ModbusParts) -> crate::error::Result<()> {
         } else {
             None
         };
-        let flags =
-            (i == 0 && (p.cfg.stop_output.is_some() || p.cfg.heartbeat.is_some())).then(|| Flags {
-                stop: p.cfg.stop_output.clone(),
-                heartbeat: p.cfg.heartbeat.clone(),
-                alive: p.alive.clone(),
-            });
+        let flags = (i == 0
+            && (p.cfg.stop_output.is_some()
+                || p.cfg.heartbeat.is_some()
+                || p.cfg.pulse_output.is_some()
+                || !p.cfg.positions.is_empty()))
+        .then(|| Flags {
+            stop: p.cfg.stop_output.clone(),
+            heartbeat: p.cfg.heartbeat.clone(),
+            alive: p.alive.clone(),
+            pulses: p.cfg.pulse_output.clone().and_then(|o| {
+                let a = p.axes.iter().position(|a| a == &o.axis)?;
+                Some((o, a))
+            }),
+            positions: p
+                .cfg
+                .positions
+                .iter()
+                .filter_map(|q| Some((q.clone(), p.axes.iter().position(|a| a == &q.axis)?)))
+                .collect(),
+        });
         tasks.spawn(run_module(
             i,
             m,
@@ -210,6 +288,7 @@ async fn run_module(
         // A new connection (the device may have restarted): check and write at once.
         held.connected = true;
         flag_state.stop_written = None;
+        flag_state.pulses_checked = false;
         // The connection counts (back-off reset, alarm cleared) only once the device has
         // answered: a device that accepts connections but never answers stays one alarm
         // with a growing wait, not an alarm that clears at every connect.
@@ -309,6 +388,11 @@ async fn run_module(
                     }
                 }
             }
+            if let Some(f) = &flags {
+                if read_positions(&mut ctx, f, &tx).await.is_err() {
+                    break 'poll;
+                }
+            }
             send(&tx, InputMsg::ScanEnd);
             if let Some((o, axis)) = &out {
                 let snap = *offsets.borrow_and_update();
@@ -327,6 +411,14 @@ async fn run_module(
                 {
                     break 'poll;
                 }
+                if let Some((o, axis)) = &f.pulses {
+                    if write_pulses(&mut ctx, o, *axis, &snap, &mut flag_state, &tx)
+                        .await
+                        .is_err()
+                    {
+                        break 'poll;
+                    }
+                }
             }
         }
         failures = failures.saturating_add(1);
@@ -340,6 +432,10 @@ struct Flags {
     stop: Option<ModbusStopOutput>,
     heartbeat: Option<ModbusHeartbeat>,
     alive: Arc<AtomicU64>,
+    /// The pulse counter and its axis.
+    pulses: Option<(ModbusPulseOutput, usize)>,
+    /// Position registers and their axes.
+    positions: Vec<(ModbusPosition, usize)>,
 }
 
 #[derive(Debug, Default)]
@@ -353,6 +449,225 @@ struct FlagState {
     next_beat: Option<tokio::time::Instant>,
     /// The cycle's step count at the last beat.
     last_alive: u64,
+    /// The pulse total the device acknowledged (None: take the cycle's at the first poll).
+    pulses_acked: Option<i64>,
+    /// A pulse total written whose response has not arrived (the connection failed).
+    pulses_pending: Option<i64>,
+    /// The counter was read back on this connection.
+    pulses_checked: bool,
+}
+
+const PULSE_KEY: &str = "modbus.pulse_output";
+const PULSE_HELD_KEY: &str = "modbus.pulse_output.held";
+
+/// Reads every position register and hands the positions to the cycle; a refused or
+/// implausible read makes the position unknown (NaN: the axes whose law needs it freeze)
+/// with an alarm. Err: the connection failed.
+async fn read_positions(
+    ctx: &mut client::Context,
+    f: &Flags,
+    tx: &SyncSender<InputMsg>,
+) -> std::result::Result<(), ()> {
+    for (p, axis) in &f.positions {
+        let n = u16::from(p.words);
+        let res = tokio::time::timeout(Duration::from_secs(3), async {
+            match p.table {
+                RegisterTable::Input => ctx.read_input_registers(p.address, n).await,
+                RegisterTable::Holding => ctx.read_holding_registers(p.address, n).await,
+            }
+        })
+        .await;
+        let key = format!("modbus.position.{}", p.axis);
+        let pos = match res {
+            Ok(Ok(Ok(words))) => decode_position(&words, p),
+            Ok(Ok(Err(exc))) => Err(format!(
+                "position register {} of axis {}: exception {exc:?}",
+                p.address, p.axis
+            )),
+            Ok(Err(_)) | Err(_) => return Err(()),
+        };
+        match pos {
+            Ok(position_mm) => {
+                send(tx, InputMsg::ClearAlarm { key });
+                send(
+                    tx,
+                    InputMsg::Position {
+                        axis: *axis as u8,
+                        position_mm,
+                    },
+                );
+            }
+            Err(msg) => {
+                send(
+                    tx,
+                    InputMsg::RaiseAlarm {
+                        key,
+                        message: format!("Modbus {msg}; axes reading it are frozen"),
+                    },
+                );
+                send(
+                    tx,
+                    InputMsg::Position {
+                        axis: *axis as u8,
+                        position_mm: f64::NAN,
+                    },
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Writes the cumulative infeed-pulse count of a pulse axis when pulses are issued that
+/// the device has not acknowledged. A total counts as sent only on the write response
+/// (then reported to the cycle, which keeps it in the resume state). On every new
+/// connection the counter is read back: a total written whose response was lost counts
+/// as acknowledged when the device holds it; any other value (device restarted or
+/// overwritten) is alarmed and the total written again. Err: the connection failed.
+async fn write_pulses(
+    ctx: &mut client::Context,
+    o: &ModbusPulseOutput,
+    axis: usize,
+    snap: &OffsetOut,
+    st: &mut FlagState,
+    tx: &SyncSender<InputMsg>,
+) -> std::result::Result<(), ()> {
+    if axis >= snap.n_axes as usize || snap.pulse_um[axis] <= 0.0 {
+        return Ok(());
+    }
+    let acked = *st.pulses_acked.get_or_insert(snap.pulses_acked[axis]);
+    let mut force = false;
+    if !st.pulses_checked {
+        let read = tokio::time::timeout(
+            Duration::from_secs(3),
+            ctx.read_holding_registers(o.address, 2),
+        )
+        .await;
+        match read {
+            Ok(Ok(Ok(w))) if w.len() == 2 => {
+                st.pulses_checked = true;
+                let held = decode_pulse_total([w[0], w[1]]);
+                if held == acked {
+                    send(
+                        tx,
+                        InputMsg::ClearAlarm {
+                            key: PULSE_HELD_KEY.into(),
+                        },
+                    );
+                } else if Some(held) == st.pulses_pending {
+                    // Written before the connection failed, response lost: it arrived.
+                    st.pulses_acked = Some(held);
+                    send(
+                        tx,
+                        InputMsg::PulsesAcked {
+                            axis: axis as u8,
+                            total: held,
+                        },
+                    );
+                } else {
+                    send(
+                        tx,
+                        InputMsg::RaiseAlarm {
+                            key: PULSE_HELD_KEY.into(),
+                            message: format!(
+                                "Modbus pulse counter {}–{} holds {held}, the device had acknowledged {acked}: device restarted or overwritten; the total is written again (the PLC applies the difference to the count it last applied)",
+                                o.address,
+                                o.address.wrapping_add(1)
+                            ),
+                        },
+                    );
+                    force = true;
+                }
+                st.pulses_pending = None;
+            }
+            Ok(Ok(_)) => {
+                st.pulses_checked = true;
+                send(
+                    tx,
+                    InputMsg::RaiseAlarm {
+                        key: PULSE_HELD_KEY.into(),
+                        message: format!(
+                            "Modbus pulse counter {}: read-back refused; written again",
+                            o.address
+                        ),
+                    },
+                );
+                force = true;
+            }
+            Ok(Err(_)) | Err(_) => return Err(()),
+        }
+    }
+    let acked = st.pulses_acked.unwrap_or(acked);
+    let total = snap.pulse_total[axis];
+    if total == acked && !force {
+        return Ok(());
+    }
+    let words = match encode_pulse_total(total) {
+        Ok(w) => w,
+        Err(msg) => {
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: PULSE_KEY.into(),
+                    message: msg,
+                },
+            );
+            return Ok(());
+        }
+    };
+    st.pulses_pending = Some(total);
+    let res = tokio::time::timeout(
+        Duration::from_secs(3),
+        ctx.write_multiple_registers(o.address, &words),
+    )
+    .await;
+    match res {
+        Ok(Ok(Ok(()))) => {
+            st.pulses_pending = None;
+            st.pulses_acked = Some(total);
+            send(
+                tx,
+                InputMsg::PulsesAcked {
+                    axis: axis as u8,
+                    total,
+                },
+            );
+            send(
+                tx,
+                InputMsg::ClearAlarm {
+                    key: PULSE_KEY.into(),
+                },
+            );
+            Ok(())
+        }
+        Ok(Ok(Err(exc))) => {
+            st.pulses_pending = None;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: PULSE_KEY.into(),
+                    message: format!(
+                        "Modbus pulse counter {}: exception {exc:?}; retrying",
+                        o.address
+                    ),
+                },
+            );
+            Ok(())
+        }
+        Ok(Err(_)) | Err(_) => {
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: PULSE_KEY.into(),
+                    message: format!(
+                        "Modbus pulse counter {}: no write response; the total is checked and sent again on the next connection",
+                        o.address
+                    ),
+                },
+            );
+            Err(())
+        }
+    }
 }
 
 const STOP_KEY: &str = "modbus.stop_output";

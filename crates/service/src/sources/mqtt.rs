@@ -1,6 +1,9 @@
 //! MQTT input and output (rumqttc): readings as JSON on
-//! `<prefix>/<machine>/channel/<channel>`, the applied offset published (retained, QoS 1)
-//! on `<prefix>/<machine>/offset/<axis>`.
+//! `<prefix>/<machine>/channel/<channel>` and axis positions (mm) on
+//! `<prefix>/<machine>/position/<axis>`; the applied offset published (retained, QoS 1)
+//! on `<prefix>/<machine>/offset/<axis>`, the stop / feed-hold state (retained, QoS 1) on
+//! `<prefix>/<machine>/stop`, a heartbeat on `<prefix>/<machine>/heartbeat` and the infeed
+//! pulses of a pulse axis on `<prefix>/<machine>/pulses/<axis>` (see [`run_pulses`]).
 //!
 //! A reading is stamped with the service clock when it arrives. A malformed payload raises
 //! an alarm naming the topic and what was wrong, and is dropped (the channel then goes
@@ -47,6 +50,31 @@ pub fn offset_payload(time_s: f64, seq: u64, offset_um: f64) -> String {
     serde_json::json!({ "time_s": time_s, "seq": seq, "offset_um": offset_um }).to_string()
 }
 
+/// The JSON published for the stop / feed-hold state (retained): `stop` stays true from
+/// the engine's stop request until the operator acknowledges it (`POST /api/stop/ack`).
+pub fn stop_payload(time_s: f64, stop: bool) -> String {
+    let t = if time_s.is_finite() {
+        serde_json::json!(time_s)
+    } else {
+        serde_json::Value::Null
+    };
+    serde_json::json!({ "stop": stop, "time_s": t }).to_string()
+}
+
+/// The JSON of one heartbeat: a counter that moves while the cycle steps, the cycle's
+/// step count and the service time.
+pub fn heartbeat_payload(beat: u64, cycles: u64, time_s: f64) -> String {
+    serde_json::json!({ "beat": beat, "cycles": cycles, "time_s": time_s }).to_string()
+}
+
+/// The JSON of one pulse batch: `pulses` (signed, one pulse = `pulse_um`) and `total`,
+/// the cumulative count after it. A PLC applies `total` minus the total it last applied,
+/// so a batch delivered twice (QoS 1 is at least once) or a retained batch read again
+/// after a reconnect moves nothing.
+pub fn pulse_payload(pulses: i64, total: i64, pulse_um: f64) -> String {
+    serde_json::json!({ "pulses": pulses, "total": total, "pulse_um": pulse_um }).to_string()
+}
+
 /// Everything the MQTT adapter needs.
 pub struct MqttParts {
     /// The configuration.
@@ -63,6 +91,8 @@ pub struct MqttParts {
     pub tx: SyncSender<InputMsg>,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
+    /// The cycle's step count (`Cycle::alive`), for the heartbeat.
+    pub alive: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
@@ -232,6 +262,7 @@ pub async fn run(p: MqttParts) {
         clock,
         tx,
         mut offsets,
+        alive,
     } = p;
     let client_id = cfg
         .client_id
@@ -279,27 +310,100 @@ pub async fn run(p: MqttParts) {
             }
         }
     }
-    let (client, mut eventloop) = AsyncClient::new(opts, 256);
     let base = format!("{}/{}", cfg.topic_prefix, machine);
     let channel_prefix = format!("{base}/channel/");
+    let position_prefix = format!("{base}/position/");
+    let stop_topic = format!("{base}/stop");
+    // The pulse output has a connection of its own, so a PUBACK there can only answer
+    // the one batch in flight.
+    let pulse_task = (cfg.publish_pulses && offsets.borrow().pulse_um.iter().any(|p| *p > 0.0))
+        .then(|| {
+            let mut o = opts.clone();
+            o.set_client_id(format!("{}-pulses", opts.client_id()));
+            tokio::spawn(run_pulses(PulseParts {
+                opts: o,
+                base: base.clone(),
+                axes: axes.clone(),
+                reconnect: cfg.reconnect,
+                offsets: offsets.clone(),
+                tx: tx.clone(),
+            }))
+        });
+    let _abort_pulses = AbortOnDrop(pulse_task);
+    let (client, mut eventloop) = AsyncClient::new(opts, 256);
+    let stop_view = offsets.clone();
 
-    if cfg.publish_offset {
+    {
         let client = client.clone();
         let base = base.clone();
+        let publish_offset = cfg.publish_offset;
+        let publish_stop = cfg.publish_stop;
+        let stop_topic = stop_topic.clone();
+        let axes = axes.clone();
         tokio::spawn(async move {
             let mut last_seq = 0u64;
+            let mut last_stop = None;
             while offsets.changed().await.is_ok() {
                 let o = *offsets.borrow_and_update();
                 if o.seq == last_seq {
                     continue;
                 }
                 last_seq = o.seq;
+                if publish_stop && last_stop != Some(o.stop) {
+                    last_stop = Some(o.stop);
+                    // Retained, so a PLC that (re)connects reads the state at once; it is
+                    // published again on every new connection of ours (see below).
+                    let _ = client
+                        .publish(
+                            stop_topic.clone(),
+                            QoS::AtLeastOnce,
+                            true,
+                            stop_payload(o.time_s, o.stop),
+                        )
+                        .await;
+                }
+                if !publish_offset {
+                    continue;
+                }
                 for (i, name) in axes.iter().enumerate().take(o.n_axes as usize) {
+                    if !o.valid[i] {
+                        // No 0 meaning "no value yet".
+                        continue;
+                    }
                     let topic = format!("{base}/offset/{name}");
                     let payload = offset_payload(o.time_s, o.seq, o.offsets_um[i]);
                     // Queued in the client; rumqttc re-sends QoS 1 messages after a
                     // reconnect. The value is absolute, so a duplicate cannot apply twice.
                     let _ = client.publish(topic, QoS::AtLeastOnce, true, payload).await;
+                }
+            }
+        });
+    }
+    if let Some(period_s) = cfg.heartbeat_s {
+        let client = client.clone();
+        let topic = format!("{base}/heartbeat");
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(Duration::from_secs_f64(period_s));
+            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            let mut beat = 0u64;
+            let mut last_alive = 0u64;
+            loop {
+                tick.tick().await;
+                // A cycle that no longer steps stops the heartbeat: the PLC holds its
+                // last offset and raises its own alarm.
+                let a = alive.load(std::sync::atomic::Ordering::Acquire);
+                if a == last_alive {
+                    continue;
+                }
+                last_alive = a;
+                beat += 1;
+                let payload = heartbeat_payload(beat, a, clock.now_s());
+                if client
+                    .publish(topic.clone(), QoS::AtLeastOnce, false, payload)
+                    .await
+                    .is_err()
+                {
+                    return;
                 }
             }
         });
@@ -310,15 +414,75 @@ pub async fn run(p: MqttParts) {
     // Payload alarms raised per channel, so a flood of bad messages sends one edge, not
     // one message per publish, to the cycle.
     let mut payload_alarm = vec![false; channels.len()];
+    let mut position_alarm = vec![false; axes.len()];
     let mut failures = 0u32;
     loop {
         match eventloop.poll().await {
             Ok(Event::Incoming(Packet::ConnAck(_))) => {
                 lock(&state).connected_at = Some(std::time::Instant::now());
                 let _ = client.try_subscribe(format!("{channel_prefix}+"), QoS::AtLeastOnce);
+                let _ = client.try_subscribe(format!("{position_prefix}+"), QoS::AtLeastOnce);
+                if cfg.publish_stop {
+                    // A new session (the broker may have restarted and lost the retained
+                    // message): the current stop state again.
+                    let o = *stop_view.borrow();
+                    let _ = client.try_publish(
+                        stop_topic.clone(),
+                        QoS::AtLeastOnce,
+                        true,
+                        stop_payload(o.time_s, o.stop),
+                    );
+                }
             }
             Ok(Event::Incoming(Packet::Publish(p))) => {
                 let now = clock.now_s();
+                if let Some(axis) = p.topic.strip_prefix(&position_prefix) {
+                    let Some(ax) = axes.iter().position(|a| a == axis) else {
+                        continue;
+                    };
+                    let key = format!("mqtt.position.{axis}");
+                    match check_payload(p.payload.len(), cfg.max_payload_bytes)
+                        .and_then(|()| parse_reading(&p.payload))
+                    {
+                        Ok(position_mm) => {
+                            if position_alarm[ax]
+                                && tx.try_send(InputMsg::ClearAlarm { key }).is_ok()
+                            {
+                                position_alarm[ax] = false;
+                            }
+                            send(
+                                &tx,
+                                InputMsg::Position {
+                                    axis: ax as u8,
+                                    position_mm,
+                                },
+                            );
+                        }
+                        Err(msg) => {
+                            // The position is unknown now: the axes whose law needs it
+                            // freeze (never a law evaluated at a stale position).
+                            send(
+                                &tx,
+                                InputMsg::Position {
+                                    axis: ax as u8,
+                                    position_mm: f64::NAN,
+                                },
+                            );
+                            if !position_alarm[ax] {
+                                position_alarm[ax] = tx
+                                    .try_send(InputMsg::RaiseAlarm {
+                                        key,
+                                        message: format!(
+                                            "MQTT topic {}: {msg}; expected the axis position in mm; axes reading it are frozen",
+                                            shown(&p.topic, TOPIC_SHOWN_CHARS)
+                                        ),
+                                    })
+                                    .is_ok();
+                            }
+                        }
+                    }
+                    continue;
+                }
                 let Some(name) = p.topic.strip_prefix(&channel_prefix) else {
                     continue;
                 };
@@ -417,6 +581,224 @@ pub async fn run(p: MqttParts) {
                 tokio::time::sleep(Duration::from_secs_f64(wait_s)).await;
             }
         }
+    }
+}
+
+/// Aborts a spawned task when dropped (the adapter's own task is aborted on stop).
+struct AbortOnDrop(Option<tokio::task::JoinHandle<()>>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        if let Some(t) = &self.0 {
+            t.abort();
+        }
+    }
+}
+
+/// What the pulse output needs.
+pub struct PulseParts {
+    /// Connection options (the client id of the pulse connection).
+    pub opts: MqttOptions,
+    /// `<prefix>/<machine>`.
+    pub base: String,
+    /// Axis names in order.
+    pub axes: Vec<String>,
+    /// Reconnect back-off.
+    pub reconnect: crate::config::Backoff,
+    /// From the cycle.
+    pub offsets: watch::Receiver<OffsetOut>,
+    /// To the cycle (acknowledged totals, alarms).
+    pub tx: SyncSender<InputMsg>,
+}
+
+/// The pulse batch in flight.
+#[derive(Debug, Clone, Copy)]
+struct Batch {
+    axis: usize,
+    pulses: i64,
+    total: i64,
+    pulse_um: f64,
+    /// The packet id the client gave it (ack only that one).
+    pkid: Option<u16>,
+    sent_at: std::time::Instant,
+}
+
+const PULSE_KEY: &str = "mqtt.pulse_output";
+
+/// The pulse output (EP0138375 infeed pulses): one batch in flight on a connection of its
+/// own; a batch is counted sent only when the broker's PUBACK for its packet arrives
+/// (then reported to the cycle, which keeps the total in the resume state). A batch not
+/// acknowledged when the connection drops is published again, unchanged, on the next
+/// connection; a restarted service starts from the acknowledged total it kept, so the
+/// device receives every pulse and, applying `total` differences, none twice.
+pub async fn run_pulses(p: PulseParts) {
+    let PulseParts {
+        opts,
+        base,
+        axes,
+        reconnect,
+        offsets,
+        tx,
+    } = p;
+    let (client, mut eventloop) = AsyncClient::new(opts, 16);
+    let st = std::sync::Arc::new(std::sync::Mutex::new(PulseState {
+        acked: offsets.borrow().pulses_acked,
+        in_flight: None,
+        connected: false,
+        alarm: false,
+    }));
+    let wake = std::sync::Arc::new(tokio::sync::Notify::new());
+    let topics: Vec<String> = axes.iter().map(|a| format!("{base}/pulses/{a}")).collect();
+    let publish = {
+        let client = client.clone();
+        let topics = topics.clone();
+        move |b: &Batch| {
+            client.try_publish(
+                topics[b.axis].clone(),
+                QoS::AtLeastOnce,
+                true,
+                pulse_payload(b.pulses, b.total, b.pulse_um),
+            )
+        }
+    };
+    let feeder = {
+        let st = st.clone();
+        let wake = wake.clone();
+        let publish = publish.clone();
+        let tx = tx.clone();
+        let axes = axes.clone();
+        let mut offsets = offsets;
+        tokio::spawn(async move {
+            loop {
+                tokio::select! {
+                    r = offsets.changed() => if r.is_err() { return },
+                    _ = wake.notified() => {}
+                    _ = tokio::time::sleep(Duration::from_millis(500)) => {}
+                }
+                let o = *offsets.borrow_and_update();
+                let mut s = lock_pulses(&st);
+                if let Some(b) = &s.in_flight {
+                    if !s.alarm && b.sent_at.elapsed() > Duration::from_secs(5) {
+                        let message = format!(
+                            "MQTT pulse output: batch of {} pulses (total {}) on axis {} not acknowledged for 5 s; kept and sent again on the next connection",
+                            b.pulses, b.total, axes[b.axis]
+                        );
+                        s.alarm = tx
+                            .try_send(InputMsg::RaiseAlarm {
+                                key: PULSE_KEY.into(),
+                                message,
+                            })
+                            .is_ok();
+                    }
+                    continue;
+                }
+                if !s.connected {
+                    continue;
+                }
+                // The next batch: the pulses issued but not acknowledged, one axis at a time.
+                let n = (o.n_axes as usize).min(axes.len());
+                let acked = s.acked;
+                if let Some(i) =
+                    (0..n).find(|&i| o.pulse_um[i] > 0.0 && o.pulse_total[i] != acked[i])
+                {
+                    let b = Batch {
+                        axis: i,
+                        pulses: o.pulse_total[i] - acked[i],
+                        total: o.pulse_total[i],
+                        pulse_um: o.pulse_um[i],
+                        pkid: None,
+                        sent_at: std::time::Instant::now(),
+                    };
+                    if publish(&b).is_ok() {
+                        s.in_flight = Some(b);
+                    }
+                }
+            }
+        })
+    };
+    let _abort_feeder = AbortOnDrop(Some(feeder));
+    let mut failures = 0u32;
+    loop {
+        match eventloop.poll().await {
+            Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                failures = 0;
+                let mut s = lock_pulses(&st);
+                s.connected = true;
+                if let Some(b) = s.in_flight.as_mut() {
+                    // A clean session drops what was in flight: the same batch again.
+                    b.pkid = None;
+                    b.sent_at = std::time::Instant::now();
+                    let _ = publish(b);
+                }
+                drop(s);
+                wake.notify_one();
+            }
+            Ok(Event::Outgoing(rumqttc::Outgoing::Publish(pkid))) => {
+                if let Some(b) = lock_pulses(&st).in_flight.as_mut() {
+                    b.pkid = Some(pkid);
+                }
+            }
+            Ok(Event::Incoming(Packet::PubAck(a))) => {
+                let mut s = lock_pulses(&st);
+                let Some(b) = s.in_flight.filter(|b| b.pkid == Some(a.pkid)) else {
+                    continue;
+                };
+                s.in_flight = None;
+                s.acked[b.axis] = b.total;
+                send(
+                    &tx,
+                    InputMsg::PulsesAcked {
+                        axis: b.axis as u8,
+                        total: b.total,
+                    },
+                );
+                if s.alarm {
+                    s.alarm = tx
+                        .try_send(InputMsg::ClearAlarm {
+                            key: PULSE_KEY.into(),
+                        })
+                        .is_err();
+                }
+                drop(s);
+                wake.notify_one();
+            }
+            Ok(_) => {}
+            Err(e) => {
+                failures = failures.saturating_add(1);
+                let wait_s = reconnect.wait_s(failures);
+                {
+                    let mut s = lock_pulses(&st);
+                    s.connected = false;
+                    if !s.alarm {
+                        s.alarm = tx
+                            .try_send(InputMsg::RaiseAlarm {
+                                key: PULSE_KEY.into(),
+                                message: format!(
+                                    "MQTT pulse output: {e}; pulses not acknowledged are kept and sent on reconnect (retrying in {wait_s} s)"
+                                ),
+                            })
+                            .is_ok();
+                    }
+                }
+                tokio::time::sleep(Duration::from_secs_f64(wait_s)).await;
+            }
+        }
+    }
+}
+
+/// The pulse output's state, shared by its event loop and its feeder.
+struct PulseState {
+    /// Cumulative pulses acknowledged per axis.
+    acked: [i64; gearcomp_thermal::MAX_AXES],
+    in_flight: Option<Batch>,
+    connected: bool,
+    alarm: bool,
+}
+
+fn lock_pulses(s: &std::sync::Mutex<PulseState>) -> std::sync::MutexGuard<'_, PulseState> {
+    match s.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
     }
 }
 

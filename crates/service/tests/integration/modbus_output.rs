@@ -51,6 +51,18 @@ impl tokio_modbus::server::Service for Module {
                     None => Err(ExceptionCode::IllegalDataAddress),
                 }
             }
+            Request::WriteMultipleRegisters(a, vs) => {
+                let mut h = self.holding.lock().unwrap();
+                match h.get_mut(a as usize..a as usize + vs.len()) {
+                    Some(r) => {
+                        r.copy_from_slice(&vs);
+                        let mut w = self.writes.lock().unwrap();
+                        w.extend(vs.iter().enumerate().map(|(i, v)| (a + i as u16, *v)));
+                        Ok(Response::WriteMultipleRegisters(a, vs.len() as u16))
+                    }
+                    None => Err(ExceptionCode::IllegalDataAddress),
+                }
+            }
             Request::WriteSingleCoil(a, v) => {
                 match self.coils.lock().unwrap().get_mut(a as usize) {
                     Some(c) => {

@@ -18,13 +18,13 @@ use rumqttc::{AsyncClient, MqttOptions, QoS};
 
 /// A broker that can be stopped: its own router, and a server on a current-thread runtime
 /// that is dropped on stop, which closes the listener and every client connection.
-struct Broker {
+pub struct Broker {
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Broker {
-    fn start(port: u16) -> Self {
+    pub fn start(port: u16) -> Self {
         let router: rumqttd::RouterConfig = toml::from_str(
             "max_connections = 100\nmax_outgoing_packet_count = 200\n\
              max_segment_size = 1048576\nmax_segment_count = 10\n",
@@ -65,7 +65,7 @@ impl Broker {
         }
     }
 
-    fn stop(mut self) {
+    pub fn stop(mut self) {
         let _ = self.stop.take().unwrap().send(());
         self.thread.take().unwrap().join().unwrap();
     }
