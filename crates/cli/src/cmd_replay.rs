@@ -61,12 +61,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .filter(|r| r.status == EngineStatus::StopRequested)
         .count();
+    let warnings = replay.rows.iter().filter(|r| !r.warning.is_empty()).count();
     eprintln!(
-        "gearcomp replay: {} rows, {} bad rows, {} rows with alarms, {} with a stop request{}",
+        "gearcomp replay: {} rows, {} bad rows, {} rows with alarms, {} with a stop request, {} with a warning (model extrapolating){}",
         replay.rows.len(),
         replay.bad_rows.len(),
         alarms,
         stops,
+        warnings,
         args.out.as_ref().map_or(String::new(), |p| format!(
             "; offsets written to {}",
             p.display()

@@ -9,7 +9,7 @@
 //! alarm; the applied offset never jumps.
 
 use gearcomp_core::model::{
-    AxisModel, LinearModel, ReferenceRadius, ShrinkMethod, Transform, WorkpieceShrink,
+    AxisModel, Envelope, LinearModel, ReferenceRadius, ShrinkMethod, Transform, WorkpieceShrink,
 };
 use gearcomp_geometry::involute::inv;
 use gearcomp_geometry::shrink::{shrink_offset_exact_um, ShrinkInput, ShrinkReference};
@@ -116,7 +116,68 @@ pub enum Alarm {
         /// Axis index.
         axis: u8,
     },
+    /// A warning, not a fault: the live inputs of an axis's identified model are outside
+    /// the model file's training envelope, so the model is extrapolating. Compensation
+    /// goes on (no axis is frozen, no stop); reported in [`Output::warning`] while it
+    /// lasts, and cleared only after the inputs have been back inside the envelope, by a
+    /// margin, for a hold time ([`ENVELOPE_CLEAR_MARGIN`], [`ENVELOPE_CLEAR_HOLD_S`]).
+    Envelope {
+        /// Axis index.
+        axis: u8,
+        /// What was outside, the last time the inputs were outside.
+        excursion: Excursion,
+    },
 }
+
+impl Alarm {
+    /// True for a warning (the compensation goes on): [`Alarm::Envelope`].
+    pub fn is_warning(&self) -> bool {
+        matches!(self, Alarm::Envelope { .. })
+    }
+}
+
+/// What is outside a model's training envelope (`gearcomp_core::model::Envelope`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Excursion {
+    /// A channel's averaged value is outside its training range (channel unit: °C for a
+    /// temperature, µm for a displacement).
+    Range {
+        /// Channel index in configuration order.
+        channel: u16,
+        /// The live averaged value.
+        value: f64,
+        /// Smallest training value.
+        min: f64,
+        /// Largest training value.
+        max: f64,
+        /// The channel is a temperature (°C); otherwise a displacement (µm).
+        celsius: bool,
+    },
+    /// The model's regressors are farther from the training mean than any training row
+    /// (Mahalanobis distance; leverage h = 1/n + d²/(n − 1)).
+    Leverage {
+        /// The live leverage h.
+        leverage: f64,
+        /// The largest leverage over the training rows.
+        bound: f64,
+        /// The live d².
+        d2: f64,
+        /// The largest d² over the training rows.
+        max_d2: f64,
+    },
+}
+
+/// A model's envelope warning clears only after its inputs have been inside the envelope
+/// shrunk by this fraction (of each channel's training range width; of the Mahalanobis
+/// distance bound) for [`ENVELOPE_CLEAR_HOLD_S`]: hysteresis, so inputs that wander at the
+/// boundary give one warning, not one per averaging instant.
+pub const ENVELOPE_CLEAR_MARGIN: f64 = 0.02;
+/// Engine time the inputs must stay inside the shrunk envelope before the warning clears.
+pub const ENVELOPE_CLEAR_HOLD_S: f64 = 600.0;
+/// Relative tolerance on the Mahalanobis bound when entering: the training row that set
+/// the bound must not warn because the engine's filters round its regressors differently
+/// in the last bits from the identification's.
+pub const ENVELOPE_D2_REL_TOL: f64 = 1e-9;
 
 /// Why the engine requests a machine stop (seed 000: averaged value outside its limits).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -198,10 +259,13 @@ pub struct Output {
     pub time_s: f64,
     /// Overall state.
     pub status: EngineStatus,
-    /// The first alarm of this cycle (lowest channel first), if any.
+    /// The first alarm of this cycle (lowest channel first), if any; never a warning.
     pub alarm: Option<Alarm>,
-    /// How many alarms this cycle raised.
+    /// How many alarms this cycle raised (warnings not counted).
     pub alarm_count: u16,
+    /// The first warning active this cycle (lowest axis first), if any: an
+    /// [`Alarm::Envelope`], which neither freezes an axis nor changes [`Output::status`].
+    pub warning: Option<Alarm>,
     /// The latched stop request, if any.
     pub stop: Option<StopReason>,
     /// True when a new N-sample average was formed this cycle.
@@ -217,6 +281,7 @@ impl Output {
         status: EngineStatus::Running,
         alarm: None,
         alarm_count: 0,
+        warning: None,
         stop: None,
         averaged: false,
         axes: [AxisOutput::ZERO; MAX_AXES],
@@ -241,12 +306,20 @@ impl Output {
         self.status = EngineStatus::Running;
         self.alarm = None;
         self.alarm_count = 0;
+        self.warning = None;
         self.stop = stop;
         self.averaged = false;
     }
 
-    /// The one way an alarm is raised: the first of the cycle is kept, all are counted.
+    /// The one way an alarm is raised: the first of the cycle is kept, all are counted; a
+    /// warning goes to [`Output::warning`] (the first kept) and is not counted.
     fn raise(&mut self, a: Alarm) {
+        if a.is_warning() {
+            if self.warning.is_none() {
+                self.warning = Some(a);
+            }
+            return;
+        }
         if self.alarm.is_none() {
             self.alarm = Some(a);
         }
@@ -825,15 +898,258 @@ impl WorkpieceEval {
     }
 }
 
+/// One channel range of an envelope, its channel resolved to the engine's index.
+#[derive(Debug, Clone, Copy)]
+struct RangeCheck {
+    channel: usize,
+    min: f64,
+    max: f64,
+    celsius: bool,
+}
+
+/// A model's training envelope as the cycle checks it (issue 12), and the state of its
+/// warning. Everything is sized at build time: the check allocates nothing.
+///
+/// # Formula
+/// outside ⇔ some channel v ∉ [min, max], or d² > max_d2·(1 + 1e-9), with
+/// d² = ‖W·(x − x̄)‖² over the model's regressors x (term order); leverage
+/// h = 1/n + d²/(n − 1). Cleared after [`ENVELOPE_CLEAR_HOLD_S`] with every channel in
+/// [min + m·w, max − m·w] (w = max − min) and d² ≤ (1 − m)²·max_d2, m =
+/// [`ENVELOPE_CLEAR_MARGIN`].
+/// # Source
+/// `gearcomp_core::model::Envelope` (Mahalanobis distance / hat-matrix leverage, Hoaglin &
+/// Welsch 1978) [STANDARD]; the margin and hold are this project's [PROJECT CONVENTION].
+#[derive(Debug, Clone)]
+struct EnvelopeEval {
+    ranges: Vec<RangeCheck>,
+    /// x̄ (empty: no Mahalanobis bound).
+    mean: Vec<f64>,
+    /// W, row-major p × p.
+    whitening: Vec<f64>,
+    max_d2: f64,
+    /// n, at least 2.
+    rows: f64,
+    /// The warning is raised.
+    active: bool,
+    /// Since when the inputs are inside the shrunk envelope while the warning is raised
+    /// (NaN: not inside it).
+    inside_since_s: f64,
+    /// The last excursion seen.
+    last: Excursion,
+}
+
+impl EnvelopeEval {
+    fn build(
+        e: &Envelope,
+        field: &str,
+        names: &[String],
+        channels: &[ChannelConfig],
+    ) -> Result<Self> {
+        let mut ranges = Vec::with_capacity(e.ranges.len());
+        for (i, r) in e.ranges.iter().enumerate() {
+            let channel = resolve(&format!("{field}.ranges[{i}].channel"), &r.channel, names)?;
+            ranges.push(RangeCheck {
+                channel,
+                min: r.min,
+                max: r.max,
+                celsius: channels
+                    .get(channel)
+                    .is_none_or(|c| c.sensor.is_temperature()),
+            });
+        }
+        let bound = !e.feature_mean.is_empty();
+        Ok(Self {
+            ranges,
+            mean: if bound {
+                e.feature_mean.clone()
+            } else {
+                Vec::new()
+            },
+            whitening: if bound {
+                e.whitening.clone()
+            } else {
+                Vec::new()
+            },
+            max_d2: e.max_d2,
+            rows: e.rows.max(2) as f64,
+            active: false,
+            inside_since_s: f64::NAN,
+            last: Excursion::Leverage {
+                leverage: f64::NAN,
+                bound: f64::NAN,
+                d2: f64::NAN,
+                max_d2: e.max_d2,
+            },
+        })
+    }
+
+    /// d² = ‖W·(x − x̄)‖² of the regressors' current values.
+    fn d2(&self, regs: &[Regressor]) -> f64 {
+        let p = self.mean.len();
+        let mut d2 = 0.0;
+        for row in self.whitening.chunks_exact(p.max(1)) {
+            let mut y = 0.0;
+            for ((w, m), r) in row.iter().zip(&self.mean).zip(regs) {
+                y += w * (r.x - m);
+            }
+            d2 += y * y;
+        }
+        d2
+    }
+
+    /// h = 1/n + d²/(n − 1).
+    fn leverage(&self, d2: f64) -> f64 {
+        1.0 / self.rows + d2 / (self.rows - 1.0)
+    }
+
+    /// What is outside the envelope shrunk by `margin` (0: the envelope itself, with the
+    /// rounding tolerance on the bound).
+    fn excursion(
+        &self,
+        channels: &[ChannelState],
+        regs: &[Regressor],
+        margin: f64,
+    ) -> Option<Excursion> {
+        for r in &self.ranges {
+            let v = channels[r.channel].value;
+            let m = margin * (r.max - r.min);
+            if v < r.min + m || v > r.max - m {
+                return Some(Excursion::Range {
+                    channel: r.channel as u16,
+                    value: v,
+                    min: r.min,
+                    max: r.max,
+                    celsius: r.celsius,
+                });
+            }
+        }
+        if self.mean.is_empty() {
+            return None;
+        }
+        let d2 = self.d2(regs);
+        let bound = if margin == 0.0 {
+            self.max_d2 * (1.0 + ENVELOPE_D2_REL_TOL)
+        } else {
+            (1.0 - margin) * (1.0 - margin) * self.max_d2
+        };
+        (d2 > bound).then(|| Excursion::Leverage {
+            leverage: self.leverage(d2),
+            bound: self.leverage(self.max_d2),
+            d2,
+            max_d2: self.max_d2,
+        })
+    }
+
+    /// One cycle: at an averaging instant of the model's channels (`fresh`) the inputs
+    /// are checked; the warning is raised by an excursion and cleared once the inputs
+    /// have stayed inside the shrunk envelope for the hold time. The excursion to
+    /// report while the warning is raised.
+    fn step(
+        &mut self,
+        time_s: f64,
+        channels: &[ChannelState],
+        regs: &[Regressor],
+        fresh: bool,
+    ) -> Option<Excursion> {
+        if fresh && regs.iter().all(|r| r.x.is_finite()) {
+            if let Some(x) = self.excursion(channels, regs, 0.0) {
+                self.active = true;
+                self.last = x;
+                self.inside_since_s = f64::NAN;
+            } else if self.active {
+                if self
+                    .excursion(channels, regs, ENVELOPE_CLEAR_MARGIN)
+                    .is_none()
+                {
+                    if self.inside_since_s.is_nan() {
+                        self.inside_since_s = time_s;
+                    }
+                } else {
+                    self.inside_since_s = f64::NAN;
+                }
+            }
+        }
+        // NaN (not inside) compares false: the warning stays.
+        if self.active && time_s - self.inside_since_s >= ENVELOPE_CLEAR_HOLD_S {
+            self.active = false;
+            self.inside_since_s = f64::NAN;
+        }
+        self.active.then_some(self.last)
+    }
+
+    fn save(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&[f64::from(u8::from(self.active)), self.inside_since_s]);
+        match self.last {
+            Excursion::Range {
+                channel,
+                value,
+                min,
+                max,
+                celsius: _,
+            } => out.extend_from_slice(&[0.0, f64::from(channel), value, min, max]),
+            Excursion::Leverage {
+                leverage,
+                bound,
+                d2,
+                max_d2,
+            } => out.extend_from_slice(&[1.0, leverage, bound, d2, max_d2]),
+        }
+    }
+
+    fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
+        self.active = c.count(2)? == 1;
+        self.inside_since_s = c.next()?;
+        self.last = if c.count(2)? == 0 {
+            let channel = c.count(MAX_CHANNELS)?;
+            Excursion::Range {
+                channel: channel as u16,
+                value: c.next()?,
+                min: c.next()?,
+                max: c.next()?,
+                celsius: self
+                    .ranges
+                    .iter()
+                    .find(|r| r.channel == channel)
+                    .is_none_or(|r| r.celsius),
+            }
+        } else {
+            Excursion::Leverage {
+                leverage: c.next()?,
+                bound: c.next()?,
+                d2: c.next()?,
+                max_d2: c.next()?,
+            }
+        };
+        Some(())
+    }
+}
+
 #[derive(Debug, Clone)]
 struct ModelEval {
     machine: LinearEval,
     workpiece: Option<WorkpieceEval>,
+    /// The training envelope of the machine model, if the model file has one.
+    envelope: Option<EnvelopeEval>,
 }
 
 impl ModelEval {
-    fn build(a: &AxisModel, field: &str, names: &[String]) -> Result<Self> {
+    fn build(
+        a: &AxisModel,
+        envelope: Option<&Envelope>,
+        field: &str,
+        names: &[String],
+        channels: &[ChannelConfig],
+    ) -> Result<Self> {
         Ok(Self {
+            envelope: match envelope {
+                Some(e) => Some(EnvelopeEval::build(
+                    e,
+                    &format!("{field}.envelope"),
+                    names,
+                    channels,
+                )?),
+                None => None,
+            },
             machine: LinearEval::build(&a.machine, &format!("{field}.machine"), names)?,
             workpiece: match &a.workpiece {
                 Some(w) => Some(WorkpieceEval::build(
@@ -915,6 +1231,8 @@ struct AxisState {
     always_evaluate: bool,
     /// A model term has transforms to run at its channels' averaging instants.
     has_model: bool,
+    /// A model term has a training envelope to check.
+    has_envelope: bool,
     out: AxisOutput,
     carry_pulses: f64,
 }
@@ -1292,8 +1610,10 @@ fn build_term(t: &TermConfig, p: &str, names: &[String], cfg: &EngineConfig) -> 
                 sign,
                 Term::Model(Box::new(ModelEval::build(
                     am,
+                    model.envelopes.iter().find(|e| &e.axis == axis),
                     &format!("{p}.model[{file}].{axis}"),
                     names,
+                    &cfg.channels,
                 )?)),
             )
         }
@@ -1401,7 +1721,11 @@ fn build_axis(a: &AxisConfig, i: usize, names: &[String], cfg: &EngineConfig) ->
         )
     });
     let has_model = terms.iter().any(|t| matches!(t.term, Term::Model(_)));
+    let has_envelope = terms
+        .iter()
+        .any(|t| matches!(&t.term, Term::Model(m) if m.envelope.is_some()));
     Ok(AxisState {
+        has_envelope,
         always_evaluate,
         has_model,
         pulse_um,
@@ -1602,6 +1926,9 @@ impl Engine {
                     if let Some(w) = &m.workpiece {
                         w.temperature.save(out);
                     }
+                    if let Some(e) = &m.envelope {
+                        e.save(out);
+                    }
                 }
             }
         }
@@ -1684,6 +2011,9 @@ impl Engine {
                     if let Some(w) = &mut m.workpiece {
                         w.temperature.restore(c)?;
                     }
+                    if let Some(e) = &mut m.envelope {
+                        e.restore(c)?;
+                    }
                 }
             }
             if !(ax.out.offset_um.is_finite() && ax.out.target_um.is_finite()) {
@@ -1753,6 +2083,9 @@ impl Engine {
         };
         for (ai, ax) in self.axes.iter_mut().enumerate() {
             ax.update_models(&self.channels, &cycle);
+            if let Some(w) = ax.check_envelopes(ai, &self.channels, &cycle) {
+                out.raise(w);
+            }
             let status = match ax.evaluate(ai, &self.channels, &cycle, inputs.positions_mm) {
                 Ok(s) => s,
                 Err(a) => {
@@ -1972,6 +2305,35 @@ impl AxisState {
                 }
             }
         }
+    }
+
+    /// The training envelopes of the axis's model terms: the warning of the first one
+    /// the inputs are outside (axis `ai`), if any. Never freezes the axis.
+    fn check_envelopes(
+        &mut self,
+        ai: usize,
+        channels: &[ChannelState],
+        c: &AxisCycle,
+    ) -> Option<Alarm> {
+        if !self.has_envelope {
+            return None;
+        }
+        let fresh = c.fresh & self.mask != 0;
+        let mut warning = None;
+        for t in &mut self.terms {
+            if let Term::Model(m) = &mut t.term {
+                if let Some(e) = &mut m.envelope {
+                    let x = e.step(c.time_s, channels, &m.machine.regressors, fresh);
+                    if let (None, Some(excursion)) = (warning, x) {
+                        warning = Some(Alarm::Envelope {
+                            axis: ai as u8,
+                            excursion,
+                        });
+                    }
+                }
+            }
+        }
+        warning
     }
 
     /// Law → clamp to the maximum offset → boundary constant D against the running

@@ -11,7 +11,7 @@
 //! engine then raises its NaN alarm); a row with the wrong number of fields is reported
 //! and skipped. No row is dropped silently.
 
-use crate::engine::{Alarm, AxisStatus, Engine, EngineStatus, Inputs, Reading};
+use crate::engine::{Alarm, AxisStatus, Engine, EngineStatus, Excursion, Inputs, Reading};
 use crate::error::{invalid, Result};
 
 /// A problem with one row of the log.
@@ -42,6 +42,8 @@ pub struct ReplayRow {
     pub status: EngineStatus,
     /// The alarm, described ("" if none).
     pub alarm: String,
+    /// The warning (the model is extrapolating), described ("" if none).
+    pub warning: String,
     /// The stop request, described ("" if none).
     pub stop: String,
 }
@@ -79,6 +81,35 @@ pub fn describe_alarm(a: &Alarm, channel_names: &[String], axis_names: &[String]
         Alarm::InputCount { got, expected } => format!("{got} readings for {expected} channels"),
         Alarm::PositionMissing { axis } => format!("axis {}: no position", ax(*axis)),
         Alarm::LawNotFinite { axis } => format!("axis {}: law not finite", ax(*axis)),
+        Alarm::Envelope { axis, excursion } => {
+            let what = match *excursion {
+                Excursion::Range {
+                    channel,
+                    value,
+                    min,
+                    max,
+                    celsius,
+                } => {
+                    let unit = if celsius { "°C" } else { "µm" };
+                    format!(
+                        "channel {} = {value:.3} {unit} outside its training range {min:.3} … {max:.3} {unit}",
+                        ch(channel)
+                    )
+                }
+                Excursion::Leverage {
+                    leverage,
+                    bound,
+                    d2,
+                    max_d2,
+                } => format!(
+                    "leverage {leverage:.5} above the training bound {bound:.5} (Mahalanobis d² {d2:.2} > {max_d2:.2})"
+                ),
+            };
+            format!(
+                "axis {}: warning, model extrapolating (inputs outside its training envelope; compensation goes on): {what}",
+                ax(*axis)
+            )
+        }
     }
 }
 
@@ -233,6 +264,9 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             alarm: o
                 .alarm
                 .map_or(String::new(), |a| describe_alarm(&a, &names, &axes)),
+            warning: o
+                .warning
+                .map_or(String::new(), |a| describe_alarm(&a, &names, &axes)),
             stop: o.stop.map_or(String::new(), |s| {
                 format!(
                     "channel {} = {} outside [{}, {}]",
@@ -249,7 +283,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
 
 impl Replay {
     /// The offsets and alarms as CSV text: `line,time_s,<axis>_offset_um,<axis>_target_um,
-    /// <axis>_pulses,<axis>_status…,status,alarm,stop`.
+    /// <axis>_pulses,<axis>_status…,status,alarm,stop,warning`.
     pub fn to_csv(&self) -> Result<String> {
         let mut w = csv::Writer::from_writer(Vec::new());
         let mut header = vec!["line".to_string(), "time_s".to_string()];
@@ -261,7 +295,12 @@ impl Replay {
                 format!("{a}_status"),
             ]);
         }
-        header.extend(["status".into(), "alarm".into(), "stop".into()]);
+        header.extend([
+            "status".into(),
+            "alarm".into(),
+            "stop".into(),
+            "warning".into(),
+        ]);
         let err = |e: csv::Error| invalid("output", e, "writable CSV");
         w.write_record(&header).map_err(err)?;
         for r in &self.rows {
@@ -274,7 +313,12 @@ impl Replay {
                     format!("{:?}", r.axis_status[i]),
                 ]);
             }
-            rec.extend([format!("{:?}", r.status), r.alarm.clone(), r.stop.clone()]);
+            rec.extend([
+                format!("{:?}", r.status),
+                r.alarm.clone(),
+                r.stop.clone(),
+                r.warning.clone(),
+            ]);
             w.write_record(&rec).map_err(err)?;
         }
         let bytes = w

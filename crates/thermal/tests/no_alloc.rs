@@ -1,5 +1,6 @@
 //! The control cycle allocates nothing: 20 000 cycles of a 16-channel, 3-axis engine
-//! (every law form, every model transform, workpiece shrink, pulses, faults and a stop)
+//! (every law form, every model transform, workpiece shrink, a model's training envelope
+//! and its warning, pulses, faults and a stop)
 //! under a counting global allocator.
 //!
 //! The allocator counts every thread of the process, so this test runs without the libtest
@@ -24,6 +25,7 @@ fn engine_step_allocates_nothing() {
     }; 16];
     let positions = [250.0, 0.0, 0.0];
     let mut statuses = [0usize; 3];
+    let mut warnings = 0usize;
     let region = Region::new(GLOBAL);
     for k in 0..20_000u64 {
         common::fill(&mut readings, k);
@@ -48,6 +50,7 @@ fn engine_step_allocates_nothing() {
             safe_point: k % 60 < 10,
             positions_mm: &positions,
         });
+        warnings += usize::from(out.warning.is_some());
         statuses[match out.status {
             EngineStatus::Running => 0,
             EngineStatus::Alarm => 1,
@@ -58,7 +61,8 @@ fn engine_step_allocates_nothing() {
     assert_eq!(stats.allocations, 0, "{stats:?}");
     assert_eq!(stats.reallocations, 0, "{stats:?}");
     assert_eq!(stats.deallocations, 0, "{stats:?}");
-    // The paths were really taken.
+    // The paths were really taken (the envelope warning of axis Y included).
+    assert!(warnings > 1_000, "{warnings}");
     assert!(
         statuses[0] > 10_000 && statuses[1] >= 20 && statuses[2] > 0,
         "{statuses:?}"

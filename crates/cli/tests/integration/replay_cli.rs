@@ -150,3 +150,127 @@ fn replay_config_errors_name_field_value_and_range() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 12 item 4 through the command: a model file with a training envelope (t3_c and
+/// t5_c ranges over FL_THERMAL's first 24 h, computed here from the CSV) replayed over the
+/// whole log: `gearcomp replay` writes the warning, naming the channel, its value and the
+/// range in °C, on the 5000 rpm period (24 h … 28 h) and on no training row; the offsets
+/// go on (no alarm status, the law's value on every row).
+#[test]
+fn replay_warns_when_a_model_leaves_its_training_envelope() {
+    let dir = tmp("envelope");
+    let csv_text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let data = dir.join("fl_thermal.csv");
+    std::fs::write(&data, &csv_text).unwrap();
+    let mut lines = csv_text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let idx = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (it, i3, i5) = (idx("time_s"), idx("t3_c"), idx("t5_c"));
+    let rows: Vec<Vec<f64>> = lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.split(',').map(|x| x.trim().parse().unwrap()).collect())
+        .collect();
+    let range = |c: usize| {
+        rows.iter()
+            .filter(|r| r[it] < 86_400.0)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
+                (a.min(r[c]), b.max(r[c]))
+            })
+    };
+    let ((lo3, hi3), (lo5, hi5)) = (range(i3), range(i5));
+    let model = format!(
+        "format = \"gearcomp-thermal-model/1\"\nname = \"fl\"\n[[axes]]\naxis = \"X\"\n\
+         [axes.machine]\nintercept = 30.0\n\
+         [[axes.machine.terms]]\nchannel = \"t3_c\"\ncoefficient = -1.2\n\
+         [[axes.machine.terms]]\nchannel = \"t5_c\"\ncoefficient = 0.8\n\
+         [[envelopes]]\naxis = \"X\"\nrows = 5760\nranges = [\n\
+         {{ channel = \"t3_c\", min = {lo3:?}, max = {hi3:?} }},\n\
+         {{ channel = \"t5_c\", min = {lo5:?}, max = {hi5:?} }},\n]\n"
+    );
+    std::fs::write(dir.join("model.toml"), model).unwrap();
+    let names: Vec<String> = (1..=16).map(|i| format!("t{i}_c")).collect();
+    let cfg = format!(
+        "{}[[axes]]\nname = \"X\"\napply = {{ kind = \"command\" }}\nmax_offset_um = 200.0\n\
+         [[axes.terms]]\nkind = \"model\"\nfile = \"model.toml\"\naxis = \"X\"\n",
+        channels(&names)
+    );
+    let cfg_path = dir.join("cfg.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let out = dir.join("offsets.csv");
+    let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .args(["replay", "--config"])
+        .arg(&cfg_path)
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let written = std::fs::read_to_string(&out).unwrap();
+    let mut rdr = csv_reader(&written);
+    let head: Vec<String> = rdr.next().unwrap();
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let (cw, cs, co) = (col("warning"), col("status"), col("X_offset_um"));
+    let (mut train_warn, mut hot, mut hot_warn, mut all_warn) = (0, 0, 0, 0);
+    let mut example = String::new();
+    for (rec, src) in rdr.zip(&rows) {
+        let h = src[it] / 3600.0;
+        let w = &rec[cw];
+        assert_eq!(rec[cs], "Running", "{rec:?}");
+        let law = 30.0 - 1.2 * src[i3] + 0.8 * src[i5];
+        let got: f64 = rec[co].parse().unwrap();
+        assert!((got - law).abs() <= 5.1e-5, "{got} vs {law}");
+        all_warn += usize::from(!w.is_empty());
+        if h < 24.0 {
+            train_warn += usize::from(!w.is_empty());
+        } else if h < 28.0 {
+            hot += 1;
+            hot_warn += usize::from(!w.is_empty());
+            if example.is_empty() && !w.is_empty() {
+                example = w.clone();
+            }
+        }
+    }
+    assert_eq!(train_warn, 0);
+    assert!(hot_warn * 2 > hot, "{hot_warn}/{hot}");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "0 rows with alarms, 0 with a stop request, {all_warn} with a warning"
+        )),
+        "{stderr}"
+    );
+    // The message names the axis, the channel, its value and the training range in °C.
+    assert!(
+        example.starts_with("axis X: warning, model extrapolating")
+            && example.contains("outside its training range")
+            && example.contains("°C"),
+        "{example}"
+    );
+    let named = example.contains("channel t3_c = ")
+        && example.contains(&format!("{lo3:.3} … {hi3:.3} °C"))
+        || example.contains("channel t5_c = ")
+            && example.contains(&format!("{lo5:.3} … {hi5:.3} °C"));
+    println!("envelope warning on {hot_warn} of {hot} rows of 24 h … 28 h: {example}");
+    assert!(named, "{example}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The records of a CSV text (quoted fields with commas read whole).
+fn csv_reader(text: &str) -> impl Iterator<Item = Vec<String>> + '_ {
+    text.lines().map(|l| {
+        let mut out = Vec::new();
+        let mut cur = String::new();
+        let mut quoted = false;
+        for ch in l.chars() {
+            match ch {
+                '"' => quoted = !quoted,
+                ',' if !quoted => out.push(std::mem::take(&mut cur)),
+                c => cur.push(c),
+            }
+        }
+        out.push(cur);
+        out
+    })
+}

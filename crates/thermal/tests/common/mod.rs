@@ -43,6 +43,29 @@ intercept = 2.0
 [[axes.workpiece.temperature.terms]]
 channel = "c13"
 coefficient = 0.9
+
+# The training envelope of Y's machine model (issue 12): the warmed-up machine leaves
+# c00's range after about 5 500 s of the `fill` ramp; the Mahalanobis bound is checked at
+# every averaging instant.
+[[envelopes]]
+axis = "Y"
+ranges = [
+    { channel = "c00", min = 15.0, max = 25.5 },
+    { channel = "c01", min = 15.0, max = 60.0 },
+    { channel = "c02", min = 15.0, max = 60.0 },
+    { channel = "c03", min = 15.0, max = 60.0 },
+    { channel = "c12", min = 15.0, max = 60.0 },
+]
+feature_mean = [20.0, 20.0, 20.0, 0.0, 20.0]
+whitening = [
+    0.5, 0.0, 0.0, 0.0, 0.0,
+    0.1, 0.5, 0.0, 0.0, 0.0,
+    0.0, 0.1, 0.5, 0.0, 0.0,
+    0.0, 0.0, 0.1, 100.0, 0.0,
+    0.0, 0.0, 0.0, 0.1, 0.5,
+]
+max_d2 = 400.0
+rows = 1000
 "#;
 
 /// The configuration: c00–c07 Pt100, c08–c11 NTC, c12–c14 °C, c15 displacement; N = 4.

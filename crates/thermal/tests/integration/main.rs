@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod envelope;
 mod ep0138375_worked_example;
 mod faults;
 mod jph0761598b2_and_presets;
