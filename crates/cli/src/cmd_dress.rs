@@ -13,7 +13,9 @@ use gearcomp_dressing::request::{
     SolveInput, WormInput, DEFAULT_BUDGET_MM,
 };
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
-use gearcomp_dressing::solve::{axial_position_for_contact_point, NewtonOptions};
+use gearcomp_dressing::solve::{
+    axial_position_for_contact_point, tip_association_radius_mm, NewtonOptions, CROWNING_FRACTIONS,
+};
 use gearcomp_dressing::topology::{
     solve_topological_four_point, solve_topological_three_point, topological_program,
     CorrectionSchedule, TopoFourPoint, TopoThreePoint, WidthPoly, WormTopology,
@@ -56,28 +58,10 @@ struct Common {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Config {
-    worm: WormCfg,
-    dresser: DresserCfg,
+    worm: WormInput,
+    dresser: DresserInput,
     solve: Option<SolveCfg>,
     plan: Option<PlanCfg>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct WormCfg {
-    starts: u32,
-    diameter_mm: f64,
-    normal_module_mm: f64,
-    profile_angle_deg: f64,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DresserCfg {
-    diameter_mm: f64,
-    jacket_width_mm: f64,
-    #[serde(default)]
-    clearance_mm: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -178,21 +162,9 @@ fn load(path: &Path) -> anyhow::Result<(Config, Worm, Dresser)> {
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let cfg: Config =
         toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
-    let w = &cfg.worm;
     // Both build functions name the TOML key and its unit in their errors.
-    let worm = WormInput {
-        starts: w.starts,
-        diameter_mm: w.diameter_mm,
-        normal_module_mm: w.normal_module_mm,
-        profile_angle_deg: w.profile_angle_deg,
-    }
-    .build()?;
-    let dresser = DresserInput {
-        diameter_mm: cfg.dresser.diameter_mm,
-        jacket_width_mm: cfg.dresser.jacket_width_mm,
-        clearance_mm: cfg.dresser.clearance_mm,
-    }
-    .build(&worm)?;
+    let worm = cfg.worm.build()?;
+    let dresser = cfg.dresser.build(&worm)?;
     Ok((cfg, worm, dresser))
 }
 
@@ -812,9 +784,8 @@ fn run_solve_topological(
                 }
             }
             // The dresser radius that dresses the tip circle of the new worm keeps doing so.
-            let new = DressingSetup::new(*design, setup.dresser.clone());
-            let r_tip = new.association(fl, new.active_profile(fl)?.1, &k0)?;
-            let ws = [at(0.05), at(0.5), at(0.95)];
+            let r_tip = tip_association_radius_mm(design, &setup.dresser, fl)?;
+            let ws = CROWNING_FRACTIONS.map(at);
             let prog = topological_program(&b0s, k0, |b0, start| {
                 let cb = cw.local_poly_mm(b0);
                 let neg: Vec<f64> = cb.coeffs.iter().map(|v| -v).collect();

@@ -21,20 +21,18 @@
 //! angle ϑ1 that gives both flanks the same diagonal ratio (A6/T14).
 //!
 //! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
-//! lengths. They are converted in [`deg_to_rad`] / [`um_to_mm`] only. Exception kept for
+//! lengths. They are converted by the gear crates' shared `gearcomp_geometry::units` only. Exception kept for
 //! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use clap::{Subcommand, ValueEnum};
+use clap::Subcommand;
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
-use gearcomp_dressing::envelope::DressingSetup;
-use gearcomp_dressing::kinematics::AxisCorrection;
-use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
-use gearcomp_dressing::solve::{solve_three_point, NewtonOptions, ThreePoint};
-use gearcomp_dressing::worm::{Flank as DressFlank, Worm as DressWorm};
+use gearcomp_dressing::request::GrindDressConfig;
+use gearcomp_dressing::worm::Worm as DressWorm;
+use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
 use gearcomp_geometry::GeometryError;
 use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{
@@ -72,18 +70,6 @@ enum GrindCommand {
     /// Find the worm cone angle ϑ1 that gives both flanks the same diagonal ratio (two-flank
     /// diagonal grinding with a conical worm, A6/T14).
     Equalise(EqualiseArgs),
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum FlankArg {
-    Right,
-    Left,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum HandArg {
-    Right,
-    Left,
 }
 
 #[derive(Debug, clap::Args)]
@@ -125,11 +111,11 @@ struct SetupArgs {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     profile_shift: f64,
     /// Worm hand.
-    #[arg(long, value_enum, default_value_t = HandArg::Right)]
-    worm_hand: HandArg,
+    #[arg(long, value_enum, default_value_t = Hand::Right)]
+    worm_hand: Hand,
     /// Flank to grind.
-    #[arg(long, value_enum, default_value_t = FlankArg::Right)]
-    flank: FlankArg,
+    #[arg(long, value_enum, default_value_t = Flank::Right)]
+    flank: Flank,
     /// Start of the active profile (roll distance) in mm [default: w_P − 2·m_n].
     #[arg(long)]
     roll_start_mm: Option<f64>,
@@ -226,26 +212,6 @@ struct EqualiseArgs {
     json: bool,
 }
 
-/// Degrees (interface) to radians (internal): the one conversion point.
-fn deg_to_rad(deg: f64) -> f64 {
-    deg.to_radians()
-}
-
-/// Radians (internal) to degrees (interface).
-fn rad_to_deg(rad: f64) -> f64 {
-    rad.to_degrees()
-}
-
-/// µm (interface) to mm (internal): the one conversion point.
-fn um_to_mm(um: f64) -> f64 {
-    um * 1e-3
-}
-
-/// mm (internal) to µm (interface).
-fn mm_to_um(mm: f64) -> f64 {
-    mm * 1e3
-}
-
 /// Runs `gearcomp grind`.
 pub fn run(args: Args) -> Result<()> {
     match args.command {
@@ -312,17 +278,11 @@ fn cones(a: &SetupArgs) -> Result<Cones> {
 }
 
 fn flank_arg(a: &SetupArgs) -> Flank {
-    match a.flank {
-        FlankArg::Right => Flank::Right,
-        FlankArg::Left => Flank::Left,
-    }
+    a.flank
 }
 
 fn hand_arg(a: &SetupArgs) -> Hand {
-    match a.worm_hand {
-        HandArg::Right => Hand::Right,
-        HandArg::Left => Hand::Left,
-    }
+    a.worm_hand
 }
 
 /// The gear body (cylinder, or the beveloid's body at z = 0) from the set-up options.
@@ -1188,62 +1148,6 @@ fn diagonal_choice(a: &SimulateArgs, s: &Setup, rho1: f64) -> Result<(f64, Optio
     })
 }
 
-/// A `gearcomp dress` config, read by `grind simulate --dress`; [solve]/[plan] may be present
-/// (they belong to `gearcomp dress`) and are ignored here.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DressConfig {
-    worm: DressWormCfg,
-    dresser: DressDresserCfg,
-    #[serde(default)]
-    dressing: DressingCfg,
-    #[allow(dead_code)]
-    solve: Option<toml::Value>,
-    #[allow(dead_code)]
-    plan: Option<toml::Value>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DressWormCfg {
-    starts: u32,
-    diameter_mm: f64,
-    normal_module_mm: f64,
-    profile_angle_deg: f64,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DressDresserCfg {
-    diameter_mm: f64,
-    jacket_width_mm: f64,
-    #[serde(default)]
-    clearance_mm: f64,
-}
-
-/// How the worm is dressed before grinding: given ΔK (default: uncorrected), or the 3-point
-/// solve (`crowning_um` or `points`).
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DressingCfg {
-    /// Current worm diameter d_S in mm (default: the new worm, d_S0).
-    diameter_mm: Option<f64>,
-    /// 3-point crowning c in µm: targets (0, −c, 0) at 5/50/95 % of the active profile.
-    crowning_um: Option<f64>,
-    /// Explicit 3-point targets [fraction of the active profile, f in µm].
-    points: Option<Vec<[f64; 2]>>,
-    /// Δφ_S in rad (as `gearcomp dress solve` prints it).
-    dphi_s_rad: Option<f64>,
-    /// Δγ in degrees.
-    dgamma_deg: Option<f64>,
-    /// Δd in mm.
-    dd_mm: Option<f64>,
-    /// Δν_yA in mm.
-    dnu_ya_mm: Option<f64>,
-    /// Number of table points over the dressed profile (default 41).
-    table_points: Option<usize>,
-}
-
 #[derive(Debug, Serialize)]
 struct DressedOut {
     config: String,
@@ -1266,20 +1170,19 @@ struct DressedOut {
     profile_um: Vec<(f64, f64)>,
 }
 
-/// The worm of `cfg` dressed as configured, tabulated for the grinding crate.
+/// The worm of the `gearcomp dress` config at `path` dressed as its `[dressing]` table asks
+/// ([`DressingInput::dress`]), tabulated for the grinding crate.
 ///
-/// Glue between the crates (docs/grinding.md "Dressed worm"): dressing `Flank::Right` (normal
-/// towards +z) = grinding `Flank::Right` (s = +1) for the right-hand worm; (w, b) = (w1, z1);
-/// f_nFS (mm, normal) is tabulated as is and turned into f_Ft1 = f_n/cos β_b1 by
-/// [`DressedWorm`]. The dressed range is [w_Nf(ΔK), w_Na]: w_Na on the tip circle, w_Nf(ΔK)
-/// the roll distance the dresser's fillet/flank tangent point dresses under ΔK.
+/// Glue between the crates (docs/grinding.md "Dressed worm"): both use the shared
+/// [`Flank`]; (w, b) = (w1, z1); f_nFS (mm, normal) is tabulated as is and turned into
+/// f_Ft1 = f_n/cos β_b1 by [`DressedWorm`].
 fn dress_worm(
     path: &std::path::Path,
     flank: Flank,
 ) -> Result<(DressWorm, DressedProfile, DressedOut)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let cfg: DressConfig =
+    let cfg: GrindDressConfig =
         toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
     let wc = &cfg.worm;
     let design = DressWorm::design(
@@ -1298,137 +1201,41 @@ fn dress_worm(
         },
     )
     .context("[dresser]")?;
-    let dc = &cfg.dressing;
-    let worm = match dc.diameter_mm {
-        Some(d) => design.worn(d).context("[dressing] diameter_mm")?,
-        None => design,
-    };
-    let setup = DressingSetup::new(worm, dresser);
-    let fl = match flank {
-        Flank::Right => DressFlank::Right,
-        Flank::Left => DressFlank::Left,
-    };
-    let (w_nf, w_na) = setup
-        .active_profile(fl)
-        .context("active profile of the worm")?;
-    let at = |q: f64| w_nf + q * (w_na - w_nf);
-    let explicit = dc.dphi_s_rad.is_some()
-        || dc.dgamma_deg.is_some()
-        || dc.dd_mm.is_some()
-        || dc.dnu_ya_mm.is_some();
-    let targets: Option<Vec<[f64; 2]>> = match (&dc.points, dc.crowning_um) {
-        (Some(_), Some(_)) => {
-            anyhow::bail!("[dressing]: give either `points` or `crowning_um`, not both")
-        }
-        (Some(p), None) => Some(p.clone()),
-        (None, Some(c)) => Some(vec![[0.05, 0.0], [0.5, -c], [0.95, 0.0]]),
-        (None, None) => None,
-    };
-    let k0 = AxisCorrection::default();
-    let (dk, iterations, correction) = match targets {
-        Some(_) if explicit => anyhow::bail!(
-            "[dressing]: give either axis corrections (dphi_s_rad, dgamma_deg, dd_mm, \
-             dnu_ya_mm) or 3-point targets (crowning_um / points), not both"
-        ),
-        Some(p) => {
-            if p.len() != 3 {
-                anyhow::bail!("[dressing] points: got {}, expected 3", p.len());
-            }
-            for q in &p {
-                if !(0.0..=1.0).contains(&q[0]) || !q[1].is_finite() || q[1].abs() > 1000.0 {
-                    anyhow::bail!(
-                        "[dressing] point {q:?}: fraction must be in 0..=1 and f within \
-                         ±1000 µm"
-                    );
-                }
-            }
-            // As `gearcomp dress solve`: the dresser radius that dresses the new worm's tip
-            // circle keeps dressing the tip circle.
-            let new = DressingSetup::new(design, setup.dresser.clone());
-            let r_tip = new.association(fl, new.active_profile(fl)?.1, &k0)?;
-            let problem = ThreePoint {
-                flank: fl,
-                w_mm: [at(p[0][0]), at(p[1][0]), at(p[2][0])],
-                f_mm: [um_to_mm(p[0][1]), um_to_mm(p[1][1]), um_to_mm(p[2][1])],
-                w_assoc_mm: w_na,
-                r_a_mm: r_tip,
-            };
-            let sol = solve_three_point(&setup, &problem, k0, &NewtonOptions::default())
-                .context("3-point dressing solve")?;
-            (sol.dk, Some(sol.iterations), "three-point")
-        }
-        None => {
-            let dk = AxisCorrection {
-                dphi_s_rad: dc.dphi_s_rad.unwrap_or(0.0),
-                dgamma_rad: deg_to_rad(dc.dgamma_deg.unwrap_or(0.0)),
-                dd_mm: dc.dd_mm.unwrap_or(0.0),
-                dnu_ya_mm: dc.dnu_ya_mm.unwrap_or(0.0),
-            };
-            for (field, v, lim) in [
-                ("[dressing] dphi_s_rad", dk.dphi_s_rad, 2.0),
-                ("[dressing] dgamma_deg", rad_to_deg(dk.dgamma_rad), 12.0),
-                ("[dressing] dd_mm", dk.dd_mm, 3.0),
-                ("[dressing] dnu_ya_mm", dk.dnu_ya_mm, 30.0),
-            ] {
-                if !(v.is_finite() && v.abs() <= lim) {
-                    anyhow::bail!("{field} = {v} is out of range: expected |value| ≤ {lim}");
-                }
-            }
-            (dk, None, if explicit { "given" } else { "none" })
-        }
-    };
-    // Where the dresser dressed under ΔK: from its fillet/flank tangent point to the tip.
-    let side = setup.dresser.side(fl);
-    let r_t = setup.dresser.profile(side.u_tangent_mm * side.z_sign).0;
-    let w_nf_dk = setup
-        .roll_dressed_by(fl, r_t, &dk, w_nf)
-        .context("dressed range under ΔK")?;
-    if w_nf_dk.is_nan() || w_nf_dk >= w_na {
-        anyhow::bail!(
-            "the dresser does not reach the worm flank under ΔK: w_Nf = {w_nf_dk} mm ≥ w_Na = \
-             {w_na} mm"
-        );
-    }
-    let n = dc.table_points.unwrap_or(41);
-    if !(5..=2001).contains(&n) {
-        anyhow::bail!("[dressing] table_points = {n} is out of range: expected 5 ..= 2001");
-    }
-    let ws: Vec<f64> = (0..n)
-        .map(|i| w_nf_dk + (w_na - w_nf_dk) * i as f64 / (n - 1) as f64)
-        .collect();
-    let f = setup.profile(fl, &ws, &dk).context("dressed profile")?;
-    let (rho, _, _) = fit_contact_line(&contact_line(&setup, fl, &ws, &dk)?);
+    let t = cfg.dressing.dress(&design, &dresser, flank)?;
+    let worm = t.worm;
     let profile = DressedProfile::new(
         flank,
         worm.r_b_mm,
         worm.beta_b_rad,
-        ws.clone(),
-        f.clone(),
-        (w_nf_dk, w_na),
-        rho,
+        t.roll_mm.clone(),
+        t.f_mm.clone(),
+        t.dressed_roll_range_mm,
+        t.contact_line_rad,
     )
     .context("dressed profile table")?;
+    let n = t.roll_mm.len();
     let step = (n - 1).div_ceil(20).max(1);
     let out = DressedOut {
         config: path.display().to_string(),
-        correction,
+        correction: t.kind.name(),
         worm_starts: worm.z_s,
         worm_design_diameter_mm: worm.d_s0_mm,
         worm_diameter_mm: worm.d_s_mm,
         dresser_diameter_mm: cfg.dresser.diameter_mm,
-        dphi_s_rad: dk.dphi_s_rad,
-        dgamma_deg: rad_to_deg(dk.dgamma_rad),
-        dd_mm: dk.dd_mm,
-        dnu_ya_mm: dk.dnu_ya_mm,
-        newton_iterations: iterations,
-        rho_f1_deg: rad_to_deg(rho),
+        dphi_s_rad: t.dk.dphi_s_rad,
+        dgamma_deg: rad_to_deg(t.dk.dgamma_rad),
+        dd_mm: t.dk.dd_mm,
+        dnu_ya_mm: t.dk.dnu_ya_mm,
+        newton_iterations: t.iterations,
+        rho_f1_deg: rad_to_deg(t.contact_line_rad),
         rho_f1_axial_section_estimate_deg: 0.0,
-        dressed_roll_range_mm: (w_nf_dk, w_na),
+        dressed_roll_range_mm: t.dressed_roll_range_mm,
         dressed_radius_range_mm: profile.dressed_radius_range_mm(),
         used_roll_range_mm: (0.0, 0.0),
-        profile_um: ws
+        profile_um: t
+            .roll_mm
             .iter()
-            .zip(&f)
+            .zip(&t.f_mm)
             .enumerate()
             .filter(|(i, _)| i % step == 0 || *i == n - 1)
             .map(|(_, (w, v))| (*w, mm_to_um(*v)))
@@ -1438,10 +1245,7 @@ fn dress_worm(
 }
 
 fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
-    let flank = match a.setup.flank {
-        FlankArg::Right => Flank::Right,
-        FlankArg::Left => Flank::Left,
-    };
+    let flank = a.setup.flank;
     let (dworm, profile, mut dout) = dress_worm(path, flank)?;
     let s = setup(&a.setup, Some(&dworm))?;
     let worm = DressedWorm::new(profile, &s.pair.worm).context("dressed worm")?;

@@ -5,7 +5,7 @@ use crate::dresser::Dresser;
 use crate::envelope::DressingSetup;
 use crate::error::{DressError, Result};
 use crate::kinematics::{AxesBsp2, AxisCorrection};
-use crate::solve::{solve_three_point, NewtonOptions, ThreePoint};
+use crate::solve::{solve_three_point, NewtonOptions, ThreePoint, CROWNING_FRACTIONS};
 use crate::worm::{Flank, Worm};
 use serde::{Deserialize, Serialize};
 
@@ -176,18 +176,17 @@ fn dress_once(
     let setup = DressingSetup::new(worm, dresser.clone());
     let (w_nf, w_na) = setup.active_profile(spec.flank)?;
     let at = |q: f64| w_nf + q * (w_na - w_nf);
-    let targets = [at(0.05), at(0.5), at(0.95)];
+    let targets = CROWNING_FRACTIONS.map(at);
     let k0 = AxisCorrection::default();
     let (dk, iterations) = match spec.correction {
         Correction::None => (k0, 0),
         Correction::ThreePoint => {
-            let p = ThreePoint {
-                flank: spec.flank,
-                w_mm: targets,
-                f_mm: [0.0, -spec.crowning_mm, 0.0],
-                w_assoc_mm: w_na,
-                r_a_mm: reference.r_a_mm.1,
-            };
+            let p = ThreePoint::from_crowning(
+                &setup,
+                spec.flank,
+                spec.crowning_mm,
+                reference.r_a_mm.1,
+            )?;
             let sol = solve_three_point(&setup, &p, start, &NewtonOptions::default())
                 .or_else(|_| solve_three_point(&setup, &p, k0, &NewtonOptions::default()))?;
             (sol.dk, sol.iterations)

@@ -63,6 +63,27 @@ pub enum DressError {
     /// A pose cannot be realised by the machine's axes.
     #[error("pose not reachable by the machine axes: {0}")]
     Unreachable(String),
+    /// Under the axis correction ΔK the dresser's fillet/flank tangent point dresses no part of
+    /// the active worm flank (the dressed range [w_Nf, w_Na] is empty).
+    #[error(
+        "the dresser does not reach the worm flank under ΔK: w_Nf = {w_nf_mm} mm ≥ w_Na = \
+         {w_na_mm} mm"
+    )]
+    DresserMissesFlank {
+        /// Roll distance where the dressing under ΔK begins (mm; NaN when not found).
+        w_nf_mm: f64,
+        /// Tip end of the active profile (mm).
+        w_na_mm: f64,
+    },
+    /// `source` happened while doing `what` (a TOML key or a step of the computation).
+    #[error("{what}")]
+    During {
+        /// The key or step, e.g. `[dressing] diameter_mm` or `dressed profile`.
+        what: String,
+        /// What went wrong.
+        #[source]
+        source: Box<DressError>,
+    },
 }
 
 /// "`[worm] starts` = 0 is outside …" for range details (they start with "= "), else
@@ -76,6 +97,14 @@ fn input_message(key: &str, detail: &str) -> String {
 }
 
 impl DressError {
+    /// Wraps `self` as the cause of a failure while doing `what`.
+    pub fn during(self, what: impl Into<String>) -> DressError {
+        DressError::During {
+            what: what.into(),
+            source: Box::new(self),
+        }
+    }
+
     /// Checks `min ≤ value ≤ max` (and finiteness) for a named field.
     pub fn check(field: &'static str, value: f64, min: f64, max: f64) -> Result<f64> {
         if value.is_finite() && value >= min && value <= max {

@@ -12,14 +12,17 @@ use crate::dresser::{Dresser, DresserSpec};
 use crate::envelope::DressingSetup;
 use crate::error::{DressError, Result};
 use crate::kinematics::AxisCorrection;
+use crate::simulation::{contact_line, fit_contact_line};
 use crate::solve::{
-    solve_four_point, solve_three_point, FourPoint, NewtonOptions, Solution, ThreePoint,
+    solve_four_point, solve_three_point, tip_association_radius_mm, FourPoint, NewtonOptions,
+    Solution, ThreePoint,
 };
 use crate::worm::{Flank, Worm};
 use serde::{Deserialize, Serialize};
 
 /// `[worm]`: the new worm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct WormInput {
     /// `starts`: number of threads z_S.
     pub starts: u32,
@@ -33,13 +36,262 @@ pub struct WormInput {
 
 /// `[dresser]`: the profile roller dresser, designed for the new worm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DresserInput {
     /// `diameter_mm`: outer (jacket) diameter d_A (mm).
     pub diameter_mm: f64,
     /// `jacket_width_mm` (mm).
     pub jacket_width_mm: f64,
-    /// `clearance_mm` per flank (mm).
+    /// `clearance_mm` per flank (mm, default 0).
+    #[serde(default)]
     pub clearance_mm: f64,
+}
+
+/// `[dressing]`: how the worm is dressed before `gearcomp grind simulate --dress` grinds with
+/// it: given ΔK (default: uncorrected), or the 3-point solve (`crowning_um` or `points`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DressingInput {
+    /// `diameter_mm`: current worm diameter d_S in mm (default: the new worm, d_S0).
+    pub diameter_mm: Option<f64>,
+    /// `crowning_um`: 3-point crowning c in µm, targets [`ThreePoint::crowning_targets`].
+    pub crowning_um: Option<f64>,
+    /// `points`: explicit 3-point targets [fraction of the active profile, f in µm].
+    pub points: Option<Vec<[f64; 2]>>,
+    /// `dphi_s_rad`: Δφ_S in rad (as `gearcomp dress solve` prints it).
+    pub dphi_s_rad: Option<f64>,
+    /// `dgamma_deg`: Δγ in degrees.
+    pub dgamma_deg: Option<f64>,
+    /// `dd_mm`: Δd in mm.
+    pub dd_mm: Option<f64>,
+    /// `dnu_ya_mm`: Δν_yA in mm.
+    pub dnu_ya_mm: Option<f64>,
+    /// `table_points`: number of table points over the dressed profile (default 41).
+    pub table_points: Option<usize>,
+}
+
+/// A `gearcomp dress` config file as `gearcomp grind simulate --dress` reads it: `[worm]`,
+/// `[dresser]` and `[dressing]`; `[solve]` and `[plan]` may be present (they belong to
+/// `gearcomp dress`) and are skipped unread. Any other table is refused.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrindDressConfig {
+    /// `[worm]`.
+    pub worm: WormInput,
+    /// `[dresser]`.
+    pub dresser: DresserInput,
+    /// `[dressing]` (default: the uncorrected worm).
+    #[serde(default)]
+    pub dressing: DressingInput,
+    /// `[solve]`, skipped.
+    #[allow(dead_code)]
+    solve: Option<IgnoredTable>,
+    /// `[plan]`, skipped.
+    #[allow(dead_code)]
+    plan: Option<IgnoredTable>,
+}
+
+/// How a [`DressingInput`] was dressed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DressingKind {
+    /// No correction (ΔK = 0).
+    None,
+    /// ΔK as given in the keys `dphi_s_rad`, `dgamma_deg`, `dd_mm`, `dnu_ya_mm`.
+    Given,
+    /// ΔK of the 3-point solve of `crowning_um` or `points`.
+    ThreePoint,
+}
+
+impl DressingKind {
+    /// `none`, `given` or `three-point`.
+    pub fn name(self) -> &'static str {
+        match self {
+            DressingKind::None => "none",
+            DressingKind::Given => "given",
+            DressingKind::ThreePoint => "three-point",
+        }
+    }
+}
+
+/// The worm dressed as a [`DressingInput`] asks, tabulated over the dressed part of its flank.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DressedWormTable {
+    /// The worm at its current diameter.
+    pub worm: Worm,
+    /// How ΔK was found.
+    pub kind: DressingKind,
+    /// The axis correction ΔK dressed with.
+    pub dk: AxisCorrection,
+    /// Newton iterations of the 3-point solve (`None` for a given ΔK).
+    pub iterations: Option<usize>,
+    /// Roll distances w of the table (mm), evenly over [`Self::dressed_roll_range_mm`].
+    pub roll_mm: Vec<f64>,
+    /// Normal profile deviation f_nFS at each w (mm, > 0 = material left).
+    pub f_mm: Vec<f64>,
+    /// The dressed roll range [w_Nf(ΔK), w_Na] (mm).
+    pub dressed_roll_range_mm: (f64, f64),
+    /// Direction ρ_F1 of the fitted contact line on the worm (rad).
+    pub contact_line_rad: f64,
+}
+
+/// Largest |ΔK component| a given correction may have, per key, in the key's unit.
+const GIVEN_LIMITS: [(&str, f64); 4] = [
+    ("[dressing] dphi_s_rad", 2.0),
+    ("[dressing] dgamma_deg", 12.0),
+    ("[dressing] dd_mm", 3.0),
+    ("[dressing] dnu_ya_mm", 30.0),
+];
+
+impl DressingInput {
+    /// Dresses `flank` of the worm `design` (the new worm, worn to `diameter_mm`) with
+    /// `dresser` as this input asks, and tabulates the dressed profile at `table_points`
+    /// roll distances over [w_Nf(ΔK), w_Na]: w_Na on the tip circle, w_Nf(ΔK) the roll
+    /// distance the dresser's fillet/flank tangent point dresses under ΔK.
+    ///
+    /// The 3-point targets (`crowning_um` → [`ThreePoint::crowning_targets`], or `points`) are
+    /// fractions of the current worm's active profile; as in `gearcomp dress solve`, the
+    /// dresser radius that dresses the new worm's tip circle keeps dressing the tip circle.
+    /// Every error names the `[dressing]` key (or the step) it comes from.
+    pub fn dress(
+        &self,
+        design: &Worm,
+        dresser: &Dresser,
+        flank: Flank,
+    ) -> Result<DressedWormTable> {
+        let worm = match self.diameter_mm {
+            Some(d) => design
+                .worn(d)
+                .map_err(|e| e.during("[dressing] diameter_mm"))?,
+            None => *design,
+        };
+        let setup = DressingSetup::new(worm, dresser.clone());
+        let (w_nf, w_na) = setup
+            .active_profile(flank)
+            .map_err(|e| e.during("active profile of the worm"))?;
+        let explicit = self.dphi_s_rad.is_some()
+            || self.dgamma_deg.is_some()
+            || self.dd_mm.is_some()
+            || self.dnu_ya_mm.is_some();
+        let targets: Option<Vec<[f64; 2]>> = match (&self.points, self.crowning_um) {
+            (Some(_), Some(_)) => {
+                return Err(input_err(
+                    "[dressing]",
+                    "give either `points` or `crowning_um`, not both".into(),
+                ))
+            }
+            (Some(p), None) => Some(p.clone()),
+            (None, Some(c)) => Some(ThreePoint::crowning_targets(c).to_vec()),
+            (None, None) => None,
+        };
+        let k0 = AxisCorrection::default();
+        let (dk, iterations, kind) = match targets {
+            Some(_) if explicit => {
+                return Err(input_err(
+                    "[dressing]",
+                    "give either axis corrections (dphi_s_rad, dgamma_deg, dd_mm, dnu_ya_mm) or \
+                     3-point targets (crowning_um / points), not both"
+                        .into(),
+                ))
+            }
+            Some(p) => {
+                if p.len() != 3 {
+                    return Err(input_err(
+                        "[dressing] points",
+                        format!("got {}, expected 3", p.len()),
+                    ));
+                }
+                for q in &p {
+                    if !(0.0..=1.0).contains(&q[0]) || !q[1].is_finite() || q[1].abs() > 1000.0 {
+                        return Err(input_err(
+                            &format!("[dressing] point {q:?}"),
+                            "fraction must be in 0..=1 and f within ±1000 µm".into(),
+                        ));
+                    }
+                }
+                let r_tip = tip_association_radius_mm(design, &setup.dresser, flank)?;
+                let problem =
+                    ThreePoint::from_fractions(&setup, flank, &[p[0], p[1], p[2]], 1.0, r_tip)?;
+                let sol = solve_three_point(&setup, &problem, k0, &NewtonOptions::default())
+                    .map_err(|e| e.during("3-point dressing solve"))?;
+                (sol.dk, Some(sol.iterations), DressingKind::ThreePoint)
+            }
+            None => {
+                let dk = AxisCorrection {
+                    dphi_s_rad: self.dphi_s_rad.unwrap_or(0.0),
+                    dgamma_rad: self.dgamma_deg.unwrap_or(0.0).to_radians(),
+                    dd_mm: self.dd_mm.unwrap_or(0.0),
+                    dnu_ya_mm: self.dnu_ya_mm.unwrap_or(0.0),
+                };
+                let values = [
+                    dk.dphi_s_rad,
+                    dk.dgamma_rad.to_degrees(),
+                    dk.dd_mm,
+                    dk.dnu_ya_mm,
+                ];
+                for ((key, lim), v) in GIVEN_LIMITS.into_iter().zip(values) {
+                    if !(v.is_finite() && v.abs() <= lim) {
+                        return Err(input_err(
+                            key,
+                            format!("= {v} is out of range: expected |value| ≤ {lim}"),
+                        ));
+                    }
+                }
+                let kind = if explicit {
+                    DressingKind::Given
+                } else {
+                    DressingKind::None
+                };
+                (dk, None, kind)
+            }
+        };
+        // Where the dresser dressed under ΔK: from its fillet/flank tangent point to the tip.
+        let side = setup.dresser.side(flank);
+        let r_t = setup.dresser.profile(side.u_tangent_mm * side.z_sign).0;
+        let w_nf_dk = setup
+            .roll_dressed_by(flank, r_t, &dk, w_nf)
+            .map_err(|e| e.during("dressed range under ΔK"))?;
+        if w_nf_dk.is_nan() || w_nf_dk >= w_na {
+            return Err(DressError::DresserMissesFlank {
+                w_nf_mm: w_nf_dk,
+                w_na_mm: w_na,
+            });
+        }
+        let n = self.table_points.unwrap_or(41);
+        if !(5..=2001).contains(&n) {
+            return Err(input_err(
+                "[dressing] table_points",
+                format!("= {n} is out of range: expected 5 ..= 2001"),
+            ));
+        }
+        let ws: Vec<f64> = (0..n)
+            .map(|i| w_nf_dk + (w_na - w_nf_dk) * i as f64 / (n - 1) as f64)
+            .collect();
+        let f = setup
+            .profile(flank, &ws, &dk)
+            .map_err(|e| e.during("dressed profile"))?;
+        let (rho, _, _) = fit_contact_line(&contact_line(&setup, flank, &ws, &dk)?);
+        Ok(DressedWormTable {
+            worm,
+            kind,
+            dk,
+            iterations,
+            roll_mm: ws,
+            f_mm: f,
+            dressed_roll_range_mm: (w_nf_dk, w_na),
+            contact_line_rad: rho,
+        })
+    }
+}
+
+/// A table that is accepted and not read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct IgnoredTable;
+
+impl<'de> Deserialize<'de> for IgnoredTable {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        serde::de::IgnoredAny::deserialize(d).map(|_| IgnoredTable)
+    }
 }
 
 /// Solve method of `[solve] method`.
@@ -304,7 +556,7 @@ fn targets(input: &SolveInput) -> Result<Targets> {
             }
             check_key("[solve] crowning_um", c, -50.0, 50.0, "µm")?;
             (
-                vec![[0.05, 0.0], [0.5, -c], [0.95, 0.0]],
+                ThreePoint::crowning_targets(c).to_vec(),
                 "[solve] crowning_um",
             )
         }
@@ -391,8 +643,7 @@ fn solve_scaled(
         match method {
             Method::ThreePoint => {
                 // The dresser radius that dresses the tip circle of the new worm keeps doing so.
-                let new = DressingSetup::new(*design, dresser.clone());
-                let r_tip = new.association(flank, new.active_profile(flank)?.1, &k0)?;
+                let r_tip = tip_association_radius_mm(design, dresser, flank)?;
                 let p = ThreePoint {
                     flank,
                     w_mm: [ws[0], ws[1], ws[2]],

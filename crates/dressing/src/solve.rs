@@ -279,6 +279,82 @@ pub struct ThreePoint {
     pub r_a_mm: f64,
 }
 
+/// Where the profile-crowning rule places its three targets, as fractions of the active
+/// profile w_Nf … w_Na (5 %, 50 %, 95 %).
+pub const CROWNING_FRACTIONS: [f64; 3] = [0.05, 0.5, 0.95];
+
+impl ThreePoint {
+    /// The targets of a profile crowning c: (fraction of the active profile, f) =
+    /// (0.05, 0), (0.5, −c), (0.95, 0), f in the unit of `crowning` (the one crowning → 3-point
+    /// rule of `gearcomp dress`, `gearcomp grind --dress` and the worm-life plan).
+    pub fn crowning_targets(crowning: f64) -> [[f64; 2]; 3] {
+        let [q1, q2, q3] = CROWNING_FRACTIONS;
+        [[q1, 0.0], [q2, -crowning], [q3, 0.0]]
+    }
+
+    /// The 3-point problem for `targets` (fraction of the active profile of `setup`'s worm, f
+    /// in µm), f scaled by `scale`; the radius association is "`r_a_mm` dresses the tip end
+    /// w_Na of the active profile".
+    pub fn from_fractions(
+        setup: &DressingSetup,
+        flank: Flank,
+        targets_um: &[[f64; 2]; 3],
+        scale: f64,
+        r_a_mm: f64,
+    ) -> Result<ThreePoint> {
+        let (w_nf, w_na) = setup.active_profile(flank)?;
+        let at = |q: f64| w_nf + q * (w_na - w_nf);
+        let f = |i: usize| scale * targets_um[i][1] * 1e-3;
+        Ok(ThreePoint {
+            flank,
+            w_mm: [
+                at(targets_um[0][0]),
+                at(targets_um[1][0]),
+                at(targets_um[2][0]),
+            ],
+            f_mm: [f(0), f(1), f(2)],
+            w_assoc_mm: w_na,
+            r_a_mm,
+        })
+    }
+
+    /// The 3-point problem of a profile crowning `crowning_mm` (targets
+    /// [`ThreePoint::crowning_targets`]) on `setup`'s worm; `r_a_mm` dresses the tip end w_Na.
+    pub fn from_crowning(
+        setup: &DressingSetup,
+        flank: Flank,
+        crowning_mm: f64,
+        r_a_mm: f64,
+    ) -> Result<ThreePoint> {
+        let (w_nf, w_na) = setup.active_profile(flank)?;
+        let at = |q: f64| w_nf + q * (w_na - w_nf);
+        let t = Self::crowning_targets(crowning_mm);
+        Ok(ThreePoint {
+            flank,
+            w_mm: [at(t[0][0]), at(t[1][0]), at(t[2][0])],
+            f_mm: [t[0][1], t[1][1], t[2][1]],
+            w_assoc_mm: w_na,
+            r_a_mm,
+        })
+    }
+}
+
+/// The dresser radius that dresses the tip circle of the new worm `design` (uncorrected): the
+/// radius association of the 3-point solves, so that a worn worm keeps its tip dressed by the
+/// same dresser radius.
+pub fn tip_association_radius_mm(
+    design: &crate::worm::Worm,
+    dresser: &crate::dresser::Dresser,
+    flank: Flank,
+) -> Result<f64> {
+    let new = DressingSetup::new(*design, dresser.clone());
+    new.association(
+        flank,
+        new.active_profile(flank)?.1,
+        &AxisCorrection::default(),
+    )
+}
+
 /// Residual F_F3(ΔK) of the 3-point method.
 ///
 /// # Formula
