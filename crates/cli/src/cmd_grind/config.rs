@@ -1,0 +1,609 @@
+//! The set-up of `gearcomp grind` from its arguments and TOML configs: gear, worm, flank
+//! grid and cones from the options, the dressed worm of `--dress`, the `equalise` config.
+
+use super::*;
+
+pub(super) struct Setup {
+    pub(super) pair: WormGearPair,
+    pub(super) gear: InvoluteGear,
+    pub(super) grid: FlankGrid,
+    /// Worm root and tip radii in mm.
+    pub(super) worm_radii_mm: (f64, f64),
+}
+
+/// Cone angles of worm (ϑ1) and workpiece (ϑ2), rad, in the library's convention: ϑ > 0 when
+/// the body's reference cone grows towards +z of that body (docs/grinding.md "Conical tool and
+/// workpiece").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Cones {
+    pub(super) worm_rad: f64,
+    pub(super) gear_rad: f64,
+    /// The values as given at the interface (reported unchanged).
+    pub(super) worm_deg: f64,
+    pub(super) gear_deg: f64,
+}
+
+impl Cones {
+    pub(super) const CYLINDRICAL: Cones = Cones {
+        worm_rad: 0.0,
+        gear_rad: 0.0,
+        worm_deg: 0.0,
+        gear_deg: 0.0,
+    };
+
+    pub(super) fn is_cylindrical(&self) -> bool {
+        self.worm_rad == 0.0 && self.gear_rad == 0.0
+    }
+}
+
+/// --worm-cone-deg / --gear-cone-deg, range-checked against the library's limit
+/// ([`MAX_CONE_ANGLE_RAD`], 50°) and converted to rad.
+pub(super) fn cones(a: &SetupArgs) -> Result<Cones> {
+    let max_deg = rad_to_deg(MAX_CONE_ANGLE_RAD);
+    for (opt, v) in [
+        ("--worm-cone-deg", a.worm_cone_deg),
+        ("--gear-cone-deg", a.gear_cone_deg),
+    ] {
+        if !(v.is_finite() && v.abs() <= max_deg) {
+            anyhow::bail!(
+                "{opt} = {v} is out of range: expected -{max_deg} ..= {max_deg} degrees \
+                 (cone angle limit of the grinding library, JP6903407B2: below 50°)"
+            );
+        }
+    }
+    Ok(Cones {
+        worm_rad: deg_to_rad(a.worm_cone_deg),
+        gear_rad: deg_to_rad(a.gear_cone_deg),
+        worm_deg: a.worm_cone_deg,
+        gear_deg: a.gear_cone_deg,
+    })
+}
+
+pub(super) fn flank_arg(a: &SetupArgs) -> Flank {
+    a.flank
+}
+
+pub(super) fn hand_arg(a: &SetupArgs) -> Hand {
+    a.worm_hand
+}
+
+/// The gear body (cylinder, or the beveloid's body at z = 0) from the set-up options.
+pub(super) fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
+    let alpha_r = deg_to_rad(a.pressure_angle_deg);
+    let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
+    let gear = InvoluteGear::asymmetric(
+        a.teeth,
+        a.module_mm,
+        alpha_r,
+        alpha_l,
+        deg_to_rad(a.helix_angle_deg),
+        a.profile_shift,
+    )
+    .map_err(|e| gear_error(&e))?;
+    // a gear as the geometry crate defines one (3 ≤ z, no pointed tooth, root above 0, ...)
+    for f in [Flank::Right, Flank::Left] {
+        gear.flank_limits(f).map_err(|e| gear_error(&e))?;
+    }
+    Ok(gear)
+}
+
+/// A gear error with the option the user wrote.
+pub(super) fn gear_error(e: &GrindError) -> anyhow::Error {
+    let field = match e {
+        GrindError::OutOfRange { field, .. } => *field,
+        GrindError::Geometry(g) => match g {
+            GeometryError::OutOfRange { name, .. } => name,
+            GeometryError::Undercut { .. } | GeometryError::PointedTooth { .. } => "profile_shift",
+            _ => "",
+        },
+        _ => "",
+    };
+    let opt = match field {
+        "teeth" => "--teeth",
+        "m_n_mm" | "normal_module_mm" => "--module-mm",
+        "alpha_n_right_rad" | "normal_pressure_angle" => "--pressure-angle-deg",
+        "alpha_n_left_rad" => "--pressure-angle-left-deg",
+        "beta_rad" | "helix_angle" => "--helix-angle-deg",
+        "x_shift" | "profile_shift" => "--profile-shift",
+        _ => "--teeth/--module-mm/--pressure-angle-deg/--helix-angle-deg/--profile-shift",
+    };
+    anyhow::anyhow!("gear ({opt}): {e}")
+}
+
+/// The worm body from the set-up options; its rack has the gear's profile angles (93).
+pub(super) fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
+    let alpha_r = deg_to_rad(a.pressure_angle_deg);
+    let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
+    let w = InvoluteGear::worm(
+        a.worm_starts,
+        a.module_mm,
+        alpha_r,
+        a.worm_radius_mm,
+        hand_arg(a),
+    )
+    .context("worm")?;
+    InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0).context("worm")
+}
+
+/// The usable roll range of the gear flank [lo, hi] in mm and what bounds each end.
+pub(super) struct RollLimits {
+    pub(super) lo_mm: f64,
+    pub(super) hi_mm: f64,
+    pub(super) lo_what: String,
+    pub(super) hi_what: String,
+    /// Cap of the default roll end (below hi on a conical gear: the narrow end's tip).
+    pub(super) default_hi_mm: f64,
+}
+
+/// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`.
+pub(super) fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) -> Result<FlankGrid> {
+    let expected = format!(
+        "expected {:.4} ≤ --roll-start-mm < --roll-end-mm ≤ {:.4} mm (from {} to {})",
+        lim.lo_mm, lim.hi_mm, lim.lo_what, lim.hi_what
+    );
+    if let Some(ws) = a.roll_start_mm {
+        if !(ws >= lim.lo_mm - 1e-9 && ws < lim.hi_mm) {
+            anyhow::bail!("--roll-start-mm = {ws} mm is outside the usable flank: {expected}");
+        }
+    }
+    if let Some(we) = a.roll_end_mm {
+        if !(we <= lim.hi_mm + 1e-9 && we > lim.lo_mm) {
+            anyhow::bail!("--roll-end-mm = {we} mm is outside the usable flank: {expected}");
+        }
+    }
+    let w_start = a.roll_start_mm.unwrap_or(
+        (f2.w_ref_mm - 2.0 * a.module_mm)
+            .max(0.1 * f2.w_ref_mm)
+            .max(lim.lo_mm),
+    );
+    let w_end = a
+        .roll_end_mm
+        .unwrap_or((f2.w_ref_mm + 2.0 * a.module_mm).min(lim.default_hi_mm));
+    if !(a.face_width_mm.is_finite() && a.face_width_mm > 0.0 && a.face_width_mm <= 2000.0) {
+        anyhow::bail!(
+            "--face-width-mm = {} is out of range: expected 0 < b ≤ 2000 mm",
+            a.face_width_mm
+        );
+    }
+    let half = 0.5 * a.face_width_mm;
+    FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
+        .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")
+}
+
+/// Worm root and tip radii: the options, else the dressed worm's, else r1 ∓ 1.25·m_n.
+pub(super) fn worm_radii(
+    a: &SetupArgs,
+    r1_mm: f64,
+    dressed: Option<&DressWorm>,
+) -> Result<(f64, f64)> {
+    let (root0, tip0) = dressed.map_or(
+        (r1_mm - 1.25 * a.module_mm, r1_mm + 1.25 * a.module_mm),
+        |d| (d.r_f_mm, d.r_a_mm),
+    );
+    let root = a.worm_root_radius_mm.unwrap_or(root0);
+    let tip = a.worm_tip_radius_mm.unwrap_or(tip0);
+    if !(root.is_finite() && tip.is_finite() && root >= 0.0 && root < r1_mm && tip > r1_mm) {
+        anyhow::bail!(
+            "--worm-root-radius-mm = {root} / --worm-tip-radius-mm = {tip}: expected \
+             0 ≤ root < worm radius {r1_mm} mm < tip"
+        );
+    }
+    Ok((root, tip))
+}
+
+/// Usable roll range of the gear flank on a cylindrical chain: the gear's root form and tip
+/// circles, and the gear roll distances the worm thread reaches between its root and tip
+/// ((R7): w1 = a·w2 + b, exact on the cylindrical chain).
+pub(super) fn roll_limits(
+    gear: &InvoluteGear,
+    flank: Flank,
+    pair: &WormGearPair,
+    radii: (f64, f64),
+) -> Result<RollLimits> {
+    let lim = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
+    let rb1 = pair.worm.r_b_mm;
+    let w1 = |r: f64| (r * r - rb1 * rb1).max(0.0).sqrt();
+    let (a, b) = (pair.path.a, pair.path.b_mm);
+    let w2_root = (w1(radii.0) - b) / a;
+    let w2_tip = (w1(radii.1) - b) / a;
+    let (w2_lo_worm, lo_worm_what, w2_hi_worm, hi_worm_what) = if w2_tip < w2_root {
+        (w2_tip, "worm tip", w2_root, "worm root")
+    } else {
+        (w2_root, "worm root", w2_tip, "worm tip")
+    };
+    if w2_lo_worm.is_nan() || w2_lo_worm <= 0.0 {
+        anyhow::bail!(
+            "the {lo_worm_what} (r = {:.4} mm, --worm-root-radius-mm/--worm-tip-radius-mm) \
+             reaches below the gear's base circle: it undercuts the involute, which the \
+             envelope simulation does not model; raise --profile-shift or --teeth, or lower \
+             the worm tip",
+            if lo_worm_what == "worm tip" {
+                radii.1
+            } else {
+                radii.0
+            }
+        );
+    }
+    let (lo, lo_what) = if lim.w_root_form_mm >= w2_lo_worm {
+        (
+            lim.w_root_form_mm,
+            match lim.root_form_diameter_mm {
+                Some(d) => format!("the root form circle d_Ff = {d:.4} mm"),
+                None => "the base circle (undercut)".to_string(),
+            },
+        )
+    } else {
+        (
+            w2_lo_worm,
+            format!(
+                "the reach of the {lo_worm_what} (r = {:.4} mm)",
+                if lo_worm_what == "worm tip" {
+                    radii.1
+                } else {
+                    radii.0
+                }
+            ),
+        )
+    };
+    let (hi, hi_what) = if lim.w_tip_mm <= w2_hi_worm {
+        (
+            lim.w_tip_mm,
+            format!("the tip circle d_a = {:.4} mm", lim.tip_diameter_mm),
+        )
+    } else {
+        (
+            w2_hi_worm,
+            format!(
+                "the reach of the {hi_worm_what} (r = {:.4} mm)",
+                if hi_worm_what == "worm tip" {
+                    radii.1
+                } else {
+                    radii.0
+                }
+            ),
+        )
+    };
+    if !(hi > lo && lo.is_finite()) {
+        anyhow::bail!(
+            "the worm (--worm-root-radius-mm {} / --worm-tip-radius-mm {}) does not reach the \
+             gear flank between {lo_what} and {hi_what}",
+            radii.0,
+            radii.1
+        );
+    }
+    Ok(RollLimits {
+        lo_mm: lo.max(1e-6),
+        hi_mm: hi,
+        lo_what,
+        hi_what,
+        default_hi_mm: hi,
+    })
+}
+
+pub(super) fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
+    let gear = gear_body(a)?;
+    let flank = flank_arg(a);
+    let (pair, r1) = match dressed {
+        None => {
+            let worm = worm_body(a)?;
+            let pair = if a.profile_shift == 0.0 {
+                WormGearPair::reference(&worm, &gear, flank)
+            } else {
+                // the shifted gear's rack datum is x·m_n outside its reference circle
+                WormGearPair::new(
+                    &worm,
+                    &gear,
+                    flank,
+                    worm.reference_radius_mm()
+                        + gear.reference_radius_mm()
+                        + a.profile_shift * a.module_mm,
+                    -(worm.beta_rad + gear.beta_rad),
+                )
+            };
+            (pair.context("worm/gear mesh")?, worm.reference_radius_mm())
+        }
+        Some(dw) => (
+            dressed_pair(a, dw, &gear, flank, hand_arg(a))?,
+            0.5 * dw.d_s_mm,
+        ),
+    };
+    let radii = worm_radii(a, r1, dressed)?;
+    let lim = roll_limits(&gear, flank, &pair, radii)?;
+    let f2 = gear.flank(flank);
+    let grid = flank_grid(a, &f2, &lim)?;
+    Ok(Setup {
+        pair,
+        gear,
+        grid,
+        worm_radii_mm: radii,
+    })
+}
+
+/// Conical worm and/or workpiece at the reference setting (pivots coincide, γ = −(β1 + β2)).
+pub(super) struct ConeSetup {
+    pub(super) pair: ConicalPair,
+    /// The gear's body (teeth, module, angles at z = 0) for the ISO 1328 tolerances.
+    pub(super) gear: InvoluteGear,
+    pub(super) grid: FlankGrid,
+}
+
+/// The conical set-up: beveloid worm and gear from the options, chain (29)–(31).
+///
+/// The default end of the roll range uses the gear's tip circle at the narrow end of the face,
+/// so every grid point lies on the flank.
+/// # Formula
+/// r_a,min = r + m_n − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone: addendum m_n
+/// over the local profile shift x(z) = z·tan ϑ2/m_n).
+/// # Source
+/// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED];
+/// addendum h_a = m_n, ISO
+/// 53 basic rack [STANDARD]; convention fixed here (docs/grinding.md).
+pub(super) fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
+    let gear = gear_body(a)?;
+    let flank = flank_arg(a);
+    let bev2 = BeveloidGear::new(gear, c.gear_rad)
+        .with_context(|| format!("--gear-cone-deg = {}", a.gear_cone_deg))?;
+    let bev1 = BeveloidGear::new(worm_body(a)?, c.worm_rad)
+        .with_context(|| format!("--worm-cone-deg = {}", a.worm_cone_deg))?;
+    let pair = ConicalPair::reference(&bev1, &bev2, flank)
+        .context("conical worm/gear mesh (chains (29)–(31))")?;
+    let r_tip = gear.reference_radius_mm() + a.module_mm * (1.0 + a.profile_shift)
+        - 0.5 * a.face_width_mm * c.gear_rad.tan().abs();
+    let f2 = &pair.gear;
+    let body = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
+    // the tip and root form of the body at z = 0 bound the options; the default end stays on
+    // the flank over the whole face (the tip at the narrow end)
+    let lim = RollLimits {
+        lo_mm: body.w_root_form_mm.max(1e-6),
+        hi_mm: body.w_tip_mm,
+        lo_what: "the root form circle at z = 0".to_string(),
+        hi_what: format!(
+            "the tip circle d_a = {:.4} mm at z = 0",
+            body.tip_diameter_mm
+        ),
+        default_hi_mm: (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt(),
+    };
+    let grid = flank_grid(a, f2, &lim)?;
+    Ok(ConeSetup { pair, gear, grid })
+}
+
+/// The worm of a dress config as a grinding worm, and its set-up with the gear.
+///
+/// The helicoid (r_b, β_b) is that of the design diameter d_S0 (the dressing module keeps it
+/// over the worm's life). A new worm runs at the reference setting d = d_S0/2 + r2,
+/// γ = −(β1 + β2) (R3); a redressed worm (d_S < d_S0) at d = d_S/2 + r2 with the helix angle of
+/// the same helicoid at d_S/2, tan β1(r) = tan β1(r0)·r/r0.
+pub(super) fn dressed_pair(
+    a: &SetupArgs,
+    dw: &DressWorm,
+    gear: &InvoluteGear,
+    flank: Flank,
+    hand: Hand,
+) -> Result<WormGearPair> {
+    if hand != Hand::Right {
+        anyhow::bail!(
+            "--worm-hand left with --dress: the dressing module models right-hand worms only"
+        );
+    }
+    let alpha = rad_to_deg(dw.alpha_n_rad);
+    if (dw.m_n_mm - a.module_mm).abs() > 1e-9 * a.module_mm {
+        anyhow::bail!(
+            "[worm] normal_module_mm = {} does not mesh with --module-mm {}: expected equal",
+            dw.m_n_mm,
+            a.module_mm
+        );
+    }
+    let left = a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg);
+    if (alpha - a.pressure_angle_deg).abs() > 1e-9 || (alpha - left).abs() > 1e-9 {
+        anyhow::bail!(
+            "[worm] profile_angle_deg = {alpha} does not mesh with --pressure-angle-deg {} \
+             (left {left}): expected equal on both flanks (the dressed worm is symmetric)",
+            a.pressure_angle_deg
+        );
+    }
+    let r0 = 0.5 * dw.d_s0_mm;
+    let worm = InvoluteGear::worm(dw.z_s, dw.m_n_mm, dw.alpha_n_rad, r0, Hand::Right)
+        .context("[worm] as grinding worm")?;
+    let r = 0.5 * dw.d_s_mm;
+    let beta1 = (worm.beta_rad.tan() * r / r0).atan();
+    WormGearPair::new(
+        &worm,
+        gear,
+        flank,
+        r + gear.reference_radius_mm() + gear.x_shift * gear.m_n_mm,
+        -(beta1 + gear.beta_rad),
+    )
+    .context("dressed worm/gear mesh")
+}
+
+/// The worm of the `gearcomp dress` config at `path` dressed as its `[dressing]` table asks
+/// ([`DressingInput::dress`]), tabulated for the grinding crate.
+///
+/// Glue between the crates (docs/grinding.md "Dressed worm"): both use the shared
+/// [`Flank`]; (w, b) = (w1, z1); f_nFS (mm, normal) is tabulated as is and turned into
+/// f_Ft1 = f_n/cos β_b1 by [`DressedWorm`].
+pub(super) fn dress_worm(
+    path: &std::path::Path,
+    flank: Flank,
+) -> Result<(DressWorm, DressedProfile, DressedOut)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let cfg: GrindDressConfig =
+        toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
+    let wc = &cfg.worm;
+    let design = DressWorm::design(
+        wc.starts,
+        wc.diameter_mm,
+        wc.normal_module_mm,
+        deg_to_rad(wc.profile_angle_deg),
+    )
+    .context("[worm]")?;
+    let dresser = Dresser::design(
+        &design,
+        DresserSpec {
+            d_a_mm: cfg.dresser.diameter_mm,
+            jacket_width_mm: cfg.dresser.jacket_width_mm,
+            clearance_mm: cfg.dresser.clearance_mm,
+        },
+    )
+    .context("[dresser]")?;
+    let t = cfg.dressing.dress(&design, &dresser, flank)?;
+    let worm = t.worm;
+    let profile = DressedProfile::new(
+        flank,
+        worm.r_b_mm,
+        worm.beta_b_rad,
+        t.roll_mm.clone(),
+        t.f_mm.clone(),
+        t.dressed_roll_range_mm,
+        t.contact_line_rad,
+    )
+    .context("dressed profile table")?;
+    let n = t.roll_mm.len();
+    let step = (n - 1).div_ceil(20).max(1);
+    let out = DressedOut {
+        config: path.display().to_string(),
+        correction: t.kind.name(),
+        worm_starts: worm.z_s,
+        worm_design_diameter_mm: worm.d_s0_mm,
+        worm_diameter_mm: worm.d_s_mm,
+        dresser_diameter_mm: cfg.dresser.diameter_mm,
+        dphi_s_rad: t.dk.dphi_s_rad,
+        dgamma_deg: rad_to_deg(t.dk.dgamma_rad),
+        dd_mm: t.dk.dd_mm,
+        dnu_ya_mm: t.dk.dnu_ya_mm,
+        newton_iterations: t.iterations,
+        rho_f1_deg: rad_to_deg(t.contact_line_rad),
+        rho_f1_axial_section_estimate_deg: 0.0,
+        dressed_roll_range_mm: t.dressed_roll_range_mm,
+        dressed_radius_range_mm: profile.dressed_radius_range_mm(),
+        used_roll_range_mm: (0.0, 0.0),
+        profile_um: t
+            .roll_mm
+            .iter()
+            .zip(&t.f_mm)
+            .enumerate()
+            .filter(|(i, _)| i % step == 0 || *i == n - 1)
+            .map(|(_, (w, v))| (*w, mm_to_um(*v)))
+            .collect(),
+    };
+    Ok((worm, profile, out))
+}
+
+/// A `gearcomp grind` config (`grind equalise`): gear and worm bodies, cone angles included.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct GrindConfig {
+    pub(super) gear: GearCfg,
+    pub(super) worm: WormCfg,
+    pub(super) equalise: EqualiseCfg,
+}
+
+/// [gear] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct GearCfg {
+    pub(super) teeth: u32,
+    pub(super) module_mm: f64,
+    /// Right flank (both flanks if `pressure_angle_left_deg` is absent).
+    pub(super) pressure_angle_deg: f64,
+    pub(super) pressure_angle_left_deg: Option<f64>,
+    pub(super) helix_angle_deg: f64,
+    /// Workpiece cone angle ϑ2 (0 = cylindrical gear, chain (28)/(29)).
+    #[serde(default)]
+    pub(super) cone_angle_deg: f64,
+}
+
+/// [worm] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct WormCfg {
+    pub(super) starts: u32,
+    pub(super) radius_mm: f64,
+    #[serde(default = "default_hand")]
+    pub(super) hand: String,
+    /// The worm's present cone angle ϑ1; `equalise` reports both flanks' K at it, next to the
+    /// equalising ϑ1 it searches (0 = cylindrical worm).
+    #[serde(default)]
+    pub(super) cone_angle_deg: f64,
+}
+
+pub(super) fn default_hand() -> String {
+    "right".to_owned()
+}
+
+/// [equalise] of a grind config.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct EqualiseCfg {
+    /// Wanted modification direction ρ_r2 on the gear's right flank.
+    pub(super) gear_rho_right_deg: f64,
+    /// ρ_l2 (raw flank convention: a mirror-symmetric modification has ρ_l2 = −ρ_r2).
+    pub(super) gear_rho_left_deg: f64,
+    /// Worm line directions ρ_r1/ρ_l1 (dresser contact lines, eq. (37)); both or neither
+    /// (neither = the axial-section estimate of each conical worm flank).
+    pub(super) worm_rho_right_deg: Option<f64>,
+    pub(super) worm_rho_left_deg: Option<f64>,
+    #[serde(default = "default_cone_min")]
+    pub(super) cone_min_deg: f64,
+    #[serde(default = "default_cone_max")]
+    pub(super) cone_max_deg: f64,
+}
+
+pub(super) fn default_cone_min() -> f64 {
+    -15.0
+}
+
+pub(super) fn default_cone_max() -> f64 {
+    15.0
+}
+
+/// The T14 search input from a grind config.
+pub(super) fn equalise_spec(c: &GrindConfig) -> Result<EqualiseSpec> {
+    let g = &c.gear;
+    let alpha_r = deg_to_rad(g.pressure_angle_deg);
+    let alpha_l = deg_to_rad(g.pressure_angle_left_deg.unwrap_or(g.pressure_angle_deg));
+    let gear = InvoluteGear::asymmetric(
+        g.teeth,
+        g.module_mm,
+        alpha_r,
+        alpha_l,
+        deg_to_rad(g.helix_angle_deg),
+        0.0,
+    )
+    .context("[gear]")?;
+    let gear =
+        BeveloidGear::new(gear, deg_to_rad(g.cone_angle_deg)).context("[gear] cone_angle_deg")?;
+    let hand = match c.worm.hand.as_str() {
+        "right" => Hand::Right,
+        "left" => Hand::Left,
+        other => {
+            anyhow::bail!("[worm] hand = {other:?} is not allowed: expected \"right\" or \"left\"")
+        }
+    };
+    let w = InvoluteGear::worm(c.worm.starts, g.module_mm, alpha_r, c.worm.radius_mm, hand)
+        .context("[worm]")?;
+    // (93): equal normal base pitch per flank with equal m_n fixes the worm rack's α_nF.
+    let worm = InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
+        .context("[worm]")?;
+    let e = &c.equalise;
+    let worm_lines = match (e.worm_rho_left_deg, e.worm_rho_right_deg) {
+        (Some(l), Some(r)) => WormLines::Given {
+            left_rad: deg_to_rad(l),
+            right_rad: deg_to_rad(r),
+        },
+        (None, None) => WormLines::AxialSection,
+        _ => anyhow::bail!(
+            "[equalise] worm_rho_left_deg / worm_rho_right_deg: give both (dresser contact \
+             lines) or neither (axial-section estimate)"
+        ),
+    };
+    Ok(EqualiseSpec {
+        worm,
+        gear,
+        rho2_left_rad: deg_to_rad(e.gear_rho_left_deg),
+        rho2_right_rad: deg_to_rad(e.gear_rho_right_deg),
+        worm_lines,
+        cone_range_rad: (deg_to_rad(e.cone_min_deg), deg_to_rad(e.cone_max_deg)),
+    })
+}

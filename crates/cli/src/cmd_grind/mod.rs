@@ -1,0 +1,68 @@
+//! `gearcomp grind`: generating grinding with a (dressed) worm, JP6903407B2, part 2.
+//!
+//! `simulate` grinds a gear flank with a given worm modification and diagonal ratio (envelope
+//! simulation, compared with the analytic worm→gear mapping); `solve` finds the diagonal ratio
+//! and worm modification for a wanted gear modification of the line class and verifies it by
+//! simulation. Both print a table (or `--json`) and can write an HTML report with the (w, z)
+//! deviation map and the ISO 1328-1 evaluation.
+//!
+//! `simulate --dress CONFIG.toml` closes the loop with the dressing module: the worm of the
+//! config is dressed (given ΔK, or the 3-point solve of `gearcomp dress`), its profile is
+//! tabulated and used as the grinding worm, and the ground gear is evaluated against ISO 1328.
+//!
+//! `simulate --gear-cone-deg ϑ2 --worm-cone-deg ϑ1` grinds with a conical (beveloid) workpiece
+//! and/or worm: the envelope simulation runs on the chains (29)–(31) of a [`ConicalPair`] and is
+//! compared with the conical pair's analytic map. With both angles 0 the cylindrical chain (28)
+//! runs exactly as before. `solve` with cone angles uses the conical line-class transfer
+//! (`conical_lines`) and verifies it by the same envelope simulation; `simulate --dress`
+//! refuses cone angles (conical dressing is not modelled).
+//!
+//! `equalise CONFIG.toml` reads gear and worm (with their cone angles) and finds the worm cone
+//! angle ϑ1 that gives both flanks the same diagonal ratio (A6/T14).
+//!
+//! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
+//! lengths. They are converted by the gear crates' shared `gearcomp_geometry::units` only. Exception kept for
+//! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Subcommand;
+use gearcomp_dressing::dresser::{Dresser, DresserSpec};
+use gearcomp_dressing::request::GrindDressConfig;
+use gearcomp_dressing::worm::Worm as DressWorm;
+use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
+use gearcomp_geometry::GeometryError;
+use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
+use gearcomp_grinding::conical_equalise::{
+    equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
+};
+use gearcomp_grinding::conical_lines;
+use gearcomp_grinding::contact::WormGearPair;
+use gearcomp_grinding::diagonal::{diagonal_ratio, line_map, rho1_estimate_rad, LineMap};
+use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
+use gearcomp_grinding::envelope::{AnalyticTransfer, EnvelopeGrinder};
+use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
+use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
+use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
+use gearcomp_grinding::kinematics::FeedCoupling;
+use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
+use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
+use gearcomp_grinding::GrindError;
+use gearcomp_report::{Chart, HeatAxis, HeatMap, HtmlReport, Series};
+use serde::{Deserialize, Serialize};
+
+mod args;
+mod config;
+mod output;
+mod report;
+mod run;
+
+pub use args::Args;
+pub use run::run;
+
+use args::*;
+use config::*;
+use output::*;
+use report::*;
+use run::*;

@@ -1,0 +1,128 @@
+//! The HTML report of `gearcomp grind` (deviation maps and ISO 1328-1 traces).
+
+use super::*;
+
+/// SVG heat map of a (w, z) map: w to the right, z upwards (drawn by the report crate).
+pub(super) fn heat_map_svg(title: &str, map: &MapOut, values: &[Vec<f64>]) -> String {
+    let w = HeatAxis::new("w", "roll distance", "mm", map.w_mm.clone());
+    let z = HeatAxis::new("z", "width", "mm", map.z_mm.clone());
+    HeatMap {
+        title,
+        x: &w,
+        y: &z,
+        value_unit: "µm",
+        cells: values,
+    }
+    .to_svg()
+}
+
+pub(super) fn write_report(out: &Output, path: &std::path::Path) -> Result<()> {
+    let mut r = HtmlReport::new(format!(
+        "gearcomp grind {} — {} flank",
+        out.mode, out.path.flank
+    ));
+    r.heading("Set-up and results").preformatted(&table(out));
+    r.paragraph(
+        "Deviations are transverse (f_Ft, along the base tangent), in µm, positive = material \
+         left on the gear. The ground flank is the envelope of the worm over rotation and feed; \
+         the analytic map is the first-order worm→gear mapping along the contact path.",
+    );
+    r.heading("Ground flank over (w, z)");
+    r.raw_svg(&heat_map_svg(
+        "ground f_Ft2 / µm",
+        &out.map,
+        &out.map.ground_um,
+    ));
+    r.heading(&format!("Deviation from the {}", out.deviation_reference));
+    r.raw_svg(&heat_map_svg(
+        "deviation / µm",
+        &out.map,
+        &out.map.deviation_um,
+    ));
+    // profile and helix traces of the deviation map at the evaluation lines
+    let e = &out.iso1328;
+    let jz = nearest(&out.map.z_mm, e.profile_z_mm);
+    let iw = nearest(&out.map.w_mm, e.helix_w_mm);
+    let prof: Vec<(f64, f64)> = out
+        .map
+        .w_mm
+        .iter()
+        .zip(&out.map.deviation_um)
+        .map(|(w, row)| (*w, row[jz]))
+        .collect();
+    let helix: Vec<(f64, f64)> = out
+        .map
+        .z_mm
+        .iter()
+        .zip(&out.map.deviation_um[iw])
+        .map(|(z, v)| (*z, *v))
+        .collect();
+    let prof_an: Vec<(f64, f64)> = out
+        .map
+        .w_mm
+        .iter()
+        .zip(out.map.ground_um.iter().zip(&out.map.analytic_um))
+        .map(|(w, (g, a))| (*w, g[jz] - a[jz]))
+        .collect();
+    r.chart(
+        &Chart::new(
+            format!("Profile deviation at z = {:.2} mm", out.map.z_mm[jz]),
+            "roll distance w / mm",
+            "deviation / µm",
+        )
+        .with(Series::line("deviation", prof))
+        .with(Series::line("envelope − analytic map", prof_an)),
+    )?;
+    r.chart(
+        &Chart::new(
+            format!("Helix deviation at w = {:.3} mm", out.map.w_mm[iw]),
+            "width z / mm",
+            "deviation / µm",
+        )
+        .with(Series::line("deviation", helix)),
+    )?;
+    r.heading("ISO 1328-1:2013 evaluation");
+    let rows: Vec<Vec<String>> = iso_rows(e)
+        .into_iter()
+        .map(|(n, v, t, ok)| {
+            vec![
+                n.to_string(),
+                format!("{v:.3}"),
+                format!("{t:.1}"),
+                if ok { "yes".into() } else { "NO".into() },
+            ]
+        })
+        .collect();
+    r.table(
+        &["quantity", "value / µm", "tolerance / µm", "within"],
+        &rows,
+    );
+    r.paragraph(&format!(
+        "Class {}; profile evaluation range {:.3}…{:.3} mm of roll distance (95 % of the active \
+         profile from its start), helix evaluation range {:.3}…{:.3} mm (face width less min(5 % b, \
+         m_n) per end). Verdict: {}.",
+        e.tolerances.class,
+        e.profile.range_mm.0,
+        e.profile.range_mm.1,
+        e.helix.range_mm.0,
+        e.helix.range_mm.1,
+        if e.within_tolerance { "within tolerance" } else { "out of tolerance" }
+    ));
+    r.write(path)
+        .with_context(|| format!("writing report {}", path.display()))?;
+    Ok(())
+}
+
+pub(super) fn nearest(v: &[f64], x: f64) -> usize {
+    v.iter()
+        .enumerate()
+        .fold((0, f64::INFINITY), |(bi, bd), (i, y)| {
+            let d = (y - x).abs();
+            if d < bd {
+                (i, d)
+            } else {
+                (bi, bd)
+            }
+        })
+        .0
+}

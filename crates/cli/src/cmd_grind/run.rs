@@ -1,0 +1,527 @@
+//! Running `gearcomp grind simulate | solve | equalise`: calls the grinding and dressing
+//! crates, generic over the mesh (cylindrical `WormGearPair` or conical `ConicalPair`).
+
+use super::*;
+
+/// Runs `gearcomp grind`.
+pub fn run(args: Args) -> Result<()> {
+    match args.command {
+        GrindCommand::Simulate(a) => simulate(a),
+        GrindCommand::Solve(a) => solve(a),
+        GrindCommand::Equalise(a) => equalise(a),
+    }
+}
+
+pub(super) fn poly_um(coeffs: &[f64]) -> Poly {
+    Poly(coeffs.iter().map(|&c| um_to_mm(c)).collect())
+}
+
+pub(super) fn poly_to_um(p: &Poly) -> Vec<f64> {
+    p.0.iter().map(|&c| mm_to_um(c)).collect()
+}
+
+/// What `grind_and_report` takes beyond the mesh and the worm.
+#[derive(Default)]
+pub(super) struct Extras {
+    pub(super) worm_radii_mm: Option<(f64, f64)>,
+    /// A flank already ground with this worm (the iterated solve's last simulation).
+    pub(super) pre_ground: Option<GroundFlank>,
+    pub(super) solve: Option<SolveOut>,
+}
+
+/// The worm that grinds: a line modification from the command line, or a dressed worm.
+pub(super) enum WormUsed<'a> {
+    Line(&'a LineModification),
+    Dressed(&'a DressedWorm, Box<DressedOut>),
+}
+
+/// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank: the
+/// involute helicoid, or the nominal beveloid flank on a conical gear).
+///
+/// `gear` is the workpiece body at z = 0 (reference diameter and module for the ISO 1328
+/// tolerances). The cylindrical [`WormGearPair`] runs the library's `Grinder` (which is
+/// `EnvelopeGrinder<WormGearPair>`), a [`ConicalPair`] the same algorithm on chains (29)–(31).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn grind_and_report<M: GrindMesh>(
+    mode: &'static str,
+    mesh: &M,
+    gear: &InvoluteGear,
+    g: FlankGrid,
+    cones: Cones,
+    a: &SetupArgs,
+    k: f64,
+    lm: Option<LineMap>,
+    worm: WormUsed<'_>,
+    wanted: Option<&LineModification>,
+    extras: Extras,
+) -> Result<Output> {
+    let (worm_mod, worm_out, dressed_out): (&dyn FlankModification, _, _) = match worm {
+        WormUsed::Line(m) => (m, Some(LineModOut::from(m)), None),
+        WormUsed::Dressed(d, o) => (d, None, Some(*o)),
+    };
+    let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
+    let ground = match extras.pre_ground {
+        Some(pre) => pre,
+        None => {
+            let mut grinder =
+                EnvelopeGrinder::new(mesh, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
+            if let Some((root, tip)) = extras.worm_radii_mm {
+                grinder = grinder
+                    .with_worm_radii(root, tip)
+                    .context("--worm-root-radius-mm/--worm-tip-radius-mm")?;
+            }
+            let mut ground = GroundFlank::new(g);
+            grinder.grind_flank(&mut ground).context(
+                "grinding simulation (check --roll-start-mm/--roll-end-mm against the worm's \
+                 --worm-root-radius-mm/--worm-tip-radius-mm, --shift-offset-mm and the worm \
+                 modification)",
+            )?;
+            ground
+        }
+    };
+    let mut flagged = Vec::new();
+    let mut design_mm = Vec::with_capacity(g.len());
+    let mut ground_mm = Vec::with_capacity(g.len());
+    let mut map = MapOut {
+        w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
+        z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
+        ground_um: Vec::with_capacity(g.n_w),
+        analytic_um: Vec::with_capacity(g.n_w),
+        deviation_um: Vec::with_capacity(g.n_w),
+    };
+    let mut dev_mm = Vec::with_capacity(g.len());
+    let (mut max_g, mut max_ga, mut max_d) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..g.n_w {
+        let (mut rg, mut ra, mut rd) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..g.n_z {
+            let (w, z) = (g.w_mm(i), g.z_mm(j));
+            let f = ground.at(i, j).f_ft_mm;
+            let an = mesh
+                .predicted_gear_f_ft_mm(&cpl, worm_mod, w, z)
+                .with_context(|| format!("analytic map of the {}", M::NAME))?;
+            let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
+            dev_mm.push(f - design);
+            design_mm.push(f - wanted.map_or(an, |m| m.f_ft_mm(w, z)));
+            ground_mm.push(f);
+            let gp = ground.at(i, j);
+            if !gp.explained {
+                flagged.push(FlaggedPoint {
+                    w_mm: w,
+                    z_mm: z,
+                    ground_um: mm_to_um(f),
+                    analytic_um: mm_to_um(an),
+                    second_order_um: gp.second_order_f_ft_mm.map(mm_to_um),
+                    reason: if gp.worm_edge {
+                        "the worm grinds this point with its tip or root edge"
+                    } else {
+                        "envelope and analytic map differ beyond their second-order terms"
+                    },
+                });
+            }
+            max_g = max_g.max(f.abs());
+            max_ga = max_ga.max((f - an).abs());
+            max_d = max_d.max((f - design).abs());
+            rg.push(mm_to_um(f));
+            ra.push(mm_to_um(an));
+            rd.push(mm_to_um(f - design));
+        }
+        map.ground_um.push(rg);
+        map.analytic_um.push(ra);
+        map.deviation_um.push(rd);
+    }
+    let tol = tolerances(
+        2.0 * gear.reference_radius_mm(),
+        gear.m_n_mm,
+        a.face_width_mm,
+        a.class,
+    )
+    .context("ISO 1328-1 tolerances")?;
+    let iso = DeviationMap::new(g, dev_mm)?
+        .evaluate(tol, gear.m_n_mm)
+        .context("ISO 1328-1 evaluation")?;
+    let d_mm = 2.0 * gear.reference_radius_mm();
+    let traces = |v: Vec<f64>| -> Result<MultiTraceEvaluation> {
+        DeviationMap::new(g, v)?
+            .evaluate_traces(d_mm, gear.m_n_mm, a.face_width_mm, a.class, 3)
+            .context("ISO 1328-1 evaluation (three traces)")
+    };
+    let iso_traces = TracesOut {
+        design_reference: if wanted.is_some() {
+            "wanted gear modification"
+        } else {
+            "analytic worm → gear map of the given worm"
+        },
+        from_design: traces(design_mm)?,
+        from_involute: traces(ground_mm)?,
+    };
+    let mut warnings = Vec::new();
+    for reason in [
+        "the worm grinds this point with its tip or root edge",
+        "envelope and analytic map differ beyond their second-order terms",
+    ] {
+        let pts: Vec<&FlaggedPoint> = flagged.iter().filter(|p| p.reason == reason).collect();
+        if let Some(p) = pts.first() {
+            warnings.push(format!(
+                "{} of {} points: {reason} (first at w = {:.4} mm, z = {:.4} mm: envelope {:.4} \
+                 µm, analytic {:.4} µm); see flagged_points",
+                pts.len(),
+                g.len(),
+                p.w_mm,
+                p.z_mm,
+                p.ground_um,
+                p.analytic_um
+            ));
+        }
+    }
+    if let Some(sv) = &extras.solve {
+        if !sv.converged {
+            warnings.push(format!(
+                "the iterated solve stopped at {:.4} µm remaining deviation ({:.3} % of the \
+                 wish), above its tolerance {:.4} µm",
+                sv.remaining_um, sv.remaining_percent_of_wish, sv.tolerance_um
+            ));
+        }
+    }
+    Ok(Output {
+        mode,
+        worm_cone_deg: cones.worm_deg,
+        gear_cone_deg: cones.gear_deg,
+        path: mesh.path_out(),
+        diagonal_ratio: k,
+        shift_offset_mm: a.shift_offset_mm,
+        line_map: lm,
+        worm_modification: worm_out,
+        dressed_worm: dressed_out,
+        wanted_gear_modification: wanted.map(LineModOut::from),
+        max_abs_ground_um: mm_to_um(max_g),
+        max_abs_ground_minus_analytic_um: mm_to_um(max_ga),
+        max_abs_deviation_um: mm_to_um(max_d),
+        deviation_reference: if wanted.is_some() {
+            "wanted gear modification"
+        } else if cones.gear_rad != 0.0 {
+            "nominal beveloid flank"
+        } else {
+            "unmodified involute flank"
+        },
+        iso1328: iso,
+        iso1328_traces: iso_traces,
+        profile_shift: a.profile_shift,
+        worm_radii_mm: extras.worm_radii_mm,
+        flagged_points: flagged,
+        warnings,
+        solve: extras.solve,
+        map,
+    })
+}
+
+pub(super) fn simulate(a: SimulateArgs) -> Result<()> {
+    let c = cones(&a.setup)?;
+    if !c.is_cylindrical() {
+        if a.dress.is_some() {
+            anyhow::bail!(
+                "--dress with --worm-cone-deg = {} / --gear-cone-deg = {}: grinding with a \
+                 dressed worm is modelled for a cylindrical worm and gear only (dressing of \
+                 conical worms is not supported); give both cone angles 0, or a worm \
+                 modification (--worm-c/--worm-l/--worm-q) instead of --dress",
+                a.setup.worm_cone_deg,
+                a.setup.gear_cone_deg
+            );
+        }
+        return simulate_conical(&a, c);
+    }
+    if let Some(path) = &a.dress {
+        return simulate_dressed(&a, path);
+    }
+    let s = setup(&a.setup, None)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
+    let worm_mod = LineModification::new(
+        rho1,
+        s.pair.worm.w_ref_mm,
+        poly_um(&a.worm_c),
+        poly_um(&a.worm_l),
+        poly_um(&a.worm_q),
+    )
+    .context("worm modification")?;
+    let (k, lm) = diagonal_choice(&a, &s, rho1)?;
+    let out = grind_and_report(
+        "simulate",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
+        &a.setup,
+        k,
+        lm,
+        WormUsed::Line(&worm_mod),
+        None,
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            ..Extras::default()
+        },
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// `simulate` with a conical worm and/or workpiece (chains (29)–(31)).
+///
+/// ρ_F1 defaults to the axial-section estimate of the conical worm flank; --gear-rho-deg picks
+/// K_ZV1 and, where it exists, the line map X_F1 = k·X_F2 + c0 of the conical chain
+/// (`conical_line_map`; not for profile lines ρ_F2 = ±90° on a feed-dependent (86)).
+pub(super) fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
+    let s = setup_conical(&a.setup, c)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
+    let worm_mod = LineModification::new(
+        rho1,
+        s.pair.worm.w_ref_mm,
+        poly_um(&a.worm_c),
+        poly_um(&a.worm_l),
+        poly_um(&a.worm_q),
+    )
+    .context("worm modification")?;
+    let (k, lm) = match (a.diagonal_ratio, a.gear_rho_deg) {
+        (Some(k), _) => (k, None),
+        (None, Some(r2)) => {
+            let r2 = deg_to_rad(r2);
+            let k = s
+                .pair
+                .diagonal_ratio(rho1, r2)
+                .context("diagonal ratio for --gear-rho-deg (conical)")?;
+            // the line map exists wherever K does, except for profile lines on a chain whose
+            // roll relation (86) depends on the feeds; then only K is reported
+            let lm = conical_lines::conical_line_map(&s.pair, rho1, r2, a.setup.shift_offset_mm)
+                .ok()
+                .map(|m| m.line);
+            (k, lm)
+        }
+        (None, None) => (0.0, None),
+    };
+    let out = grind_and_report(
+        "simulate",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        c,
+        &a.setup,
+        k,
+        lm,
+        WormUsed::Line(&worm_mod),
+        None,
+        Extras::default(),
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// K_ZV1 from --diagonal-ratio, or from --gear-rho-deg and the worm line direction ρ_F1.
+pub(super) fn diagonal_choice(
+    a: &SimulateArgs,
+    s: &Setup,
+    rho1: f64,
+) -> Result<(f64, Option<LineMap>)> {
+    Ok(match (a.diagonal_ratio, a.gear_rho_deg) {
+        (Some(k), _) => (k, None),
+        (None, Some(r2)) => {
+            let lm = line_map(&s.pair, rho1, deg_to_rad(r2), a.setup.shift_offset_mm)
+                .context("diagonal ratio for --gear-rho-deg")?;
+            (lm.k_zv1, Some(lm))
+        }
+        (None, None) => (0.0, None),
+    })
+}
+
+pub(super) fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Result<()> {
+    let flank = a.setup.flank;
+    let (dworm, profile, mut dout) = dress_worm(path, flank)?;
+    let s = setup(&a.setup, Some(&dworm))?;
+    let worm = DressedWorm::new(profile, &s.pair.worm).context("dressed worm")?;
+    worm.check_covers(&s.pair, s.grid.w_range_mm)
+        .context("gear roll range (--roll-start-mm/--roll-end-mm) on the dressed worm")?;
+    dout.used_roll_range_mm = DressedWorm::used_roll_range_mm(&s.pair, s.grid.w_range_mm);
+    dout.rho_f1_axial_section_estimate_deg = rad_to_deg(rho1_estimate_rad(&s.pair));
+    let rho1 = a.worm_rho_deg.map_or_else(|| worm.rho_f1_rad(), deg_to_rad);
+    let (k, lm) = diagonal_choice(a, &s, rho1)?;
+    let out = grind_and_report(
+        "simulate",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
+        &a.setup,
+        k,
+        lm,
+        WormUsed::Dressed(&worm, Box::new(dout)),
+        None,
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            ..Extras::default()
+        },
+    )?;
+    emit(&out, &a.setup)
+}
+
+pub(super) fn solve(a: SolveArgs) -> Result<()> {
+    let c = cones(&a.setup)?;
+    if !c.is_cylindrical() {
+        return solve_conical(&a, c);
+    }
+    let s = setup(&a.setup, None)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
+    let wanted = LineModification::new(
+        deg_to_rad(a.gear_rho_deg),
+        s.pair.gear.w_ref_mm,
+        poly_um(&a.gear_c),
+        poly_um(&a.gear_l),
+        poly_um(&a.gear_q),
+    )
+    .context("wanted gear modification")?;
+    let opts = IterationOptions::default();
+    let it = solve_iterated(
+        &s.pair,
+        &wanted,
+        rho1,
+        a.setup.shift_offset_mm,
+        s.grid,
+        s.worm_radii_mm,
+        &opts,
+    )
+    .context(
+        "worm modification for the wanted gear modification (iterated on the envelope; check \
+         --gear-c/--gear-l/--gear-q, --worm-rho-deg, --roll-start-mm/--roll-end-mm and \
+         --worm-root-radius-mm/--worm-tip-radius-mm)",
+    )?;
+    let (lm, worm_mod) = (it.line_map, it.worm.clone());
+    // the same K from the closed form, as a cross-check of the line map
+    let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
+    let tol_mm = (opts.rel_tol * it.wish_max_abs_mm).max(opts.abs_tol_mm);
+    let solve_out = SolveOut {
+        iterations: it
+            .iterations
+            .iter()
+            .map(|i| SolveIterationOut {
+                iteration: i.iteration,
+                max_abs_deviation_um: mm_to_um(i.max_abs_deviation_mm),
+            })
+            .collect(),
+        wish_max_abs_um: mm_to_um(it.wish_max_abs_mm),
+        remaining_um: mm_to_um(it.remaining_mm),
+        remaining_percent_of_wish: if it.wish_max_abs_mm > 0.0 {
+            100.0 * it.remaining_mm / it.wish_max_abs_mm
+        } else {
+            0.0
+        },
+        tolerance_um: mm_to_um(tol_mm),
+        converged: it.converged,
+        first_order_worm: LineModOut::from(&it.first_order_worm),
+    };
+    let out = grind_and_report(
+        "solve",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        Cones::CYLINDRICAL,
+        &a.setup,
+        k,
+        Some(lm),
+        WormUsed::Line(&worm_mod),
+        Some(&wanted),
+        Extras {
+            worm_radii_mm: Some(s.worm_radii_mm),
+            pre_ground: Some(it.ground),
+            solve: Some(solve_out),
+        },
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// `solve` with a conical worm and/or workpiece (chains (29)–(31)): the conical line-class
+/// transfer (`conical_lines::worm_modification_for_gear`), verified by the envelope simulation
+/// of the worm it computes, as on the cylindrical chain.
+///
+/// ρ_F1 defaults to the axial-section estimate of the conical worm flank; the wanted gear
+/// modification is referred to the gear flank's reference roll distance, the worm's to
+/// w_01 = a'·w_02 + g (the worm roll distance along the gear line, docs/grinding.md).
+pub(super) fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
+    let s = setup_conical(&a.setup, c)?;
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
+    let wanted = LineModification::new(
+        deg_to_rad(a.gear_rho_deg),
+        s.pair.gear.w_ref_mm,
+        poly_um(&a.gear_c),
+        poly_um(&a.gear_l),
+        poly_um(&a.gear_q),
+    )
+    .context("wanted gear modification")?;
+    let (lm, worm_mod) =
+        conical_lines::worm_modification_for_gear(&s.pair, &wanted, rho1, a.setup.shift_offset_mm)
+            .context("worm modification for the wanted gear modification (conical chain)")?;
+    let out = grind_and_report(
+        "solve",
+        &s.pair,
+        &s.gear,
+        s.grid,
+        c,
+        &a.setup,
+        lm.line.k_zv1,
+        Some(lm.line),
+        WormUsed::Line(&worm_mod),
+        Some(&wanted),
+        Extras::default(),
+    )?;
+    emit(&out, &a.setup)
+}
+
+/// `grind equalise`: T14 on a config, ϑ1 and both flanks' K.
+pub(super) fn equalise(a: EqualiseArgs) -> Result<()> {
+    let text = std::fs::read_to_string(&a.config)
+        .with_context(|| format!("reading {}", a.config.display()))?;
+    let cfg: GrindConfig =
+        toml::from_str(&text).with_context(|| format!("parsing {}", a.config.display()))?;
+    let spec = equalise_spec(&cfg)?;
+    let given = deg_to_rad(cfg.worm.cone_angle_deg);
+    let at_given = flank_ratios(&spec, given).context("[worm] cone_angle_deg")?;
+    let e: Equalised = match equalise_worm_cone_angle(&spec) {
+        Ok(e) => e,
+        Err(GrindError::NoRoot { at_min, at_max, .. }) => anyhow::bail!(
+            "no worm cone angle in [{}°, {}°] ([equalise] cone_min_deg/cone_max_deg) gives both \
+             flanks the same diagonal ratio: K_l − K_r = {at_min:.6} at {}° and {at_max:.6} at \
+             {}° (no sign change); widen the range, or change the worm lines or the wanted \
+             directions",
+            cfg.equalise.cone_min_deg,
+            cfg.equalise.cone_max_deg,
+            cfg.equalise.cone_min_deg,
+            cfg.equalise.cone_max_deg
+        ),
+        Err(other) => return Err(other).context("[equalise]"),
+    };
+    let out = EqualiseOut {
+        mode: "equalise",
+        gear_cone_deg: cfg.gear.cone_angle_deg,
+        gear_rho_left_deg: cfg.equalise.gear_rho_left_deg,
+        gear_rho_right_deg: cfg.equalise.gear_rho_right_deg,
+        worm_lines: match spec.worm_lines {
+            WormLines::Given { .. } => "given",
+            WormLines::AxialSection => "axial-section estimate",
+        },
+        cone_range_deg: (cfg.equalise.cone_min_deg, cfg.equalise.cone_max_deg),
+        cone1_deg: rad_to_deg(e.cone1_rad),
+        k_zv1: e.k_zv1,
+        equalised: flank_k_out(
+            e.cone1_rad,
+            (e.k_left, e.k_right, e.rho1_left_rad, e.rho1_right_rad),
+        ),
+        at_given_cone: flank_k_out(given, at_given),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        print!("{}", equalise_table(&out));
+    }
+    Ok(())
+}
