@@ -1,4 +1,4 @@
-//! `gearcomp shape`: the electronic helical guide for CNC gear shaping (seed 002).
+//! `gearcomp shape`: the electronic helical guide for CNC gear shaping (Procedia CIRP 56 (2016) 173–177).
 //!
 //! `gearcomp shape run program.nc` parses the G83 cycle(s), checks feasibility, runs the whole
 //! cut through the interpolator (exact coupling check), simulates the last strokes with the
@@ -373,7 +373,9 @@ fn write_report(
     reports: &[CycleReport],
     sims: &[SimulationResult],
 ) -> anyhow::Result<()> {
-    let mut html = HtmlReport::new("gearcomp shape: electronic helical guide (seed 002)");
+    let mut html = HtmlReport::new(
+        "gearcomp shape: electronic helical guide (Procedia CIRP 56 (2016) 173–177)",
+    );
     for (r, sim) in reports.iter().zip(sims) {
         html.heading(&format!("G83, line {}", r.line));
         html.preformatted(&r.block);

@@ -11,9 +11,9 @@
 //! δT = shrink(Ta − Tb),  Ta = intercept + Σ a_i · transform_i(t_i)    (workpiece, optional)
 //! ```
 //!
-//! The machine part is a multiple linear regression (seed 003 eqs. (3)–(5); seed 001's
+//! The machine part is a multiple linear regression (CN105397560 eqs. (3)–(5); JPH0761598B2's
 //! Cz = Kd·T + α and Cz = Kz·(A − B) are special cases of it). The workpiece part is the
-//! dry-hobbing thermal shrink of seed 003 eq. (7), exact form (7*) of
+//! dry-hobbing thermal shrink of CN105397560 eq. (7), exact form (7*) of
 //! `docs/conventions.md`.
 //!
 //! # Conventions fixed by the project
@@ -253,11 +253,11 @@ pub enum Transform {
     },
 }
 
-/// Workpiece thermal-shrink compensation for dry cutting (seed 003, eq. (7)).
+/// Workpiece thermal-shrink compensation for dry cutting (CN105397560, eq. (7)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkpieceShrink {
-    /// Workpiece temperature right after cutting, Ta in °C (seed 003 regression).
+    /// Workpiece temperature right after cutting, Ta in °C (CN105397560 regression).
     pub temperature: LinearModel,
     /// Design (measuring-room) temperature Tb in °C.
     pub design_temp_c: f64,
@@ -298,7 +298,7 @@ pub enum ReferenceRadius {
     /// Reference (pitch) circle: what span and tooth-thickness measurements see.
     #[default]
     Pitch,
-    /// Tip circle (the literal reading of seed 003 eq. (7)).
+    /// Tip circle (the literal reading of CN105397560 eq. (7)).
     Tip,
 }
 
@@ -538,7 +538,7 @@ mod tests {
 
     const EXAMPLE: &str = r#"
 format = "gearcomp-thermal-model/1"
-name = "grinder Z, seed 001"
+name = "grinder Z, JPH0761598B2"
 
 [[axes]]
 axis = "Z"

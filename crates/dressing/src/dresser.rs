@@ -26,7 +26,7 @@ impl Nominal {
     /// (kept over the worm's life: "uncorrected" = only the centre distance follows the
     /// diameter), ν_yA,0 = 0
     /// # Source
-    /// docs/dressing.md "Conventions fixed here (the seed leaves them open)" [RECONSTRUCTED]; JP6903407B2, claim 1, lead-coupled ν_zS of the worm dressing description [SEED]
+    /// docs/dressing.md "Conventions fixed here (JP6903407B2 leaves them open)" [RECONSTRUCTED]; JP6903407B2, claim 1, lead-coupled ν_zS of the worm dressing description [SEED]
     pub fn for_worm(worm: &Worm, d_a_mm: f64) -> Self {
         Self {
             d_mm: worm.r_f_mm + d_a_mm / 2.0,

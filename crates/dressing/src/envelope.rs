@@ -629,7 +629,7 @@ impl DressingSetup {
     /// w_Nf dressed by the fillet/flank tangent point of the dresser.
     ///
     /// # Source
-    /// docs/dressing.md "Conventions fixed here (the seed leaves them open)", docs/dressing.md "Derivation: dresser envelope and tip fillet" [RECONSTRUCTED]
+    /// docs/dressing.md "Conventions fixed here (JP6903407B2 leaves them open)", docs/dressing.md "Derivation: dresser envelope and tip fillet" [RECONSTRUCTED]
     pub fn active_profile(&self, flank: Flank) -> Result<(f64, f64)> {
         let side = self.dresser.side(flank);
         let r_t = self.dresser.profile(side.u_tangent_mm * side.z_sign).0;

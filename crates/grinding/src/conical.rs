@@ -22,7 +22,7 @@ use crate::error::{check_range, GrindError, Result};
 use crate::flank::{Flank, InvoluteFlank, InvoluteGear};
 use crate::kinematics::FeedCoupling;
 
-/// Largest cone angle accepted, 50° (the seed's upper bound for a conical tool).
+/// Largest cone angle accepted, 50° (JP6903407B2's upper bound for a conical tool).
 pub const MAX_CONE_ANGLE_RAD: f64 = 50.0 * std::f64::consts::PI / 180.0;
 
 /// Smallest cos β_bF accepted for a beveloid flank (base helix angle below 89.9°).
@@ -211,8 +211,8 @@ impl ConeChain {
     /// K_R = R_z(−φ1)·T_y(r_w1)·R_x(−ϑ1)·T_z(−z_V1)·T_y(d − r_w1 − r_w2)·R_y(γ)·T_z(z_V2)
     ///       ·R_x(−ϑ2)·T_y(r_w2)·R_z(φ2)
     /// ϑ2 = 0: conical tool (29); ϑ1 = 0: conical workpiece (30); both: (31); ϑ1 = ϑ2 = 0 is
-    /// (28) exactly. Relative to the printed chains: the seed's VARθ1 = −ϑ1 (our ϑ > 0 widens
-    /// the body towards +z on both bodies), and the seed's T_y(−r_w2) pivots the workpiece on
+    /// (28) exactly. Relative to the printed chains of JP6903407B2: its VARθ1 = −ϑ1 (our ϑ > 0 widens
+    /// the body towards +z on both bodies), and its T_y(−r_w2) pivots the workpiece on
     /// the side away from the worm, which leaves the axes at r_w1 + d − r_w2 for ϑ → 0; we pivot
     /// on the mesh side and write the axis distance d explicitly.
     /// # Units

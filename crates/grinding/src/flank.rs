@@ -1,5 +1,5 @@
 //! Involute gears and worms as involute helicoids parameterised by roll distance w and
-//! width position z (the (w, z) plane of the seed), one [`InvoluteFlank`] per flank.
+//! width position z (the (w, z) plane of JP6903407B2), one [`InvoluteFlank`] per flank.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,6 @@
 //! Flank modifications over the (w, z) plane: the line class (25)/(26), quadratic polynomials
 //! (101) and crowning (103). All values are transverse modifications f_Ft in mm
-//! (> 0 = more material), as the seed uses them.
+//! (> 0 = more material), as JP6903407B2 uses them.
 
 use serde::{Deserialize, Serialize};
 
@@ -95,7 +95,7 @@ impl Poly {
 ///
 /// # Formula
 /// f_Ft(w, z) = F_C(X) + F_L(X)·(w − w_0) + F_Q(X)·(w − w_0)², X = w·sin ρ + z·cos ρ.
-/// The seed writes it with w_0 = 0; the reference roll distance w_0 (a convention fixed here)
+/// JP6903407B2 writes it with w_0 = 0; the reference roll distance w_0 (a convention fixed here)
 /// keeps coefficients small and well conditioned. ρ = 0: pure lead modification; ρ = ±π/2:
 /// pure profile modification.
 /// # Units

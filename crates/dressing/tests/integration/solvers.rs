@@ -11,7 +11,7 @@ use gearcomp_dressing::DressError;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
-/// The 3-point crowning problem of docs/dressing.md "Conventions fixed here (the seed leaves them open)": f = (0, −c, 0) at 5/50/95 % of the
+/// The 3-point crowning problem of docs/dressing.md "Conventions fixed here (JP6903407B2 leaves them open)": f = (0, −c, 0) at 5/50/95 % of the
 /// active profile, the dresser radius that dresses w_Na uncorrected still dresses w_Na.
 fn crowning(s: &DressingSetup, c_mm: f64) -> (ThreePoint, (f64, f64)) {
     let fl = Flank::Right;
