@@ -9,17 +9,9 @@ fn write_config_here(name: &str, text: &str) -> PathBuf {
 
 use std::path::PathBuf;
 
-const CONFIG: &str = r#"
-[worm]
-starts = 5
-diameter_mm = 160.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 100.0
-jacket_width_mm = 0.8
-
+const CONFIG: &str = concat!(
+    include_str!("../fixtures/worm_z5_dresser.toml"),
+    r#"
 [solve]
 flank = "right"
 method = "three-point"
@@ -28,7 +20,8 @@ crowning_um = 0.2
 [plan]
 diameters_mm = [160.0, 150.0, 140.0]
 budget_mm = 0.1
-"#;
+"#
+);
 
 /// `dress solve --json` reproduces the docs/dressing.md "Reference case G1-Z5" root and profile for G1-Z5, c = 0.2 µm.
 #[test]

@@ -16,17 +16,9 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::simulation::{simulate, SimSpec};
 use gearcomp_dressing::worm::{Flank, Worm};
 
-const CONFIG: &str = r#"
-[worm]
-starts = 5
-diameter_mm = 160.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 100.0
-jacket_width_mm = 0.8
-
+const CONFIG: &str = concat!(
+    include_str!("../fixtures/worm_z5_dresser.toml"),
+    r#"
 [solve]
 flank = "right"
 method = "three-point"
@@ -36,7 +28,8 @@ contact_point = { w_fraction = 0.5, b_mm = 20.0 }
 [plan]
 diameters_mm = [160.0, 150.0, 140.0]
 zero_stretch = true
-"#;
+"#
+);
 
 /// D5 through the CLI: `dress solve` with `contact_point` reports ν_zS; the full time-stepped
 /// simulation (an independent method: vectors shortened at discrete dresser poses) aborted at

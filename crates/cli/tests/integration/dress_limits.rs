@@ -9,21 +9,14 @@ use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
 /// G1-Z5 (docs/dressing.md "Reference case G1-Z5") with a [solve] table to fill in.
-const BASE: &str = r#"
-[worm]
-starts = 5
-diameter_mm = 160.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 100.0
-jacket_width_mm = 0.8
-
+const BASE: &str = concat!(
+    include_str!("../fixtures/worm_z5_dresser.toml"),
+    r#"
 [solve]
 flank = "right"
 method = "three-point"
-"#;
+"#
+);
 
 fn solve(name: &str, solve_lines: &str, json: bool) -> std::process::Output {
     let cfg = write_config(

@@ -17,17 +17,9 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::topology::contact_point;
 use gearcomp_dressing::worm::{Flank, Worm};
 
-const CONFIG: &str = r#"
-[worm]
-starts = 5
-diameter_mm = 160.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 100.0
-jacket_width_mm = 0.8
-
+const CONFIG: &str = concat!(
+    include_str!("../fixtures/worm_z5_dresser.toml"),
+    r#"
 [solve]
 flank = "right"
 method = "three-point"
@@ -36,7 +28,8 @@ method = "three-point"
 positions = 3
 b_range_mm = [-10.0, 10.0]
 crowning_table = [[-10.0, 0.1], [10.0, 0.3]]
-"#;
+"#
+);
 
 /// G1-Z5 with its gap-filling dresser (docs/dressing.md "Reference case G1-Z5"), built here from the library directly.
 fn g1_z5() -> DressingSetup {

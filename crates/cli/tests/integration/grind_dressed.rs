@@ -21,30 +21,10 @@ use std::process::Command;
 
 /// Worm G1 (docs/dressing.md "Reference case G1 and its worms") (1 start, d_S0 = 280 mm) and its
 /// dresser.
-const G1: &str = r#"
-[worm]
-starts = 1
-diameter_mm = 280.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 125.0
-jacket_width_mm = 0.8
-"#;
+const G1: &str = include_str!("../fixtures/worm_g1_dresser.toml");
 
 /// Worm G1-Z5 (docs/dressing.md "Reference case G1-Z5") and its dresser.
-const Z5: &str = r#"
-[worm]
-starts = 5
-diameter_mm = 160.0
-normal_module_mm = 3.0
-profile_angle_deg = 20.0
-
-[dresser]
-diameter_mm = 100.0
-jacket_width_mm = 0.8
-"#;
+const Z5: &str = include_str!("../fixtures/worm_z5_dresser.toml");
 
 /// cos β_b2 of gear G1 (β = 15°, α_n = 20°: β_b = 14.076095°).
 const COS_BETA_B2: f64 = 0.969_974;
