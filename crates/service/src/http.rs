@@ -200,10 +200,64 @@ fn live(st: &AppState) -> Live {
     }
 }
 
-async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
+/// What each axis and engine status means, as `/api/status` (`legend`), the dashboard and
+/// docs/service.md show it.
+pub const STATUS_LEGEND: &[(&str, &str)] = &[
+    (
+        "starting",
+        "not every channel of the law has an averaged value yet; offset 0",
+    ),
+    (
+        "updated",
+        "the running compensation followed the law (it moved by at least the dead band D)",
+    ),
+    (
+        "held",
+        "the law is within the dead band D of the running compensation, which is kept",
+    ),
+    (
+        "clamped",
+        "the law exceeded max_offset_um; the compensation is limited to it",
+    ),
+    (
+        "ramping",
+        "the applied offset moves to the compensation at the rate limit (max_step_um per cycle)",
+    ),
+    (
+        "waiting_safe_point",
+        "a change waits for the next safe point (safe_points_only)",
+    ),
+    (
+        "frozen",
+        "a channel of the law is faulty or a position is missing: compensation frozen at its last good value",
+    ),
+    (
+        "stopped",
+        "a limit was violated: stop requested, no correction until an operator acknowledges it",
+    ),
+    ("running", "engine: every input good"),
+    ("alarm", "engine: at least one alarm this cycle; the affected axes are frozen"),
+    (
+        "stop_requested",
+        "engine: a limit was violated; the stop is latched until acknowledged",
+    ),
+];
+
+/// The unit of a channel's raw reading and of its converted value.
+pub fn channel_units(sensor: &gearcomp_thermal::SensorKind) -> (&'static str, &'static str) {
+    use gearcomp_thermal::SensorKind as K;
+    match sensor {
+        K::Celsius {} => ("°C", "°C"),
+        K::Pt100 {} | K::Pt1000 {} | K::NtcBeta { .. } | K::NtcSteinhartHart { .. } => ("Ω", "°C"),
+        K::Displacement { .. } => ("raw unit (value = gain·raw + offset)", "µm"),
     }
+}
+
+async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
+    let who = match authorize(&st, &headers, None, Role::ReadOnly) {
+        Ok(w) => w,
+        Err(r) => return r,
+    };
     let l = live(&st);
     let source = st
         .model
@@ -218,6 +272,15 @@ async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
         "time_s": l.time_s,
         "clock_origin_s": st.clock.origin_s(),
         "speedup": st.clock.speedup(),
+        // A service time t happened at unix_s − (time_s − t) / speedup (wall clock, s since
+        // the Unix epoch); exact within this run.
+        "wall_clock": {
+            "unix_s": storage::unix_now_s(),
+            "time_s": st.clock.now_s(),
+            "speedup": st.clock.speedup(),
+        },
+        "role": who.role.name(),
+        "legend": STATUS_LEGEND.iter().map(|(k, v)| (*k, *v)).collect::<std::collections::BTreeMap<_, _>>(),
         "uptime_s": st.started.elapsed().as_secs_f64(),
         "status": l.status,
         "cycles": l.cycles,
@@ -250,7 +313,29 @@ async fn channels(State(st): State<Shared>, headers: HeaderMap) -> Response {
     if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
         return r;
     }
-    Json(live(&st).channels).into_response()
+    let sensors: Vec<gearcomp_thermal::SensorKind> = match st.model.lock() {
+        Ok(m) => m.config.channels.iter().map(|c| c.sensor).collect(),
+        Err(p) => p
+            .into_inner()
+            .config
+            .channels
+            .iter()
+            .map(|c| c.sensor)
+            .collect(),
+    };
+    let rows: Vec<serde_json::Value> = live(&st)
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let (raw_unit, unit) = sensors.get(i).map_or(("", ""), channel_units);
+            let mut v = json!(c);
+            v["raw_unit"] = json!(raw_unit);
+            v["unit"] = json!(unit);
+            v
+        })
+        .collect();
+    Json(rows).into_response()
 }
 
 #[derive(Debug, Deserialize)]
@@ -262,14 +347,36 @@ struct RangeQuery {
     kind: Option<String>,
     active: Option<bool>,
     unacknowledged: Option<bool>,
+    last_s: Option<f64>,
+    max_points: Option<u32>,
 }
 
-fn range(q: &RangeQuery) -> Result<Range, Response> {
-    let r = Range {
+/// Most points `max_points` may ask for.
+pub const MAX_POINTS: u32 = 2000;
+
+fn range(st: &AppState, q: &RangeQuery) -> Result<Range, Response> {
+    let mut r = Range {
         from_s: q.from_s.unwrap_or(f64::MIN),
         to_s: q.to_s.unwrap_or(f64::MAX),
         limit: q.limit.unwrap_or(1000).min(100_000),
     };
+    if let Some(last_s) = q.last_s {
+        // The last `last_s` seconds of wall-clock time, up to now.
+        if !(last_s.is_finite() && last_s > 0.0) {
+            return Err(err(
+                StatusCode::BAD_REQUEST,
+                format!("invalid last_s = {last_s}: expected a wall-clock span > 0 s"),
+            ));
+        }
+        if q.from_s.is_some() || q.to_s.is_some() {
+            return Err(err(
+                StatusCode::BAD_REQUEST,
+                "last_s with from_s or to_s: expected either last_s or from_s/to_s",
+            ));
+        }
+        r.to_s = st.clock.now_s();
+        r.from_s = r.to_s - last_s * st.clock.speedup();
+    }
     if r.from_s.is_nan() || r.to_s.is_nan() || r.from_s > r.to_s {
         return Err(err(
             StatusCode::BAD_REQUEST,
@@ -279,7 +386,63 @@ fn range(q: &RangeQuery) -> Result<Range, Response> {
             ),
         ));
     }
+    if let Some(n) = q.max_points {
+        if !(1..=MAX_POINTS).contains(&n) {
+            return Err(err(
+                StatusCode::BAD_REQUEST,
+                format!("invalid max_points = {n}: expected 1…{MAX_POINTS}"),
+            ));
+        }
+        if r.from_s == f64::MIN || r.to_s == f64::MAX {
+            return Err(err(
+                StatusCode::BAD_REQUEST,
+                "max_points without a range: expected last_s, or from_s and to_s",
+            ));
+        }
+    }
     Ok(r)
+}
+
+/// A series over all of `r` in at most `n` points (`per` rows each, e.g. one per axis):
+/// when the range holds more rows than that, the newest `per` rows of each of `n` equal
+/// time spans of the range (so a 24 h view covers all 24 h, not its last rows); otherwise
+/// every row. Oldest first, times increasing.
+fn thinned<T>(
+    r: Range,
+    n: u32,
+    per: u32,
+    time_s: fn(&T) -> f64,
+    mut query: impl FnMut(Range) -> crate::error::Result<Vec<T>>,
+) -> crate::error::Result<Vec<T>> {
+    let per = per.max(1);
+    let all = query(Range {
+        limit: n.saturating_mul(per),
+        ..r
+    })?;
+    if all.len() < n.saturating_mul(per) as usize {
+        return Ok(all);
+    }
+    let width = (r.to_s - r.from_s) / f64::from(n);
+    let mut out: Vec<T> = Vec::with_capacity(all.len());
+    let mut last = f64::NEG_INFINITY;
+    for i in 0..n {
+        let from_s = r.from_s + width * f64::from(i);
+        let to_s = if i + 1 == n {
+            r.to_s
+        } else {
+            r.from_s + width * f64::from(i + 1)
+        };
+        let rows = query(Range {
+            from_s,
+            to_s,
+            limit: per,
+        })?;
+        // Spans share their bounds (BETWEEN): a row on a bound is kept once.
+        let newest = rows.iter().map(time_s).fold(last, f64::max);
+        out.extend(rows.into_iter().filter(|x| time_s(x) > last));
+        last = newest;
+    }
+    Ok(out)
 }
 
 async fn offsets(
@@ -290,11 +453,27 @@ async fn offsets(
     if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
         return r;
     }
-    let r = match range(&q) {
+    let r = match range(&st, &q) {
         Ok(r) => r,
         Err(e) => return e,
     };
-    match db(&st, move |c| c.offset_history(r)).await {
+    let axes = live(&st).axes.len() as u32;
+    let res = match q.max_points {
+        None => db(&st, move |c| c.offset_history(r)).await,
+        Some(n) => {
+            db(&st, move |c| {
+                thinned(
+                    r,
+                    n,
+                    axes,
+                    |x: &storage::OffsetRow| x.time_s,
+                    |r| c.offset_history(r),
+                )
+            })
+            .await
+        }
+    };
+    match res {
         Ok(rows) => Json(json!({ "current": live(&st).axes, "history": rows })).into_response(),
         Err(e) => e,
     }
@@ -308,7 +487,7 @@ async fn history(
     if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
         return r;
     }
-    let r = match range(&q) {
+    let r = match range(&st, &q) {
         Ok(r) => r,
         Err(e) => return e,
     };
@@ -338,7 +517,22 @@ async fn history(
             ),
         );
     };
-    match db(&st, move |c| c.channel_history(idx as u16, kind, r)).await {
+    let res = match q.max_points {
+        None => db(&st, move |c| c.channel_history(idx as u16, kind, r)).await,
+        Some(n) => {
+            db(&st, move |c| {
+                thinned(
+                    r,
+                    n,
+                    1,
+                    |p: &storage::Point| p.time_s,
+                    |r| c.channel_history(idx as u16, kind, r),
+                )
+            })
+            .await
+        }
+    };
+    match res {
         Ok(points) => Json(json!({ "channel": name, "points": points })).into_response(),
         Err(e) => e,
     }
@@ -739,6 +933,86 @@ async fn closed(closing: &mut tokio::sync::watch::Receiver<bool>) {
         }
         if closing.changed().await.is_err() {
             return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `thinned` over a synthetic series against a direct construction: the newest row of
+    /// every non-empty span of the range, oldest first.
+    #[test]
+    fn thinned_series_covers_the_whole_range() {
+        // 1000 rows at irregular times 0…~2500 s, one exactly on a span bound.
+        let times: Vec<f64> = (0..1000)
+            .map(|i| f64::from(i) * 2.5 + f64::from(i % 3) * 0.1)
+            .collect();
+        let query = |r: Range| -> crate::error::Result<Vec<f64>> {
+            let mut v: Vec<f64> = times
+                .iter()
+                .copied()
+                .filter(|t| *t >= r.from_s && *t <= r.to_s)
+                .collect();
+            let keep = v.len().saturating_sub(r.limit as usize);
+            Ok(v.split_off(keep))
+        };
+        let r = Range {
+            from_s: 0.0,
+            to_s: 2500.0,
+            limit: 0,
+        };
+        let got = thinned(r, 10, 1, |t| *t, query).unwrap();
+        // Spans of 250 s: [0,250], [250,500], …; the newest time of each.
+        let mut want = Vec::new();
+        for i in 0..10 {
+            let (lo, hi) = (250.0 * f64::from(i), 250.0 * f64::from(i + 1));
+            if let Some(t) = times
+                .iter()
+                .copied()
+                .filter(|t| *t >= lo && *t <= hi)
+                .reduce(f64::max)
+            {
+                if want.last().is_none_or(|l: &f64| t > *l) {
+                    want.push(t);
+                }
+            }
+        }
+        assert_eq!(got, want);
+        assert_eq!(got.len(), 10);
+        assert!(*got.last().unwrap() >= 2497.0, "{got:?}");
+        // A range holding fewer rows than asked for comes back whole.
+        let small = Range {
+            from_s: 100.0,
+            to_s: 120.0,
+            limit: 0,
+        };
+        let got = thinned(small, 10, 1, |t| *t, query).unwrap();
+        let want: Vec<f64> = times
+            .iter()
+            .copied()
+            .filter(|t| (100.0..=120.0).contains(t))
+            .collect();
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn every_axis_status_has_a_legend() {
+        for s in [
+            "starting",
+            "updated",
+            "held",
+            "clamped",
+            "ramping",
+            "waiting_safe_point",
+            "frozen",
+            "stopped",
+            "running",
+            "alarm",
+            "stop_requested",
+        ] {
+            assert!(STATUS_LEGEND.iter().any(|(k, _)| *k == s), "{s}");
         }
     }
 }

@@ -2,7 +2,11 @@
 //! service on loopback and its rendered DOM is read back (`--dump-dom`). With a token the
 //! page shows the channels and the offset of this service, and a later load shows other
 //! values (the simulator runs sped up); without a token, or with a wrong one, it shows the
-//! refusal and no data.
+//! refusal and no data. The time axis is wall-clock time in the browser's zone (Chromium
+//! runs with TZ=Asia/Kolkata, UTC+5:30 without daylight saving, so a label in UTC or in
+//! seconds since start would not match), every value carries its unit, the states are
+//! explained, and the acknowledge buttons are there for an operator and absent for a
+//! viewer.
 //!
 //! Chromium is installed by `.ci/run` (`apt-get install chromium`); if it is missing the
 //! test fails and says so rather than passing without having looked at the page.
@@ -60,6 +64,8 @@ fn dump_dom(url: &str, budget_ms: u32) -> String {
         .arg(format!("--virtual-time-budget={budget_ms}"))
         .arg("--dump-dom")
         .arg(url)
+        // A zone without daylight saving, away from UTC: the labels must be local time.
+        .env("TZ", "Asia/Kolkata")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::from(err_file))
@@ -121,6 +127,21 @@ fn by_id(dom: &str, id: &str) -> String {
         .unwrap_or_else(|| panic!("no element id={id} in the page:\n{dom}"))
 }
 
+/// The local time of day (hh:mm:ss, 24 h) in UTC+5:30 of `ms` since the Unix epoch,
+/// computed here independently of the browser.
+fn kolkata_hms(ms: i64) -> String {
+    let local_s = ms.div_euclid(1000) + 5 * 3600 + 30 * 60;
+    let d = local_s.rem_euclid(86_400);
+    format!("{:02}:{:02}:{:02}", d / 3600, d / 60 % 60, d % 60)
+}
+
+fn unix_ms_now() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_millis() as i64
+}
+
 fn num(s: &str) -> f64 {
     s.trim()
         .parse()
@@ -158,6 +179,7 @@ async fn dashboard_in_headless_chromium() {
     // Fail first, with the remedy, if the browser is missing.
     let _ = chromium();
     let dir = tempfile::tempdir().unwrap();
+    let wall_start_ms = unix_ms_now();
     let run = start_with(
         dir.path(),
         "[machine]\nname = \"gs300-7\"\n[http]\nport = 0\n[storage]\npath = \"dash.db\"\n\
@@ -189,6 +211,7 @@ async fn dashboard_in_headless_chromium() {
     let t_after = api.get("/api/status", Some(&ro)).await.1["time_s"]
         .as_f64()
         .unwrap();
+    let wall_loaded_ms = unix_ms_now();
 
     // The page is this service's: machine name, model source, status, and a cycle time
     // read while the browser had the page open.
@@ -219,6 +242,45 @@ async fn dashboard_in_headless_chromium() {
     for (k, v) in &s1.values {
         assert!((15.0..40.0).contains(v), "{k}: {v} °C");
     }
+    // Each value with its unit: the raw reading in the sensor's (Ω for a Pt100, never
+    // under °C), the converted value in °C.
+    let raw_units = by_attr(&dom1, "data-channel-raw-unit");
+    let units = by_attr(&dom1, "data-channel-unit");
+    assert_eq!(raw_units.len(), names.len());
+    for (((k, u), (_, vu)), c) in raw_units.iter().zip(&units).zip(kinds) {
+        let want = match c["sensor"]["kind"].as_str().unwrap() {
+            "pt100" => "Ω",
+            _ => "°C",
+        };
+        assert_eq!(u, want, "{k}");
+        assert_eq!(vu, "°C", "{k}");
+    }
+    // The time axes: wall-clock instants while this test ran (not seconds since start),
+    // labelled in the browser's local time.
+    let ticks = by_attr(&dom1, "data-time-tick");
+    assert!(
+        ticks.len() >= 8,
+        "two plots with four ticks each: {ticks:?}"
+    );
+    for (ms, label) in &ticks {
+        let ms: i64 = ms.parse().unwrap();
+        assert!(
+            ms >= wall_start_ms - 2000 && ms <= wall_loaded_ms + 2000,
+            "tick at {ms} ms outside the test's wall time {wall_start_ms}…{wall_loaded_ms}"
+        );
+        assert_eq!(*label, kolkata_hms(ms), "tick {ms}");
+    }
+    // The states explained, the role shown, and no acknowledge button for a viewer.
+    for state in ["held", "ramping", "frozen", "waiting_safe_point", "stopped"] {
+        assert!(
+            by_attr(&dom1, "data-legend")
+                .iter()
+                .any(|(k, _)| k == state),
+            "legend lacks {state}"
+        );
+    }
+    assert_eq!(by_id(&dom1, "role"), "read_only");
+    assert!(!dom1.contains("<button"), "buttons for a viewer");
     assert!(s1.offset_um.abs() > 1.0, "offset shown {}", s1.offset_um);
     // The plots were drawn (one polyline per channel and two per axis).
     assert!(
@@ -259,5 +321,80 @@ async fn dashboard_in_headless_chromium() {
             "{url} shows data: {dom}"
         );
     }
+
+    // An alarm and a stop (a model whose validity and limits exclude the temperatures):
+    // the operator's page offers both acknowledgements, the viewer's neither.
+    let op = run.generated.clone().unwrap().operator;
+    let (_, model) = api.get("/api/model", Some(&ro)).await;
+    let narrow = model["config_toml"]
+        .as_str()
+        .unwrap()
+        .replacen("valid_max = 80.0", "valid_max = 10.0", 1)
+        // Both Pt100 channels: the first is now invalid (a fault, an alarm), the second
+        // valid and above its limit (a stop request).
+        .replacen("limit_max = 45.0", "limit_max = 8.0", 2);
+    let put = api
+        .client
+        .put(format!("{base}/api/model"))
+        .bearer_auth(&op)
+        .body(narrow)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(put.status().as_u16(), 200);
+    let alarms = api
+        .wait_for("/api/alarms?active=true", &ro, 20.0, |v| {
+            !v.as_array().unwrap().is_empty()
+        })
+        .await;
+    let id = alarms[0]["id"].as_i64().unwrap();
+    api.wait_for("/api/status", &ro, 20.0, |v| v["stop"].is_string())
+        .await;
+    let dom_op = load(format!("{base}/?token={op}")).await.unwrap();
+    assert_eq!(by_id(&dom_op, "role"), "operator");
+    let buttons = by_attr(&dom_op, "data-ack-alarm");
+    assert!(
+        buttons.iter().any(|(k, _)| *k == id.to_string()),
+        "no acknowledge button for alarm {id}: {buttons:?}"
+    );
+    let stop_url = by_attr(&dom_op, "data-ack-url")
+        .into_iter()
+        .map(|(u, _)| u)
+        .find(|u| u == "/api/stop/ack");
+    assert!(stop_url.is_some(), "no stop acknowledgement: {dom_op}");
+    let dom_ro = load(format!("{base}/?token={ro}")).await.unwrap();
+    assert!(
+        !dom_ro.contains("<button") && !dom_ro.contains("data-ack-url"),
+        "a viewer sees acknowledge buttons"
+    );
+    // What the alarm's button posts, with the operator's token, acknowledges it: the next
+    // page shows it acknowledged and without a button.
+    let url = format!("/api/alarms/{id}/ack");
+    assert!(by_attr(&dom_op, "data-ack-url")
+        .iter()
+        .any(|(u, _)| *u == url));
+    let r = api
+        .client
+        .post(format!("{base}{url}"))
+        .bearer_auth(&op)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status().as_u16(), 200);
+    api.wait_for("/api/alarms", &ro, 5.0, |v| {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["id"] == id && a["acknowledged_by"].is_string())
+    })
+    .await;
+    let dom_op2 = load(format!("{base}/?token={op}")).await.unwrap();
+    assert!(
+        !by_attr(&dom_op2, "data-ack-alarm")
+            .iter()
+            .any(|(k, _)| *k == id.to_string()),
+        "alarm {id} still offered for acknowledgement"
+    );
+    assert!(dom_op2.contains("acknowledged"));
     run.stop().await.unwrap();
 }

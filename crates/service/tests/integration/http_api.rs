@@ -68,6 +68,86 @@ async fn roles_history_alarms_and_model_change() {
         let r = p["value"].as_f64().unwrap();
         assert!((106.0..111.0).contains(&r), "{r}");
     }
+    // A history range in wall-clock seconds (`last_s`, here all of the sped-up record),
+    // thinned to `max_points` spread over the whole range: from the record's first quarter
+    // up to now.
+    // The wall time since start (service time / speed-up) plus a fifth: the range starts
+    // just before the record.
+    let last_s = t_now / 3000.0 * 1.2;
+    let thin = api
+        .get(
+            &format!("/api/history?channel=bed_top_c&kind=raw&last_s={last_s}&max_points=50"),
+            Some(ro),
+        )
+        .await
+        .1;
+    let ts: Vec<f64> = thin["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["time_s"].as_f64().unwrap())
+        .collect();
+    assert!(ts.len() <= 50 && ts.len() >= 30, "{} points", ts.len());
+    assert!(ts.windows(2).all(|w| w[0] < w[1]), "{ts:?}");
+    assert!(
+        ts[0] < t_now / 4.0 && *ts.last().unwrap() > t_now / 2.0,
+        "{t_now}: {ts:?}"
+    );
+    for bad in [
+        "/api/history?channel=bed_top_c&last_s=-1",
+        "/api/history?channel=bed_top_c&last_s=60&from_s=0",
+        "/api/history?channel=bed_top_c&last_s=60&max_points=0",
+        "/api/history?channel=bed_top_c&max_points=10",
+        "/api/offsets?last_s=60&max_points=100000",
+    ] {
+        let (code, v) = api.get(bad, Some(ro)).await;
+        assert_eq!(code, 400, "{bad}: {v}");
+        assert!(
+            v["error"].as_str().unwrap().contains("expected"),
+            "{bad}: {v}"
+        );
+    }
+    let offs = api
+        .get(
+            &format!("/api/offsets?last_s={last_s}&max_points=20"),
+            Some(ro),
+        )
+        .await
+        .1;
+    let n = offs["history"].as_array().unwrap().len();
+    assert!((1..=20).contains(&n), "{n}");
+
+    // Units of every channel: a Pt100's raw reading in Ω, its value in °C.
+    let (_, chans) = api.get("/api/channels", Some(ro)).await;
+    let bed = chans
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "bed_top_c")
+        .unwrap();
+    assert_eq!(bed["raw_unit"], "Ω");
+    assert_eq!(bed["unit"], "°C");
+    // The status says who asks, what the states mean, and how service time maps to the
+    // wall clock (unix_s − (time_s − t)/speedup, with the configured speed-up).
+    let (_, st_ro) = api.get("/api/status", Some(ro)).await;
+    let (_, st_op) = api.get("/api/status", Some(op)).await;
+    assert_eq!(st_ro["role"], "read_only");
+    assert_eq!(st_op["role"], "operator");
+    for k in ["held", "ramping", "frozen", "clamped", "waiting_safe_point"] {
+        assert!(
+            st_ro["legend"][k].as_str().is_some_and(|t| t.len() > 10),
+            "{k}"
+        );
+    }
+    let wc = &st_ro["wall_clock"];
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    assert!((wc["unix_s"].as_f64().unwrap() - now).abs() < 5.0, "{wc}");
+    assert_eq!(wc["speedup"].as_f64().unwrap(), 3000.0);
+    assert!(wc["time_s"].as_f64().unwrap() >= st_ro["time_s"].as_f64().unwrap());
+
     assert_eq!(api.get("/api/history?channel=nope", Some(ro)).await.0, 404);
     assert_eq!(
         api.get("/api/history?channel=bed_top_c&from_s=5&to_s=1", Some(ro))
