@@ -110,3 +110,30 @@ impl Api {
         }
     }
 }
+
+/// Channels A and B (°C), Z = −3.75·(A − B) applied as infeed pulses of 1 µm, at most
+/// 0.1 µm per cycle.
+pub const PULSE_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+    valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 2.0\n\
+    [[channels]]\nname = \"B\"\nsensor = { kind = \"celsius\" }\n\
+    valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 2.0\n\
+    [[axes]]\nname = \"Z\"\napply = { kind = \"pulses\", pulse_um = 1.0 }\n\
+    max_offset_um = 100.0\nmax_step_um = 0.1\n\
+    [[axes.terms]]\nkind = \"difference\"\na = \"A\"\nb = \"B\"\nkz_um_per_c = -3.75\n";
+
+/// Channel A (°C) and axis Z with the SINUMERIK/TwinCAT position law: K0 = 2 + 0.5·(T − 20)
+/// µm, tanβ = 0.25 + 0.0625·(T − 20) µm/mm, P0 = 100 mm.
+pub const POSITION_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+    valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+    [[axes]]\nname = \"Z\"\napply = { kind = \"measuring_system\" }\nmax_offset_um = 100.0\n\
+    [[axes.terms]]\nkind = \"position\"\nchannel = \"A\"\nt_ref_c = 20.0\noffset_um = 2.0\n\
+    offset_um_per_c = 0.5\nslope_um_per_mm = 0.25\nslope_um_per_mm_per_c = 0.0625\np0_mm = 100.0\n";
+
+/// The law by hand: K0(T) + tanβ(T)·(P − P0) with the constants of [`POSITION_ENGINE`].
+/// At T = 24 °C: K0 = 4 µm, tanβ = 0.5 µm/mm, so P = 140 → 24 µm, 60 → −16 µm,
+/// 100 → 4 µm, 237.5 → 72.75 µm (all exact in binary).
+pub fn position_law_um(t_c: f64, p_mm: f64) -> f64 {
+    let k0 = 2.0 + 0.5 * (t_c - 20.0);
+    let tan_beta = 0.25 + 0.0625 * (t_c - 20.0);
+    k0 + tan_beta * (p_mm - 100.0)
+}

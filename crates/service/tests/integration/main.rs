@@ -9,10 +9,12 @@ mod postgres_common;
 
 mod alarm_flood;
 mod dashboard_browser;
+mod envelope;
 mod http_api;
 mod http_limits;
 mod modbus;
 mod modbus_output;
+mod modbus_pulses;
 mod modbus_silent;
 mod mqtt;
 mod mqtt_limits;
