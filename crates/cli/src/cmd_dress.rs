@@ -9,17 +9,13 @@ use gearcomp_dressing::dresser::Dresser;
 use gearcomp_dressing::envelope::DressingSetup;
 use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::request::{
-    check_key, current_worm, min_worn_diameter_mm, solve_request, Checks, DresserInput, Method,
-    SolveInput, WormInput, DEFAULT_BUDGET_MM,
+    check_key, current_worm, min_worn_diameter_mm, solve_request, DresserInput, Method, SolveInput,
+    WormInput, DEFAULT_BUDGET_MM,
 };
 use gearcomp_dressing::simulation::{contact_line, fit_contact_line};
-use gearcomp_dressing::solve::{
-    axial_position_for_contact_point, tip_association_radius_mm, NewtonOptions, CROWNING_FRACTIONS,
-};
-use gearcomp_dressing::topology::{
-    solve_topological_four_point, solve_topological_three_point, topological_program,
-    CorrectionSchedule, TopoFourPoint, TopoThreePoint, WidthPoly, WormTopology,
-};
+use gearcomp_dressing::solve::axial_position_for_contact_point;
+use gearcomp_dressing::topological_request::{solve_topological_request, TopologicalInput};
+use gearcomp_dressing::topology::CorrectionSchedule;
 use gearcomp_dressing::worm::{Flank, Worm};
 use gearcomp_report::{Chart, HtmlReport, Series};
 use serde::{Deserialize, Serialize};
@@ -79,7 +75,7 @@ struct SolveCfg {
     /// Worm point the contact line must pass through: ν_zS as fifth unknown (eq. (14)/(19)).
     contact_point: Option<ContactPointCfg>,
     /// Topological program over the worm width ([solve.topological], JP6903407B2 eqs. (15)–(17), (22)).
-    topological: Option<TopoCfg>,
+    topological: Option<TopologicalInput>,
     /// Clearance budget for the opposite-flank cut and the jacket depth (mm), as in [plan].
     #[serde(default = "budget")]
     budget_mm: f64,
@@ -87,23 +83,6 @@ struct SolveCfg {
     #[serde(default)]
     accept_penetration: bool,
 }
-
-/// `[solve.topological]`: the solve repeated at contact-line positions over the worm width.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TopoCfg {
-    /// Number of contact-line positions (≥ 2).
-    positions: usize,
-    /// Width range [b_start, b_end] (mm) swept by the reference point (mid profile).
-    b_range_mm: [f64; 2],
-    /// 3-point: crowning slope over b (µm/mm); c(b) = crowning_um + slope·b.
-    crowning_slope_um_per_mm: Option<f64>,
-    /// 3-point: crowning as a table [[b mm, c µm], …], linear between, held beyond the ends.
-    crowning_table: Option<Vec<[f64; 2]>>,
-}
-
-/// Most positions a program may have (each is a Newton solve).
-const TOPO_MAX_POSITIONS: usize = 200;
 
 /// Worm point (w, b) of the contact line: w as a fraction of the active profile, b in mm.
 #[derive(Debug, Deserialize)]
@@ -619,41 +598,6 @@ fn run_plan(c: &Common) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Crowning c(b) of a topological 3-point program (µm): constant, linear or a table.
-enum CrowningOverWidth {
-    Linear { c0_um: f64, slope_um_per_mm: f64 },
-    Table(Vec<[f64; 2]>),
-}
-
-impl CrowningOverWidth {
-    /// c(b) and dc/db at b (µm, µm/mm); the table is linear per segment, held beyond its ends.
-    fn at(&self, b_mm: f64) -> (f64, f64) {
-        match self {
-            Self::Linear {
-                c0_um,
-                slope_um_per_mm,
-            } => (c0_um + slope_um_per_mm * b_mm, *slope_um_per_mm),
-            Self::Table(t) => {
-                let n = t.len();
-                if b_mm <= t[0][0] {
-                    return (t[0][1], 0.0);
-                }
-                if b_mm >= t[n - 1][0] {
-                    return (t[n - 1][1], 0.0);
-                }
-                let i = t.partition_point(|r| r[0] <= b_mm).clamp(1, n - 1) - 1;
-                let slope = (t[i + 1][1] - t[i][1]) / (t[i + 1][0] - t[i][0]);
-                (t[i][1] + slope * (b_mm - t[i][0]), slope)
-            }
-        }
-    }
-    /// The crowning near b as a polynomial in b (mm): the tangent line there.
-    fn local_poly_mm(&self, b_mm: f64) -> WidthPoly {
-        let (c, s) = self.at(b_mm);
-        WidthPoly::linear(1e-3 * (c - s * b_mm), 1e-3 * s)
-    }
-}
-
 #[derive(Debug, Serialize)]
 struct TopoPositionOut {
     /// Width position of the contact line's reference point (mid profile), mm.
@@ -695,167 +639,32 @@ struct TopoOut {
     map_f_um: Vec<Vec<f64>>,
 }
 
-fn topo_crowning(sc: &SolveCfg, tc: &TopoCfg) -> anyhow::Result<CrowningOverWidth> {
-    match (&tc.crowning_table, tc.crowning_slope_um_per_mm) {
-        (Some(_), Some(_)) => bail!(
-            "[solve.topological] give either crowning_table or crowning_slope_um_per_mm, not both"
-        ),
-        (Some(t), None) => {
-            if t.len() < 2 {
-                bail!(
-                    "[solve.topological] crowning_table has {} rows, allowed range 2 ..= 1000",
-                    t.len()
-                );
-            }
-            for (i, r) in t.iter().enumerate() {
-                if !r[0].is_finite() || r[0].abs() > 1e4 || !r[1].is_finite() || r[1].abs() > 50.0 {
-                    bail!("[solve.topological] crowning_table row {i} = {r:?}: b must be within ±10000 mm and c within ±50 µm");
-                }
-                if i > 0 && r[0] <= t[i - 1][0] {
-                    bail!("[solve.topological] crowning_table row {i}: b = {} mm must exceed the previous row's {} mm", r[0], t[i - 1][0]);
-                }
-            }
-            Ok(CrowningOverWidth::Table(t.clone()))
-        }
-        (None, slope) => {
-            let c0 = sc.crowning_um.unwrap_or(0.0);
-            let s = slope.unwrap_or(0.0);
-            if !s.is_finite() || s.abs() > 10.0 {
-                bail!("[solve.topological] crowning_slope_um_per_mm = {s} is outside the allowed range -10 ..= 10");
-            }
-            Ok(CrowningOverWidth::Linear {
-                c0_um: c0,
-                slope_um_per_mm: s,
-            })
-        }
-    }
-}
-
 /// `dress solve` with `[solve.topological]`: the topological 3- or 4-point program over the
-/// worm width (docs/dressing.md "Derivation: topological programs"), its machine axes per position and the dressed worm.
+/// worm width ([`solve_topological_request`]), its machine axes per position and the dressed
+/// worm.
 fn run_solve_topological(
     c: &Common,
     sc: &SolveCfg,
-    tc: &TopoCfg,
+    tc: &TopologicalInput,
     design: &Worm,
     setup: &DressingSetup,
 ) -> anyhow::Result<()> {
-    if !(2..=TOPO_MAX_POSITIONS).contains(&tc.positions) {
-        bail!(
-            "[solve.topological] positions = {} is outside the allowed range 2 ..= {TOPO_MAX_POSITIONS}",
-            tc.positions
-        );
-    }
-    let [b_lo, b_hi] = tc.b_range_mm;
-    if !b_lo.is_finite()
-        || !b_hi.is_finite()
-        || b_lo.abs() > 1e4
-        || b_hi.abs() > 1e4
-        || b_hi <= b_lo
-    {
-        bail!(
-            "[solve.topological] b_range_mm = [{b_lo}, {b_hi}]: need -10000 <= start < end <= 10000 (mm)"
-        );
-    }
-    check_key("[solve] budget_mm", sc.budget_mm, 0.0, 5.0, "mm")?;
-    if sc.contact_point.is_some() {
-        bail!("[solve] contact_point and [solve.topological] exclude each other: the program sets the contact line positions");
-    }
-    let fl = sc.flank;
-    let (w_nf, w_na) = setup.active_profile(fl)?;
-    let at = |q: f64| w_nf + q * (w_na - w_nf);
-    let w0 = at(0.5);
-    let n = tc.positions;
-    let b0s: Vec<f64> = (0..n)
-        .map(|i| b_lo + (b_hi - b_lo) * i as f64 / (n - 1) as f64)
-        .collect();
-    let k0 = AxisCorrection::default();
-    let opts = NewtonOptions::default();
-    let (program, target_w, crowning) = match sc.method {
-        Method::ThreePoint => {
-            if sc.points.is_some() {
-                bail!("[solve.topological] three-point takes its targets from crowning_um / crowning_slope_um_per_mm / crowning_table, not from points");
-            }
-            let cw = topo_crowning(sc, tc)?;
-            for &b in &b0s {
-                let cb = cw.at(b).0;
-                if cb.abs() > 50.0 {
-                    bail!("[solve.topological] crowning at b = {b} mm is {cb} um, outside the allowed range -50 ..= 50");
-                }
-            }
-            // The dresser radius that dresses the tip circle of the new worm keeps doing so.
-            let r_tip = tip_association_radius_mm(design, &setup.dresser, fl)?;
-            let ws = CROWNING_FRACTIONS.map(at);
-            let prog = topological_program(&b0s, k0, |b0, start| {
-                let cb = cw.local_poly_mm(b0);
-                let neg: Vec<f64> = cb.coeffs.iter().map(|v| -v).collect();
-                let p = TopoThreePoint {
-                    flank: fl,
-                    w_mm: [
-                        WidthPoly::constant(ws[0]),
-                        WidthPoly::constant(ws[1]),
-                        WidthPoly::constant(ws[2]),
-                    ],
-                    f_mm: [
-                        WidthPoly::constant(0.0),
-                        WidthPoly { coeffs: neg },
-                        WidthPoly::constant(0.0),
-                    ],
-                    w_assoc_mm: WidthPoly::constant(w_na),
-                    r_a_mm: WidthPoly::constant(r_tip),
-                    w0_mm: w0,
-                };
-                solve_topological_three_point(setup, &p, b0, start, &opts)
-            })
-            .context("not producible ([solve.topological]): the program over b_range_mm")?;
-            (prog, ws.to_vec(), Some(cw))
-        }
-        Method::FourPoint => {
-            if tc.crowning_table.is_some() || tc.crowning_slope_um_per_mm.is_some() {
-                bail!("[solve.topological] four-point takes constant targets from [solve] points; crowning_table / crowning_slope_um_per_mm are for three-point");
-            }
-            let Some(points) = &sc.points else {
-                bail!("[solve] four-point needs `points` (4 of them)");
-            };
-            if points.len() != 4 {
-                bail!("[solve] four-point needs 4 points, got {}", points.len());
-            }
-            for p in points {
-                if !(0.0..=1.0).contains(&p[0]) || !p[1].is_finite() || p[1].abs() > 1000.0 {
-                    bail!(
-                        "[solve] point {:?}: fraction must be in 0..=1 and f within ±1000 µm",
-                        p
-                    );
-                }
-            }
-            let ws: Vec<f64> = points.iter().map(|p| at(p[0])).collect();
-            let prog = topological_program(&b0s, k0, |b0, start| {
-                let p = TopoFourPoint {
-                    flank: fl,
-                    w_mm: [0, 1, 2, 3].map(|i| WidthPoly::constant(ws[i])),
-                    f_mm: [0, 1, 2, 3].map(|i| WidthPoly::constant(points[i][1] * 1e-3)),
-                    w0_mm: w0,
-                };
-                solve_topological_four_point(setup, &p, b0, start, &opts)
-            })
-            .context("not producible ([solve.topological]): the program over b_range_mm")?;
-            (prog, ws, None)
-        }
+    let input = SolveInput {
+        flank: sc.flank,
+        method: sc.method,
+        diameter_mm: sc.diameter_mm,
+        crowning_um: sc.crowning_um,
+        points: sc.points.clone(),
+        budget_mm: sc.budget_mm,
+        accept_penetration: sc.accept_penetration,
     };
+    let o = solve_topological_request(&input, tc, sc.contact_point.is_some(), design, setup)?;
+    let fl = o.flank;
+    let n = tc.positions;
+    let [b_lo, b_hi] = tc.b_range_mm;
+    let program = &o.program;
     let mut positions = Vec::with_capacity(n);
-    for s in &program.solutions {
-        // The penetration check of `dress plan`, per position.
-        let ck = Checks::of(setup, fl, &s.dk, sc.budget_mm)?;
-        if !ck.ok() && !sc.accept_penetration {
-            bail!(
-                "not producible ([solve.topological]): at b0 = {:.3} mm the dresser cuts {:.1} µm into the opposite flank and its jacket reaches {:.1} µm below the worm root circle; [solve] budget_mm = {} mm ({:.0} µm) is exceeded. Reduce the crowning or its slope, or set [solve] accept_penetration = true to output the program anyway (flagged)",
-                s.b0_mm,
-                1e3 * ck.opposite_cut_mm,
-                1e3 * ck.jacket_depth_mm,
-                sc.budget_mm,
-                1e3 * sc.budget_mm
-            );
-        }
+    for (s, ck) in program.solutions.iter().zip(&o.checks) {
         positions.push(TopoPositionOut {
             opposite_flank_cut_um: 1e3 * ck.opposite_cut_mm,
             jacket_depth_um: 1e3 * ck.jacket_depth_mm,
@@ -863,7 +672,7 @@ fn run_solve_topological(
             undercut: ck.undercut,
             b0_mm: s.b0_mm,
             nu_zs_mm: s.nu_zs_mm,
-            crowning_um: crowning.as_ref().map(|cw| cw.at(s.b0_mm).0),
+            crowning_um: o.crowning.as_ref().map(|cw| cw.at(s.b0_mm).0),
             dphi_s_rad: s.dk.dphi_s_rad,
             dgamma_deg: s.dk.dgamma_rad.to_degrees(),
             dd_mm: s.dk.dd_mm,
@@ -873,16 +682,9 @@ fn run_solve_topological(
             max_residual_um: 1e3 * s.residual_mm.iter().fold(0.0f64, |m, r| m.max(r.abs())),
         });
     }
-    // The dressed worm by the quasi-static model over the swept width.
-    let map_w: Vec<f64> = (0..=10).map(|i| at(f64::from(i) / 10.0)).collect();
-    let nb = (2 * n - 1).clamp(3, 41);
-    let map_b: Vec<f64> = (0..nb)
-        .map(|j| b_lo + (b_hi - b_lo) * j as f64 / (nb - 1) as f64)
-        .collect();
-    let topo =
-        WormTopology::quasi_static(setup, fl, map_w.clone(), map_b.clone(), &program.schedule)?;
-    let map_f_um: Vec<Vec<f64>> = topo
-        .f_mm
+    let nb = o.map_b_mm.len();
+    let map_f_um: Vec<Vec<f64>> = o
+        .map_f_mm
         .chunks(nb)
         .map(|row| row.iter().map(|f| 1e3 * f).collect())
         .collect();
@@ -890,10 +692,10 @@ fn run_solve_topological(
         method: format!("topological {:?}", sc.method),
         flank: fl,
         worm_diameter_mm: setup.worm.d_s_mm,
-        target_w_mm: target_w,
+        target_w_mm: o.target_w_mm.clone(),
         positions,
-        map_w_mm: map_w,
-        map_b_mm: map_b,
+        map_w_mm: o.map_w_mm.clone(),
+        map_b_mm: o.map_b_mm.clone(),
         map_f_um,
     };
     if c.json {

@@ -75,6 +75,10 @@ pub enum DressError {
         /// Tip end of the active profile (mm).
         w_na_mm: f64,
     },
+    /// A request whose keys do not go together or lie outside their range; the message names
+    /// the TOML keys, the values and what is allowed.
+    #[error("{0}")]
+    Request(String),
     /// `source` happened while doing `what` (a TOML key or a step of the computation).
     #[error("{what}")]
     During {

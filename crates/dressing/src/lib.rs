@@ -19,6 +19,8 @@
 //! - [`campaign`]: the plan of a worm's whole life (claims 1–2);
 //! - [`request`]: a `[solve]` request in the user's keys and units, validated, solved and
 //!   checked against the clearance budget, with the producible range when it is not.
+//! - [`topological_request`]: a `[solve.topological]` request, the 3- or 4-point program over
+//!   the worm width, checked per position, with the dressed worm f_nFS(w, b).
 //!
 //! Design trade-off: the dresser flank is tabulated once (exact envelope at 1201 stations,
 //! natural cubic spline) instead of being re-solved at every query; the spline error
@@ -48,6 +50,7 @@ pub mod schedule;
 pub mod simulation;
 pub mod solve;
 pub mod spline;
+pub mod topological_request;
 pub mod topology;
 pub mod transform;
 pub mod worm;
