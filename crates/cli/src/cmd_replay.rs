@@ -13,7 +13,8 @@ pub struct Args {
     /// Engine configuration (TOML: channels, sampling, axes and their laws).
     #[arg(long, value_name = "FILE")]
     pub config: PathBuf,
-    /// Recorded log (CSV with `time_s` and one column per channel).
+    /// Recorded log (CSV with `time_s` and one column per channel; optional `trigger`,
+    /// `safe_point`, `ack_stop` and `position_<axis>_mm` columns).
     #[arg(long, value_name = "FILE")]
     pub data: PathBuf,
     /// Output CSV of offsets and alarms (default: stdout).

@@ -296,7 +296,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
 
     // Inputs that need the engine's channels are checked before anything starts.
     let replay_plan = match &cfg.input {
-        InputSection::Replay(r) => Some(crate::sources::replay::ReplayPlan::open(r, &channels)?),
+        InputSection::Replay(r) => Some(crate::sources::replay::ReplayPlan::open_with_axes(
+            r, &channels, &axes,
+        )?),
         _ => None,
     };
     let (speedup, sim, period_s) = match &cfg.input {

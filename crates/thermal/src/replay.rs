@@ -4,7 +4,9 @@
 //! configured channel (named as the channel, raw units), and optionally `trigger` and
 //! `safe_point` (0/1; both default to 1), and `ack_stop` (0/1, default 0: a 1 acknowledges
 //! a latched stop request before the row is stepped, as an operator would, so one spike
-//! past a limit does not stop the compensation for the rest of the log). An empty cell
+//! past a limit does not stop the compensation for the rest of the log), and
+//! `position_<axis>_mm` (the axis position for a position-dependent law, mm; an empty
+//! cell keeps the last one, an axis without the column has no position). An empty cell
 //! in a channel column means "no new reading": the
 //! channel keeps its last value and stamp, so a long gap shows as a stale channel. A cell
 //! that is not a number is reported with its line and fed to the engine as NaN (the
@@ -153,6 +155,13 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
     }
     let (trig_col, safe_col) = (col("trigger"), col("safe_point"));
     let ack_col = col("ack_stop");
+    let position_cols: Vec<(usize, usize)> = axes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, a)| Some((col(&format!("position_{a}_mm"))?, i)))
+        .collect();
+    // NaN until a row gives one: the engine freezes an axis whose law needs it.
+    let mut positions_mm = vec![f64::NAN; axes.len()];
     let mut out = Replay {
         axes: axes.clone(),
         ..Default::default()
@@ -222,6 +231,25 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
                 stamp_s: time_s,
             };
         }
+        for &(c, i) in &position_cols {
+            let cell = &record[c];
+            if cell.is_empty() {
+                continue;
+            }
+            positions_mm[i] = match cell.parse::<f64>() {
+                Ok(p) if p.is_finite() => p,
+                _ => {
+                    out.bad_rows.push(BadRow {
+                        line,
+                        message: format!(
+                            "column position_{}_mm: {cell:?} is not a position in mm (fed as unknown: the axis freezes)",
+                            axes[i]
+                        ),
+                    });
+                    f64::NAN
+                }
+            };
+        }
         let mut flag = |c: Option<usize>, what: &str| {
             c.is_none_or(|c| {
                 parse_flag(&record[c]).unwrap_or_else(|| {
@@ -250,7 +278,11 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             readings: &readings,
             trigger,
             safe_point,
-            positions_mm: &[],
+            positions_mm: if position_cols.is_empty() {
+                &[]
+            } else {
+                &positions_mm
+            },
         });
         let ax = o.axes();
         out.rows.push(ReplayRow {
@@ -353,6 +385,47 @@ channel = "A"
 kd_um_per_c = 2.0
 alpha_um = 0.0
 "#;
+
+    /// Issue 14 item 9: the `position_Z_mm` column reaches the SINUMERIK/TwinCAT position
+    /// law K0(T) + tanβ(T)·(P − P0) (K0 = 2 + 0.5·(T − 20) µm, tanβ = 0.25 + 0.0625·(T −
+    /// 20) µm/mm, P0 = 100 mm); by hand at T = 24 °C: K0 = 4, tanβ = 0.5, so 140 mm →
+    /// 24 µm, an empty cell keeps 140 mm, 60 mm → −16 µm, and a bad cell freezes the axis
+    /// with a reported row. Without the column the axis has no position and freezes.
+    #[test]
+    fn position_column_reaches_the_position_law() {
+        let cfg = EngineConfig::from_toml_str(
+            "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\
+             valid_min = -10.0\nvalid_max = 80.0\nstale_timeout_s = 1000.0\n\
+             [[axes]]\nname = \"Z\"\napply = { kind = \"measuring_system\" }\n\
+             max_offset_um = 100.0\n[[axes.terms]]\nkind = \"position\"\nchannel = \"A\"\n\
+             t_ref_c = 20.0\noffset_um = 2.0\noffset_um_per_c = 0.5\nslope_um_per_mm = 0.25\n\
+             slope_um_per_mm_per_c = 0.0625\np0_mm = 100.0\n",
+        )
+        .unwrap();
+        let law =
+            |t: f64, p: f64| (2.0 + 0.5 * (t - 20.0)) + (0.25 + 0.0625 * (t - 20.0)) * (p - 100.0);
+        let mut e = Engine::new(&cfg).unwrap();
+        let r = replay_csv(
+            &mut e,
+            "time_s,A,position_Z_mm\n0,24,140\n1,24,\n2,24,60\n3,24,far\n4,24,\n",
+        )
+        .unwrap();
+        let ys: Vec<f64> = r.rows.iter().map(|r| r.offset_um[0]).collect();
+        assert_eq!(ys, vec![24.0, 24.0, -16.0, -16.0, -16.0]);
+        assert_eq!(ys[0], law(24.0, 140.0));
+        assert_eq!(ys[2], law(24.0, 60.0));
+        assert_eq!(r.rows[3].axis_status[0], AxisStatus::Frozen);
+        assert_eq!(r.bad_rows.len(), 1);
+        assert_eq!(r.bad_rows[0].line, 5);
+        assert!(
+            r.bad_rows[0].message.contains("position_Z_mm"),
+            "{:?}",
+            r.bad_rows
+        );
+        let mut e = Engine::new(&cfg).unwrap();
+        let r = replay_csv(&mut e, "time_s,A\n0,24\n").unwrap();
+        assert_eq!(r.rows[0].axis_status[0], AxisStatus::Frozen);
+    }
 
     /// Issue 14 item 10: one reading past the stop limit (A ≤ 30 °C) stops the
     /// compensation for the rest of the log; an `ack_stop` row resumes it, and from

@@ -78,6 +78,9 @@ pub struct Row {
     /// The `ack_stop` column: 1 acknowledges a latched stop request before the row
     /// (absent or empty: 0).
     pub ack_stop: bool,
+    /// Per `position_<axis>_mm` column: the axis position, mm, NaN when empty (the last
+    /// one holds).
+    pub positions_mm: Vec<f64>,
 }
 
 /// A checked log: where each column is, how many rows, which times.
@@ -90,6 +93,8 @@ pub struct ReplayPlan {
     target_cols: Vec<(usize, String)>,
     safe_col: Option<usize>,
     ack_col: Option<usize>,
+    /// `position_<axis>_mm` columns: (column, axis index, header).
+    position_cols: Vec<(usize, u8, String)>,
     /// Data rows.
     pub rows: u64,
     /// Time of the first row, s.
@@ -146,6 +151,12 @@ impl ReplayPlan {
     /// `safe_point` column, and checks every row; the first problem is an error naming
     /// the line and the column.
     pub fn open(cfg: &ReplayInput, channels: &[String]) -> Result<Self> {
+        Self::open_with_axes(cfg, channels, &[])
+    }
+
+    /// As [`ReplayPlan::open`], also mapping a `position_<axis>_mm` column per engine axis
+    /// that has one (the axis position for position-dependent laws, mm).
+    pub fn open_with_axes(cfg: &ReplayInput, channels: &[String], axes: &[String]) -> Result<Self> {
         let path = cfg.path.clone();
         let mut rdr = open_reader(&path)?;
         let headers = rdr
@@ -176,6 +187,16 @@ impl ReplayPlan {
             .collect::<Result<Vec<_>>>()?;
         let safe_col = headers.iter().position(|h| h == "safe_point");
         let ack_col = headers.iter().position(|h| h == "ack_stop");
+        let position_cols = axes
+            .iter()
+            .enumerate()
+            .take(gearcomp_thermal::MAX_AXES)
+            .filter_map(|(i, a)| {
+                let name = format!("position_{a}_mm");
+                let c = headers.iter().position(|h| h == name)?;
+                Some((c, i as u8, name))
+            })
+            .collect();
         let mut plan = Self {
             path: path.clone(),
             n_fields: headers.len(),
@@ -184,6 +205,7 @@ impl ReplayPlan {
             target_cols,
             safe_col,
             ack_col,
+            position_cols,
             rows: 0,
             first_time_s: f64::NAN,
             last_time_s: f64::NAN,
@@ -232,6 +254,7 @@ impl ReplayPlan {
             targets: vec![f64::NAN; self.target_cols.len()],
             safe_point: true,
             ack_stop: false,
+            positions_mm: vec![f64::NAN; self.position_cols.len()],
         }
     }
 
@@ -297,6 +320,15 @@ impl ReplayPlan {
         }
         for (slot, (c, name)) in row.targets.iter_mut().zip(&self.target_cols) {
             *slot = parse_cell(path, line, name, &record[*c], "a finite number, or empty")?;
+        }
+        for (slot, (c, _, name)) in row.positions_mm.iter_mut().zip(&self.position_cols) {
+            *slot = parse_cell(
+                path,
+                line,
+                name,
+                &record[*c],
+                "the axis position in mm, or empty (the last one holds)",
+            )?;
         }
         if let Some(c) = self.safe_col {
             row.safe_point = match &record[c] {
@@ -437,6 +469,17 @@ pub fn run(p: ReplayParts) {
                     safe_point: row.safe_point,
                 })
                 .is_ok();
+            // Positions before the readings, so the row steps with them.
+            for (&position_mm, (_, axis, _)) in row.positions_mm.iter().zip(&plan.position_cols) {
+                if !position_mm.is_nan() {
+                    ok &= tx
+                        .send(InputMsg::Position {
+                            axis: *axis,
+                            position_mm,
+                        })
+                        .is_ok();
+                }
+            }
             for (c, &raw) in row.channels.iter().enumerate() {
                 if !raw.is_nan() {
                     ok &= tx

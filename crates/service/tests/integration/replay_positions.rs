@@ -1,0 +1,52 @@
+//! CSV replay with a `position_<axis>_mm` column (issue 14 item 9): the service's live
+//! replay hands the positions to the SINUMERIK/TwinCAT position law, and every stored
+//! offset equals the law worked by hand at that row's position.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use crate::common::{position_law_um, start_with, Api, POSITION_ENGINE};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn replayed_positions_reach_the_position_law() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("engine.toml"), POSITION_ENGINE).unwrap();
+    // A at 24 °C throughout; positions 140, (empty: held), 60, 237.5, −50 mm.
+    let rows = [
+        ("24", "140"),
+        ("24", ""),
+        ("24", "60"),
+        ("24", "237.5"),
+        ("24", "-50"),
+    ];
+    let mut log = String::from("time_s,A,position_Z_mm\n");
+    for (k, (a, p)) in rows.iter().enumerate() {
+        log += &format!("{k},{a},{p}\n");
+    }
+    std::fs::write(dir.path().join("log.csv"), log).unwrap();
+    let run = start_with(
+        dir.path(),
+        "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
+         [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = 100\n",
+    )
+    .await;
+    let ro = run.generated.clone().unwrap().read_only;
+    Api::new(&run)
+        .wait_alarm("/api/alarms", &ro, "replay.ended", 30.0)
+        .await;
+    let db = run.db.clone();
+    run.stop().await.unwrap();
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    let mut st = conn
+        .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
+        .unwrap();
+    let ys: Vec<f64> = st
+        .query_map([], |r| r.get(0))
+        .unwrap()
+        .map(|r| r.unwrap())
+        .collect();
+    let want: Vec<f64> = [140.0, 140.0, 60.0, 237.5, -50.0]
+        .iter()
+        .map(|p| position_law_um(24.0, *p))
+        .collect();
+    // One stored row per replayed row (the law changes or holds at each).
+    assert_eq!(ys, want);
+}
