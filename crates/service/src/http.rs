@@ -3,10 +3,10 @@
 //! Every route needs a token (`Authorization: Bearer <token>`, or `?token=` for the page
 //! itself); acknowledging an alarm, acknowledging a stop and changing the model need the
 //! operator role and are written to the audit log.
-
-// Handlers return axum's `Response` as their error so a refusal is one `?`-free early
-// return; boxing it would only add an allocation per refused request.
-#![allow(clippy::result_large_err)]
+//!
+//! In axum's idiom: a handler names the role it needs as an extractor ([`Viewer`] or
+//! [`Operator`]), so the token is checked before the handler (and before a body is read),
+//! and every refusal or failure is an [`ApiError`], which is its own response.
 
 use std::path::PathBuf;
 use std::sync::mpsc::SyncSender;
@@ -14,7 +14,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
-use axum::extract::{Path as UrlPath, Query, State};
+use axum::extract::{FromRequestParts, Path as UrlPath, Query, State};
+use axum::http::request::Parts;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
@@ -107,14 +108,65 @@ pub fn router(state: Shared) -> Router {
         .with_state(state)
 }
 
-fn err(code: StatusCode, msg: impl Into<String>) -> Response {
-    (code, Json(json!({ "error": msg.into() }))).into_response()
+/// Every refusal and failure of the API: a status and a message, answered as
+/// `{"error": "<message>"}`.
+#[derive(Debug)]
+pub struct ApiError {
+    /// The HTTP status.
+    pub status: StatusCode,
+    /// What went wrong, naming the parameter, the value and what was expected.
+    pub message: String,
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        (self.status, Json(json!({ "error": self.message }))).into_response()
+    }
+}
+
+impl From<crate::error::ServiceError> for ApiError {
+    fn from(e: crate::error::ServiceError) -> Self {
+        err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string())
+    }
+}
+
+/// What a handler returns.
+type ApiResult<T = Response> = Result<T, ApiError>;
+
+fn err(code: StatusCode, msg: impl Into<String>) -> ApiError {
+    ApiError {
+        status: code,
+        message: msg.into(),
+    }
 }
 
 /// A caller who presented a valid token.
-struct Caller {
+pub struct Caller {
     role: Role,
     token_id: String,
+}
+
+/// Extractor: a caller with any valid token (read-only or operator); 401 otherwise.
+pub struct Viewer(pub Caller);
+
+/// Extractor: a caller with an operator token; 401 without a valid token, 403 for a
+/// read-only one.
+pub struct Operator(pub Caller);
+
+impl FromRequestParts<Shared> for Viewer {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
+        authorize(st, &parts.headers, None, Role::ReadOnly).map(Viewer)
+    }
+}
+
+impl FromRequestParts<Shared> for Operator {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
+        authorize(st, &parts.headers, None, Role::Operator).map(Operator)
+    }
 }
 
 fn authorize(
@@ -122,7 +174,7 @@ fn authorize(
     headers: &HeaderMap,
     query_token: Option<&str>,
     need: Role,
-) -> Result<Caller, Response> {
+) -> ApiResult<Caller> {
     let bearer = headers
         .get(header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
@@ -184,13 +236,13 @@ async fn script() -> Response {
 async fn db<T: Send + 'static>(
     st: &AppState,
     f: impl FnOnce(&dyn storage::Store) -> crate::error::Result<T> + Send + 'static,
-) -> Result<T, Response> {
+) -> ApiResult<T> {
     // Store queries block (SQLite file, or a PostgreSQL client with its own runtime).
     let store = st.store.clone();
     tokio::task::spawn_blocking(move || f(&*store))
         .await
         .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
-        .map_err(|e| err(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
+        .map_err(ApiError::from)
 }
 
 fn live(st: &AppState) -> Live {
@@ -253,11 +305,7 @@ pub fn channel_units(sensor: &gearcomp_thermal::SensorKind) -> (&'static str, &'
     }
 }
 
-async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    let who = match authorize(&st, &headers, None, Role::ReadOnly) {
-        Ok(w) => w,
-        Err(r) => return r,
-    };
+async fn status(State(st): State<Shared>, Viewer(who): Viewer) -> Response {
     let l = live(&st);
     let source = st
         .model
@@ -309,10 +357,7 @@ async fn status(State(st): State<Shared>, headers: HeaderMap) -> Response {
     .into_response()
 }
 
-async fn channels(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
+async fn channels(State(st): State<Shared>, _: Viewer) -> Response {
     let sensors: Vec<gearcomp_thermal::SensorKind> = match st.model.lock() {
         Ok(m) => m.config.channels.iter().map(|c| c.sensor).collect(),
         Err(p) => p
@@ -354,7 +399,7 @@ struct RangeQuery {
 /// Most points `max_points` may ask for.
 pub const MAX_POINTS: u32 = 2000;
 
-fn range(st: &AppState, q: &RangeQuery) -> Result<Range, Response> {
+fn range(st: &AppState, q: &RangeQuery) -> ApiResult<Range> {
     let mut r = Range {
         from_s: q.from_s.unwrap_or(f64::MIN),
         to_s: q.to_s.unwrap_or(f64::MAX),
@@ -445,21 +490,11 @@ fn thinned<T>(
     Ok(out)
 }
 
-async fn offsets(
-    State(st): State<Shared>,
-    headers: HeaderMap,
-    Query(q): Query<RangeQuery>,
-) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
-    let r = match range(&st, &q) {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+async fn offsets(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
+    let r = range(&st, &q)?;
     let axes = live(&st).axes.len() as u32;
-    let res = match q.max_points {
-        None => db(&st, move |c| c.offset_history(r)).await,
+    let rows = match q.max_points {
+        None => db(&st, move |c| c.offset_history(r)).await?,
         Some(n) => {
             db(&st, move |c| {
                 thinned(
@@ -470,55 +505,42 @@ async fn offsets(
                     |r| c.offset_history(r),
                 )
             })
-            .await
+            .await?
         }
     };
-    match res {
-        Ok(rows) => Json(json!({ "current": live(&st).axes, "history": rows })).into_response(),
-        Err(e) => e,
-    }
+    Ok(Json(json!({ "current": live(&st).axes, "history": rows })).into_response())
 }
 
-async fn history(
-    State(st): State<Shared>,
-    headers: HeaderMap,
-    Query(q): Query<RangeQuery>,
-) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
-    let r = match range(&st, &q) {
-        Ok(r) => r,
-        Err(e) => return e,
-    };
+async fn history(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
+    let r = range(&st, &q)?;
     let kind = match q.kind.as_deref().unwrap_or("average") {
         "raw" => SeriesKind::Raw,
         "average" => SeriesKind::Average,
         other => {
-            return err(
+            return Err(err(
                 StatusCode::BAD_REQUEST,
                 format!("invalid kind = {other:?}: expected raw or average"),
-            )
+            ))
         }
     };
     let names: Vec<String> = live(&st).channels.iter().map(|c| c.name.clone()).collect();
     let Some(name) = q.channel.clone() else {
-        return err(
+        return Err(err(
             StatusCode::BAD_REQUEST,
             format!("missing channel: expected one of {}", names.join(", ")),
-        );
+        ));
     };
     let Some(idx) = names.iter().position(|n| *n == name) else {
-        return err(
+        return Err(err(
             StatusCode::NOT_FOUND,
             format!(
                 "invalid channel = {name:?}: expected one of {}",
                 names.join(", ")
             ),
-        );
+        ));
     };
-    let res = match q.max_points {
-        None => db(&st, move |c| c.channel_history(idx as u16, kind, r)).await,
+    let points = match q.max_points {
+        None => db(&st, move |c| c.channel_history(idx as u16, kind, r)).await?,
         Some(n) => {
             db(&st, move |c| {
                 thinned(
@@ -529,66 +551,47 @@ async fn history(
                     |r| c.channel_history(idx as u16, kind, r),
                 )
             })
-            .await
+            .await?
         }
     };
-    match res {
-        Ok(points) => Json(json!({ "channel": name, "points": points })).into_response(),
-        Err(e) => e,
-    }
+    Ok(Json(json!({ "channel": name, "points": points })).into_response())
 }
 
-async fn alarms(
-    State(st): State<Shared>,
-    headers: HeaderMap,
-    Query(q): Query<RangeQuery>,
-) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
+async fn alarms(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
     // `active=true`: alarms not cleared; `unacknowledged=true`: not cleared or not yet
     // acknowledged (what an operator still has to look at).
     let active = q.active.unwrap_or(false);
     let unacked = q.unacknowledged.unwrap_or(false);
     let limit = q.limit.unwrap_or(200).min(10_000);
-    match db(&st, move |c| c.alarms(active || unacked, limit)).await {
-        Ok(mut rows) => {
-            if active {
-                rows.retain(|r| r.cleared_s.is_none());
-            }
-            // An active input alarm with repeats carries its count (see crate::alarms);
-            // every other row counts once.
-            let counts = live(&st).input_alarm_counts;
-            let rows: Vec<serde_json::Value> = rows
-                .into_iter()
-                .map(|r| {
-                    let count = match r.cleared_s {
-                        None => counts.get(&r.key).copied().unwrap_or(1),
-                        Some(_) => 1,
-                    };
-                    let mut v = json!(r);
-                    v["count"] = json!(count);
-                    v
-                })
-                .collect();
-            Json(rows).into_response()
-        }
-        Err(e) => e,
+    let mut rows = db(&st, move |c| c.alarms(active || unacked, limit)).await?;
+    if active {
+        rows.retain(|r| r.cleared_s.is_none());
     }
+    // An active input alarm with repeats carries its count (see crate::alarms); every
+    // other row counts once.
+    let counts = live(&st).input_alarm_counts;
+    let rows: Vec<serde_json::Value> = rows
+        .into_iter()
+        .map(|r| {
+            let count = match r.cleared_s {
+                None => counts.get(&r.key).copied().unwrap_or(1),
+                Some(_) => 1,
+            };
+            let mut v = json!(r);
+            v["count"] = json!(count);
+            v
+        })
+        .collect();
+    Ok(Json(rows).into_response())
 }
 
-fn log(st: &AppState, r: Record) -> Result<(), Response> {
+fn log(st: &AppState, r: Record) -> ApiResult<()> {
     st.records
         .try_send(r)
         .map_err(|_| err(StatusCode::SERVICE_UNAVAILABLE, "the store is busy; retry"))
 }
 
-fn audit(
-    st: &AppState,
-    who: &Caller,
-    action: &'static str,
-    detail: String,
-) -> Result<(), Response> {
+fn audit(st: &AppState, who: &Caller, action: &'static str, detail: String) -> ApiResult<()> {
     log(
         st,
         Record::Audit {
@@ -602,52 +605,38 @@ fn audit(
 
 async fn ack_alarm(
     State(st): State<Shared>,
-    headers: HeaderMap,
+    Operator(who): Operator,
     UrlPath(id): UrlPath<i64>,
-) -> Response {
-    let who = match authorize(&st, &headers, None, Role::Operator) {
-        Ok(w) => w,
-        Err(r) => return r,
-    };
-    let exists = db(&st, move |c| c.alarm_exists(id)).await;
-    match exists {
-        Ok(true) => {}
-        Ok(false) => return err(StatusCode::NOT_FOUND, format!("no alarm with id = {id}")),
-        Err(e) => return e,
+) -> ApiResult {
+    if !db(&st, move |c| c.alarm_exists(id)).await? {
+        return Err(err(
+            StatusCode::NOT_FOUND,
+            format!("no alarm with id = {id}"),
+        ));
     }
-    if let Err(e) = log(
+    log(
         &st,
         Record::AlarmAcknowledged {
             id,
             by: who.token_id.clone(),
         },
-    ) {
-        return e;
-    }
-    if let Err(e) = audit(&st, &who, "acknowledge_alarm", format!("alarm {id}")) {
-        return e;
-    }
-    Json(json!({ "acknowledged": id })).into_response()
+    )?;
+    audit(&st, &who, "acknowledge_alarm", format!("alarm {id}"))?;
+    Ok(Json(json!({ "acknowledged": id })).into_response())
 }
 
-async fn ack_stop(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    let who = match authorize(&st, &headers, None, Role::Operator) {
-        Ok(w) => w,
-        Err(r) => return r,
-    };
+async fn ack_stop(State(st): State<Shared>, Operator(who): Operator) -> ApiResult {
     if st.cycle.try_send(InputMsg::AckStop).is_err() {
-        return err(StatusCode::SERVICE_UNAVAILABLE, "the cycle is busy; retry");
+        return Err(err(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "the cycle is busy; retry",
+        ));
     }
-    if let Err(e) = audit(&st, &who, "acknowledge_stop", String::new()) {
-        return e;
-    }
-    Json(json!({ "acknowledged": "stop" })).into_response()
+    audit(&st, &who, "acknowledge_stop", String::new())?;
+    Ok(Json(json!({ "acknowledged": "stop" })).into_response())
 }
 
-async fn get_model(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
+async fn get_model(State(st): State<Shared>, _: Viewer) -> Response {
     let m = match st.model.lock() {
         Ok(m) => m.clone(),
         Err(p) => p.into_inner().clone(),
@@ -662,78 +651,63 @@ pub const MAX_MODEL_BYTES: usize = 1024 * 1024;
 
 async fn put_model(
     State(st): State<Shared>,
-    headers: HeaderMap,
+    // The token is checked (by the extractor) before a byte of the body is read: an
+    // unauthenticated request gets 401 whatever it sends, and only an operator's body is
+    // read (up to the limit).
+    Operator(who): Operator,
     body: axum::body::Body,
-) -> Response {
-    // The token is checked before a byte of the body is read: an unauthenticated request
-    // gets 401 whatever it sends, and only an operator's body is read (up to the limit).
-    let who = match authorize(&st, &headers, None, Role::Operator) {
-        Ok(w) => w,
-        Err(r) => return r,
-    };
-    let body: Bytes = match axum::body::to_bytes(body, MAX_MODEL_BYTES).await {
-        Ok(b) => b,
-        Err(_) => {
-            return err(
+) -> ApiResult {
+    let body: Bytes = axum::body::to_bytes(body, MAX_MODEL_BYTES)
+        .await
+        .map_err(|_| {
+            err(
                 StatusCode::PAYLOAD_TOO_LARGE,
                 format!(
                     "body over {MAX_MODEL_BYTES} bytes (or cut off); expected an engine \
                      configuration (TOML) of at most {MAX_MODEL_BYTES} bytes"
                 ),
             )
-        }
-    };
-    let text = match std::str::from_utf8(&body) {
-        Ok(t) => t.to_string(),
-        Err(e) => {
-            return err(
+        })?;
+    let text = std::str::from_utf8(&body)
+        .map_err(|e| {
+            err(
                 StatusCode::BAD_REQUEST,
                 format!("body is not UTF-8 TOML: {e}"),
             )
-        }
-    };
+        })?
+        .to_string();
     let current = match st.model.lock() {
         Ok(m) => m.config.clone(),
         Err(p) => p.into_inner().config.clone(),
     };
-    let mut cfg = match EngineConfig::from_toml_str(&text) {
-        Ok(c) => c,
-        Err(e) => {
-            return err(
-                StatusCode::BAD_REQUEST,
-                format!("engine configuration: {e}"),
-            )
-        }
+    let engine_err = |e: gearcomp_thermal::ThermalError| {
+        err(
+            StatusCode::BAD_REQUEST,
+            format!("engine configuration: {e}"),
+        )
     };
+    let mut cfg = EngineConfig::from_toml_str(&text).map_err(engine_err)?;
     // The record's channel layout is fixed for a database; a model change keeps it.
     let old: Vec<&str> = current.channels.iter().map(|c| c.name.as_str()).collect();
     let new: Vec<&str> = cfg.channels.iter().map(|c| c.name.as_str()).collect();
     if old != new {
-        return err(
+        return Err(err(
             StatusCode::BAD_REQUEST,
             format!("invalid channels = {new:?}: expected the channels in use, in order: {old:?}"),
-        );
+        ));
     }
     let old_axes: Vec<&str> = current.axes.iter().map(|a| a.name.as_str()).collect();
     let new_axes: Vec<&str> = cfg.axes.iter().map(|a| a.name.as_str()).collect();
     if old_axes != new_axes {
-        return err(
+        return Err(err(
             StatusCode::BAD_REQUEST,
             format!(
                 "invalid axes = {new_axes:?}: expected the axes in use, in order: {old_axes:?}"
             ),
-        );
+        ));
     }
     cfg.models = current.models.clone();
-    let engine = match Engine::new(&cfg) {
-        Ok(e) => e,
-        Err(e) => {
-            return err(
-                StatusCode::BAD_REQUEST,
-                format!("engine configuration: {e}"),
-            )
-        }
-    };
+    let engine = Engine::new(&cfg).map_err(engine_err)?;
     if st
         .cycle
         .try_send(InputMsg::SwapEngine(
@@ -742,7 +716,10 @@ async fn put_model(
         ))
         .is_err()
     {
-        return err(StatusCode::SERVICE_UNAVAILABLE, "the cycle is busy; retry");
+        return Err(err(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "the cycle is busy; retry",
+        ));
     }
     let source = format!("api:{}", who.token_id);
     if let Ok(mut m) = st.model.lock() {
@@ -751,29 +728,20 @@ async fn put_model(
             config: cfg,
         };
     }
-    let logged = log(
+    log(
         &st,
         Record::Model {
             source,
             config_toml: text.clone(),
         },
-    )
-    .and_then(|()| audit(&st, &who, "change_model", format!("{} bytes", text.len())));
-    match logged {
-        Ok(()) => Json(json!({ "model": "changed" })).into_response(),
-        Err(e) => e,
-    }
+    )?;
+    audit(&st, &who, "change_model", format!("{} bytes", text.len()))?;
+    Ok(Json(json!({ "model": "changed" })).into_response())
 }
 
-async fn audit_log(State(st): State<Shared>, headers: HeaderMap) -> Response {
-    if let Err(r) = authorize(&st, &headers, None, Role::ReadOnly) {
-        return r;
-    }
-    let res = db(&st, |c| c.audit_log(500)).await;
-    match res {
-        Ok(rows) => Json(rows).into_response(),
-        Err(e) => e,
-    }
+async fn audit_log(State(st): State<Shared>, _: Viewer) -> ApiResult {
+    let rows = db(&st, |c| c.audit_log(500)).await?;
+    Ok(Json(rows).into_response())
 }
 
 /// Limits of the HTTP server (see `[http]` in docs/service.md).
