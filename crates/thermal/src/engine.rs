@@ -926,6 +926,11 @@ struct EnvelopeEval {
     mean: Vec<f64>,
     /// W, row-major p × p.
     whitening: Vec<f64>,
+    /// Per row of W: one past its last non-zero entry (W from the QR factor is lower
+    /// triangular: the zeros above the diagonal are not multiplied).
+    row_len: Vec<usize>,
+    /// x − x̄ of the current check (sized at build time).
+    dx: Vec<f64>,
     max_d2: f64,
     /// n, at least 2.
     rows: f64,
@@ -958,6 +963,16 @@ impl EnvelopeEval {
             });
         }
         let bound = !e.feature_mean.is_empty();
+        let p = e.feature_mean.len();
+        let whitening = if bound {
+            e.whitening.clone()
+        } else {
+            Vec::new()
+        };
+        let row_len = whitening
+            .chunks_exact(p.max(1))
+            .map(|row| row.iter().rposition(|&w| w != 0.0).map_or(0, |j| j + 1))
+            .collect();
         Ok(Self {
             ranges,
             mean: if bound {
@@ -965,11 +980,9 @@ impl EnvelopeEval {
             } else {
                 Vec::new()
             },
-            whitening: if bound {
-                e.whitening.clone()
-            } else {
-                Vec::new()
-            },
+            whitening,
+            row_len,
+            dx: vec![0.0; p],
             max_d2: e.max_d2,
             rows: e.rows.max(2) as f64,
             active: false,
@@ -984,13 +997,16 @@ impl EnvelopeEval {
     }
 
     /// d² = ‖W·(x − x̄)‖² of the regressors' current values.
-    fn d2(&self, regs: &[Regressor]) -> f64 {
+    fn d2(&mut self, regs: &[Regressor]) -> f64 {
         let p = self.mean.len();
+        for ((d, m), r) in self.dx.iter_mut().zip(&self.mean).zip(regs) {
+            *d = r.x - m;
+        }
         let mut d2 = 0.0;
-        for row in self.whitening.chunks_exact(p.max(1)) {
+        for (row, &len) in self.whitening.chunks_exact(p.max(1)).zip(&self.row_len) {
             let mut y = 0.0;
-            for ((w, m), r) in row.iter().zip(&self.mean).zip(regs) {
-                y += w * (r.x - m);
+            for (w, d) in row[..len].iter().zip(&self.dx[..len]) {
+                y += w * d;
             }
             d2 += y * y;
         }
@@ -1005,7 +1021,7 @@ impl EnvelopeEval {
     /// What is outside the envelope shrunk by `margin` (0: the envelope itself, with the
     /// rounding tolerance on the bound).
     fn excursion(
-        &self,
+        &mut self,
         channels: &[ChannelState],
         regs: &[Regressor],
         margin: f64,
