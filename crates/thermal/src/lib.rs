@@ -61,7 +61,7 @@ pub use config::{
     SpikeTest, TermConfig, TimeFilterConfig, Trigger,
 };
 pub use engine::{
-    Alarm, AxisOutput, AxisStatus, Engine, EngineStatus, Fault, Inputs, Output, Reading,
+    Alarm, AxisOutput, AxisStatus, Engine, EngineStatus, Excursion, Fault, Inputs, Output, Reading,
     StopReason, MAX_AXES, MAX_CHANNELS,
 };
 pub use error::{Result, ThermalError};
