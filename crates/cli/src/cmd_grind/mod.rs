@@ -54,6 +54,7 @@ use serde::{Deserialize, Serialize};
 
 mod args;
 mod config;
+mod mesh;
 mod output;
 mod report;
 mod run;
@@ -63,6 +64,7 @@ pub use run::run;
 
 use args::*;
 use config::*;
+use mesh::*;
 use output::*;
 use report::*;
 use run::*;

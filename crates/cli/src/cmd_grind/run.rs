@@ -233,35 +233,17 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<()> {
         return simulate_dressed(&a, path);
     }
     let s = setup(&a.setup, None)?;
-    let rho1 = a
-        .worm_rho_deg
-        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
-    let worm_mod = LineModification::new(
-        rho1,
-        s.pair.worm.w_ref_mm,
-        poly_um(&a.worm_c),
-        poly_um(&a.worm_l),
-        poly_um(&a.worm_q),
-    )
-    .context("worm modification")?;
-    let (k, lm) = diagonal_choice(&a, &s, rho1)?;
-    let out = grind_and_report(
-        "simulate",
+    simulate_line(
+        &a,
         &s.pair,
         &s.gear,
         s.grid,
         Cones::CYLINDRICAL,
-        &a.setup,
-        k,
-        lm,
-        WormUsed::Line(&worm_mod),
-        None,
         Extras {
             worm_radii_mm: Some(s.worm_radii_mm),
             ..Extras::default()
         },
-    )?;
-    emit(&out, &a.setup)
+    )
 }
 
 /// `simulate` with a conical worm and/or workpiece (chains (29)–(31)).
@@ -271,63 +253,57 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<()> {
 /// (`conical_line_map`; not for profile lines ρ_F2 = ±90° on a feed-dependent (86)).
 pub(super) fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
     let s = setup_conical(&a.setup, c)?;
+    simulate_line(a, &s.pair, &s.gear, s.grid, c, Extras::default())
+}
+
+/// `simulate` with the worm line modification of the options (--worm-c/-l/-q along ρ_F1) on
+/// either mesh: ρ_F1 from --worm-rho-deg or the mesh's estimate, K_ZV1 from --diagonal-ratio or
+/// --gear-rho-deg ([`GrindMesh::gear_line_choice`]).
+fn simulate_line<M: GrindMesh>(
+    a: &SimulateArgs,
+    pair: &M,
+    gear: &InvoluteGear,
+    grid: FlankGrid,
+    cones: Cones,
+    extras: Extras,
+) -> Result<()> {
     let rho1 = a
         .worm_rho_deg
-        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
+        .map_or_else(|| pair.rho1_default_rad(), deg_to_rad);
     let worm_mod = LineModification::new(
         rho1,
-        s.pair.worm.w_ref_mm,
+        pair.worm_ref_mm(),
         poly_um(&a.worm_c),
         poly_um(&a.worm_l),
         poly_um(&a.worm_q),
     )
     .context("worm modification")?;
-    let (k, lm) = match (a.diagonal_ratio, a.gear_rho_deg) {
-        (Some(k), _) => (k, None),
-        (None, Some(r2)) => {
-            let r2 = deg_to_rad(r2);
-            let k = s
-                .pair
-                .diagonal_ratio(rho1, r2)
-                .context("diagonal ratio for --gear-rho-deg (conical)")?;
-            // the line map exists wherever K does, except for profile lines on a chain whose
-            // roll relation (86) depends on the feeds; then only K is reported
-            let lm = conical_lines::conical_line_map(&s.pair, rho1, r2, a.setup.shift_offset_mm)
-                .ok()
-                .map(|m| m.line);
-            (k, lm)
-        }
-        (None, None) => (0.0, None),
-    };
+    let (k, lm) = diagonal_choice(a, pair, rho1)?;
     let out = grind_and_report(
         "simulate",
-        &s.pair,
-        &s.gear,
-        s.grid,
-        c,
+        pair,
+        gear,
+        grid,
+        cones,
         &a.setup,
         k,
         lm,
         WormUsed::Line(&worm_mod),
         None,
-        Extras::default(),
+        extras,
     )?;
     emit(&out, &a.setup)
 }
 
 /// K_ZV1 from --diagonal-ratio, or from --gear-rho-deg and the worm line direction ρ_F1.
-pub(super) fn diagonal_choice(
+pub(super) fn diagonal_choice<M: GrindMesh>(
     a: &SimulateArgs,
-    s: &Setup,
+    pair: &M,
     rho1: f64,
 ) -> Result<(f64, Option<LineMap>)> {
     Ok(match (a.diagonal_ratio, a.gear_rho_deg) {
         (Some(k), _) => (k, None),
-        (None, Some(r2)) => {
-            let lm = line_map(&s.pair, rho1, deg_to_rad(r2), a.setup.shift_offset_mm)
-                .context("diagonal ratio for --gear-rho-deg")?;
-            (lm.k_zv1, Some(lm))
-        }
+        (None, Some(r2)) => pair.gear_line_choice(rho1, deg_to_rad(r2), a.setup.shift_offset_mm)?,
         (None, None) => (0.0, None),
     })
 }
@@ -342,7 +318,7 @@ pub(super) fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Resu
     dout.used_roll_range_mm = DressedWorm::used_roll_range_mm(&s.pair, s.grid.w_range_mm);
     dout.rho_f1_axial_section_estimate_deg = rad_to_deg(rho1_estimate_rad(&s.pair));
     let rho1 = a.worm_rho_deg.map_or_else(|| worm.rho_f1_rad(), deg_to_rad);
-    let (k, lm) = diagonal_choice(a, &s, rho1)?;
+    let (k, lm) = diagonal_choice(a, &s.pair, rho1)?;
     let out = grind_and_report(
         "simulate",
         &s.pair,
