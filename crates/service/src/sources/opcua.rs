@@ -1650,12 +1650,111 @@ mod tests {
         assert!(trigger_fires(Some(65535), 0, false));
     }
 
+    use OpcUaNumericType as T;
+
     #[test]
     fn offset_scaling() {
-        assert_eq!(encode_offset(-15.0, 1.0), Ok(-15.0));
-        assert_eq!(encode_offset(-15.0, 0.001), Ok(-15.0 * 0.001));
-        assert_eq!(encode_offset(2.5, -1.0), Ok(-2.5));
-        assert!(encode_offset(f64::NAN, 1.0).is_err());
+        assert_eq!(
+            encode_offset(-15.0, 1.0, T::Double),
+            Ok(Variant::Double(-15.0))
+        );
+        assert_eq!(
+            encode_offset(-15.0, 0.001, T::Double),
+            Ok(Variant::Double(-0.015))
+        );
+        assert_eq!(
+            encode_offset(2.5, -1.0, T::Double),
+            Ok(Variant::Double(-2.5))
+        );
+        assert!(encode_offset(f64::NAN, 1.0, T::Double).is_err());
+    }
+
+    #[test]
+    fn offset_in_float_and_integer_nodes() {
+        // Float: the nearest binary32 (−16.5 exact; 0.1 → 0.100000001490116…).
+        assert_eq!(
+            encode_offset(-16.499999999999996, 1.0, T::Float),
+            Ok(Variant::Float(-16.5))
+        );
+        assert_eq!(
+            encode_offset(0.1, 1.0, T::Float),
+            Ok(Variant::Float(0.1f32))
+        );
+        // Counts of 0.1 µm: −15.25 µm → −152.5 → −153 (half away from zero), 2.04 → 20.
+        assert_eq!(
+            encode_offset(-15.25, 10.0, T::Int16),
+            Ok(Variant::Int16(-153))
+        );
+        assert_eq!(encode_offset(2.04, 10.0, T::Int16), Ok(Variant::Int16(20)));
+        assert_eq!(encode_offset(-3.0, 1.0, T::Int32), Ok(Variant::Int32(-3)));
+        // The ends of the range fit, one count past them does not (no wrap, no saturation).
+        assert_eq!(
+            encode_offset(32.767, 1000.0, T::Int16),
+            Ok(Variant::Int16(32767))
+        );
+        assert_eq!(
+            encode_offset(-32.768, 1000.0, T::Int16),
+            Ok(Variant::Int16(-32768))
+        );
+        let e = encode_offset(32.768, 1000.0, T::Int16).unwrap_err();
+        assert!(
+            e.contains("Int16") && e.contains("32767") && e.contains("keeps"),
+            "{e}"
+        );
+        assert!(encode_offset(-32.769, 1000.0, T::Int16).is_err());
+        assert!(encode_offset(2147483.648, 1000.0, T::Int32).is_err());
+        assert_eq!(
+            encode_offset(-2147483.648, 1000.0, T::Int32),
+            Ok(Variant::Int32(i32::MIN))
+        );
+        assert!(encode_offset(1e39, 1.0, T::Float).is_err());
+    }
+
+    #[test]
+    fn declared_types_accepted() {
+        let ns0 = |i: u32| NodeId::new(0, i);
+        assert!(type_accepts(&ns0(11), 11));
+        assert!(!type_accepts(&ns0(10), 11), "Float node, Double written");
+        assert!(!type_accepts(&ns0(11), 10));
+        assert!(!type_accepts(&ns0(6), 4), "Int32 node, Int16 written");
+        assert!(type_accepts(&ns0(24), 4), "BaseDataType takes anything");
+        assert!(type_accepts(&ns0(26), 10), "Number takes a Float");
+        assert!(!type_accepts(&ns0(26), 1), "Number is not a Boolean");
+        assert!(type_accepts(&ns0(27), 6) && !type_accepts(&ns0(27), 11));
+        assert!(!type_accepts(&NodeId::new(2, 11u32), 11));
+        assert_eq!(data_type_name(&ns0(10)), "Float (i=10)");
+    }
+
+    #[test]
+    fn trusted_certificates_under_any_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let pki = dir.path();
+        std::fs::create_dir_all(pki.join("trusted")).unwrap();
+        std::fs::create_dir_all(pki.join("rejected")).unwrap();
+        let data = opcua::crypto::X509Data {
+            common_name: "cnc".into(),
+            ..opcua::crypto::X509Data::sample_cert()
+        };
+        let (cert, _) = X509::cert_and_pkey(&data).unwrap();
+        let der = cert.to_der().unwrap();
+        let canonical = CertificateStore::cert_file_name(&cert);
+        // The refused copy the first connect left, and the operator's copy under a name
+        // of their own.
+        std::fs::write(pki.join("rejected").join(&canonical), &der).unwrap();
+        std::fs::write(pki.join("trusted").join("machine 7.crt"), &der).unwrap();
+        std::fs::write(pki.join("trusted").join("README.txt"), "not a certificate").unwrap();
+        let t = normalise_trusted(pki);
+        assert_eq!(t, vec![cert.thumbprint().as_hex_string()]);
+        assert_eq!(
+            std::fs::read(pki.join("trusted").join(&canonical)).unwrap(),
+            der
+        );
+        assert!(!pki.join("rejected").join(&canonical).exists());
+        // The stack's own check now trusts it.
+        let store = CertificateStore::new(pki);
+        assert!(store
+            .validate_application_instance_cert(&cert, SecurityPolicy::Basic256Sha256, None, None)
+            .is_ok());
     }
 
     #[test]
@@ -1700,6 +1799,17 @@ mod tests {
         #[test]
         fn never_panics_on_any_node_text(s in "\\PC{0,40}") {
             let _ = parse_node("k", &s);
+        }
+
+        /// An offset built as `counts + fraction` (|fraction| < 0.5) encodes to `counts`
+        /// when they fit Int16, and is refused (never wrapped) when they do not.
+        #[test]
+        fn int16_counts_round_or_refuse(c in -40000i32..40000, f in -0.49f64..0.49) {
+            let got = encode_offset((f64::from(c) + f) / 10.0, 10.0, OpcUaNumericType::Int16);
+            match i16::try_from(c) {
+                Ok(want) => prop_assert_eq!(got, Ok(Variant::Int16(want))),
+                Err(_) => prop_assert!(got.is_err()),
+            }
         }
 
         #[test]

@@ -510,6 +510,7 @@ impl OpcUaInput {
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::{OpcUaInput, OpcUaNumericType};
     use crate::config::{InputSection, ServiceConfig};
 
     const BASE: &str = "[input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://cnc:4840/\"\n\
@@ -543,6 +544,109 @@ mod tests {
         assert_eq!((o.positions[0].scale, o.positions[0].offset), (25.4, 0.0));
         let text = toml::to_string(&c).unwrap();
         assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
+    }
+
+    #[test]
+    fn outputs_per_axis_types_and_logins() {
+        // The single-output form (Double by default) and the list, IEC names as aliases.
+        let c = ServiceConfig::from_toml_str(
+            &format!(
+                "{BASE}offset_output = {{ axis = \"Z\", node = \"ns=2;s=CZ\" }}\n\
+                 offset_outputs = [{{ axis = \"X\", node = \"ns=2;s=CX\", data_type = \"INT\", scale = 10.0 }}]\n\
+                 heartbeat = {{ node = \"ns=2;s=HB\", data_type = \"Int16\" }}\n"
+            ),
+            "m.toml",
+        )
+        .unwrap();
+        let InputSection::OpcUa(o) = &c.input else {
+            panic!("not opcua: {:?}", c.input)
+        };
+        let outs = o.outputs();
+        assert_eq!(outs.len(), 2);
+        assert_eq!(outs[0].0, "input.offset_output");
+        assert_eq!(outs[0].1.data_type, OpcUaNumericType::Double);
+        assert_eq!(outs[1].0, "input.offset_outputs[0]");
+        assert_eq!(outs[1].1.data_type, OpcUaNumericType::Int16);
+        assert_eq!(
+            o.heartbeat.as_ref().unwrap().data_type,
+            OpcUaNumericType::Int16
+        );
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(ServiceConfig::from_toml_str(&text, "t").unwrap(), c);
+        for (alias, ty) in [
+            ("LREAL", OpcUaNumericType::Double),
+            ("REAL", OpcUaNumericType::Float),
+            ("Float", OpcUaNumericType::Float),
+            ("DINT", OpcUaNumericType::Int32),
+        ] {
+            let c = ServiceConfig::from_toml_str(
+                &format!(
+                    "{BASE}offset_outputs = [{{ axis = \"Z\", node = \"ns=2;s=C\", data_type = \"{alias}\" }}]\n"
+                ),
+                "m.toml",
+            )
+            .unwrap();
+            let InputSection::OpcUa(o) = &c.input else {
+                panic!()
+            };
+            assert_eq!(o.offset_outputs[0].data_type, ty, "{alias}");
+        }
+        // One output per axis, one axis per node.
+        let e = err("offset_output = { axis = \"Z\", node = \"ns=2;s=A\" }\n\
+             offset_outputs = [{ axis = \"Z\", node = \"ns=2;s=B\" }]\n");
+        assert!(
+            e.contains("input.offset_outputs[0].axis") && e.contains("one output per axis"),
+            "{e}"
+        );
+        let e = err(
+            "offset_outputs = [{ axis = \"Z\", node = \"ns=2;s=A\" }, { axis = \"X\", node = \"ns=2;s=A\" }]\n",
+        );
+        assert!(e.contains("input.offset_outputs[1].node"), "{e}");
+        let e =
+            err("offset_outputs = [{ axis = \"Z\", node = \"ns=2;s=A\", data_type = \"Int8\" }]\n");
+        assert!(e.contains("Int8") && e.contains("Int16"), "{e}");
+        let e = err("heartbeat = { node = \"ns=2;s=HB\", data_type = \"Double\" }\n");
+        assert!(
+            e.contains("input.heartbeat.data_type") && e.contains("Int16 | Int32"),
+            "{e}"
+        );
+        // Logins: one password source; a certificate login needs its key and no user.
+        let e = err("user = \"op\"\npassword = \"a\"\npassword_file = \"pw\"\n");
+        assert!(e.contains("password_file") && e.contains("several"), "{e}");
+        let e = err("user_certificate = \"u.der\"\n");
+        assert!(e.contains("input.user_private_key"), "{e}");
+        let e = err(
+            "user = \"op\"\npassword_env = \"X\"\nuser_certificate = \"u.der\"\nuser_private_key = \"u.pem\"\n",
+        );
+        assert!(
+            e.contains("input.user_certificate") && e.contains("one login"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn password_file_first_line_never_in_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let pw = dir.path().join("ua.pw");
+        std::fs::write(&pw, "Secret-1\r\nsecond line\n").unwrap();
+        let mut o: OpcUaInput = toml::from_str(&format!(
+            "endpoint = \"opc.tcp://cnc:4840/\"\nuser = \"op\"\npassword_file = {:?}\n",
+            pw.display().to_string()
+        ))
+        .unwrap();
+        assert_eq!(o.password().unwrap().as_deref(), Some("Secret-1"));
+        std::fs::write(&pw, "\n").unwrap();
+        let e = o.password().unwrap_err().to_string();
+        assert!(
+            e.contains("input.password_file") && e.contains("empty"),
+            "{e}"
+        );
+        o.password_file = Some(dir.path().join("missing.pw"));
+        let e = o.password().unwrap_err().to_string();
+        assert!(
+            e.contains("input.password_file") && !e.contains("Secret"),
+            "{e}"
+        );
     }
 
     #[test]
