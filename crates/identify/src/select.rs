@@ -428,45 +428,69 @@ type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64);
 
 /// Greedy forward path by the least-squares fit on the training rows of `fold` (`None`:
 /// every training row): at each step the unit (one per sensor, a unit is a set of feature
-/// columns) that lowers the training residual most. The validation rows are never looked
-/// at here. Returns the units in order and the sensor path.
+/// columns) that lowers the training residual most; then each earlier sensor's unit is
+/// chosen again given the others (one pass), so that a τ picked while a partner sensor was
+/// still missing is corrected. The validation rows are never looked at here. Returns the
+/// units after each step and the sensor path.
 fn greedy(
     ctx: &Ctx,
     target: usize,
     units: &dyn Fn(usize) -> Vec<Vec<usize>>,
     candidates: &[usize],
     fold: Option<usize>,
-) -> (Vec<Vec<usize>>, Vec<usize>) {
+) -> (Vec<Vec<Vec<usize>>>, Vec<usize>) {
     let mut chosen: Vec<Vec<usize>> = Vec::new();
     let mut path: Vec<usize> = Vec::new();
+    let mut states = Vec::new();
+    let sse_of = |trial: &[Vec<usize>]| -> Option<f64> {
+        if sensors_of_units(ctx.feats, trial).len() > ctx.cap {
+            return None;
+        }
+        let cols: Vec<usize> = trial.iter().flatten().copied().collect();
+        ctx.eng
+            .train_sse(fold, &cols, target)
+            .filter(|v| v.is_finite())
+    };
     loop {
         let mut step: Option<(f64, Vec<usize>, usize)> = None;
         for &cand in candidates.iter().filter(|c| !path.contains(c)) {
             for unit in units(cand) {
                 let mut trial = chosen.clone();
                 trial.push(unit.clone());
-                if sensors_of_units(ctx.feats, &trial).len() > ctx.cap {
-                    continue;
-                }
-                let cols: Vec<usize> = trial.iter().flatten().copied().collect();
-                if let Some(v) = ctx.eng.train_sse(fold, &cols, target) {
-                    if v.is_finite() && step.as_ref().is_none_or(|s| v < s.0) {
+                if let Some(v) = sse_of(&trial) {
+                    if step.as_ref().is_none_or(|s| v < s.0) {
                         step = Some((v, unit, cand));
                     }
                 }
             }
         }
-        let Some((_, unit, cand)) = step else {
+        let Some((mut best, unit, cand)) = step else {
             break;
         };
         chosen.push(unit);
         path.push(cand);
+        for j in 0..chosen.len().saturating_sub(1) {
+            for alt in units(path[j]) {
+                if alt == chosen[j] {
+                    continue;
+                }
+                let mut trial = chosen.clone();
+                trial[j] = alt;
+                if let Some(v) = sse_of(&trial) {
+                    if v < best {
+                        best = v;
+                        chosen = trial;
+                    }
+                }
+            }
+        }
+        states.push(chosen.clone());
         let now = sensors_of_units(ctx.feats, &chosen).len();
         if now >= ctx.cap || now >= ctx.n_in {
             break;
         }
     }
-    (chosen, path)
+    (states, path)
 }
 
 /// A nested forward selection: the prefix kept, and the paths it was chosen from.
@@ -493,17 +517,16 @@ fn forward(
     candidates: &[usize],
 ) -> Forward {
     let nf = ctx.eng.folds.len();
-    let (full_units, _) = greedy(ctx, target, units, candidates, None);
+    let (full, _) = greedy(ctx, target, units, candidates, None);
     let mut fold_units = Vec::with_capacity(nf);
-    // sse[k][f]: held-out SSE of fold f's path prefix of k + 1 steps.
-    let mut steps = full_units.len();
+    // sse[k][f]: held-out SSE of fold f's model after k + 1 steps.
+    let mut steps = full.len();
     let mut sse: Vec<Vec<f64>> = vec![Vec::with_capacity(nf); steps];
     for f in 0..nf {
-        let (u, _) = greedy(ctx, target, units, candidates, Some(f));
-        let mut cols: Vec<usize> = Vec::new();
+        let (mut states, _) = greedy(ctx, target, units, candidates, Some(f));
         let mut k_ok = 0;
-        for (k, unit) in u.iter().enumerate().take(steps) {
-            cols.extend(unit);
+        for (k, u) in states.iter().enumerate().take(steps) {
+            let cols: Vec<usize> = u.iter().flatten().copied().collect();
             match ctx.eng.val_sse(f, &cols, target, Fitter::Ols) {
                 Some(v) if v.is_finite() => {
                     sse[k].push(v);
@@ -513,18 +536,18 @@ fn forward(
             }
         }
         steps = steps.min(k_ok);
-        fold_units.push(u);
+        fold_units.push(states.pop().unwrap_or_default());
     }
     let mut kept: Option<Prefix> = None;
     for (k, s) in sse.into_iter().enumerate().take(steps) {
         let v = ctx.eng.pooled(&s);
         if v.is_finite() && kept.as_ref().is_none_or(|b| v < b.2) {
-            kept = Some((full_units[..=k].to_vec(), s, v));
+            kept = Some((full[k].clone(), s, v));
         }
     }
     Forward {
         kept,
-        units: full_units,
+        units: full.last().cloned().unwrap_or_default(),
         fold_units,
     }
 }
