@@ -219,3 +219,28 @@ proptest::proptest! {
         }
     }
 }
+
+/// The shared `Flank` (docs/dressing.md "Gear vocabulary"): on this crate's right-hand worm the
+/// `Right` flank is the +z face of the thread, whose outward normal points towards +z and
+/// clockwise seen from +z (the end-face right flank of the grinding crate); `Left` the other
+/// way. Checked on the code's normal against the hand derivation: n·ẑ and n·e_θ, e_θ the
+/// counter-clockwise tangent at the point.
+#[test]
+fn shared_flank_worm_frame_is_the_end_face_convention() {
+    let worm = Worm::design(5, 160.0, 3.0, 20.0 * DEG).unwrap();
+    for (flank, s) in [(Flank::Right, 1.0), (Flank::Left, -1.0)] {
+        for r in [worm.r_f_mm + 0.5, worm.d_s_mm / 2.0, worm.r_a_mm - 0.1] {
+            let w = (r * r - worm.r_b_mm * worm.r_b_mm).sqrt();
+            for b in [-7.0, 0.0, 3.5] {
+                let p = worm.point(flank, w, b);
+                let n = worm.normal(flank, w, b);
+                let e_theta = Vector3::new(-p.y, p.x, 0.0).normalize();
+                assert!(s * n.z > 0.0, "{flank:?} r {r} b {b}: n = {n:?}");
+                assert!(
+                    s * n.dot(&e_theta) < 0.0,
+                    "{flank:?} r {r} b {b}: n = {n:?}"
+                );
+            }
+        }
+    }
+}

@@ -225,3 +225,27 @@ fn c_three_point_crowned_worm_maps_to_gear_profile_crowning() {
         assert!((crowning - c_mm).abs() < tol_mm, "crowning {crowning}");
     }
 }
+
+/// The shared `Flank` on a right-hand worm (docs/dressing.md "Gear vocabulary"): the end-face
+/// right flank (outward normal clockwise seen from +z) is the thread's +z face, so its outward
+/// normal also points towards +z, as the dressing crate's worm-frame `Right` flank does; the
+/// left flank the other way. e_θ is the counter-clockwise tangent at the point.
+#[test]
+fn shared_flank_end_face_right_is_the_worm_plus_z_face() {
+    let worm = InvoluteGear::worm(1, 3.0, 20f64.to_radians(), 130.0, Hand::Right).unwrap();
+    for (flank, s) in [(Flank::Right, 1.0), (Flank::Left, -1.0)] {
+        let f = worm.flank(flank);
+        for w in [0.5, f.w_ref_mm, f.w_ref_mm + 3.0] {
+            for z in [-10.0, 0.0, 7.5] {
+                let p = f.point(w, z);
+                let n = f.normal(w, z);
+                let e_theta = nalgebra::Vector3::new(-p.y, p.x, 0.0).normalize();
+                assert!(s * n.z > 0.0, "{flank:?} w {w} z {z}: n = {n:?}");
+                assert!(
+                    s * n.dot(&e_theta) < 0.0,
+                    "{flank:?} w {w} z {z}: n = {n:?}"
+                );
+            }
+        }
+    }
+}
