@@ -49,7 +49,12 @@ fn user_cert(dir: &Path, name: &str) -> (PathBuf, PathBuf) {
 }
 
 impl SecureCnc {
-    async fn start(port: u16, pki: &Path, known_user_cert: &Path) -> SecureCnc {
+    async fn start(
+        port: u16,
+        pki: &Path,
+        known_user_cert: &Path,
+        trust_clients: bool,
+    ) -> SecureCnc {
         let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
             .await
             .unwrap();
@@ -65,7 +70,7 @@ impl SecureCnc {
             .certificate_path("own/cert.der")
             .private_key_path("private/private.pem")
             .create_sample_keypair(true)
-            .trust_client_certs(true)
+            .trust_client_certs(trust_clients)
             .add_user_token("op", ServerUserToken::user_pass("op", PASSWORD))
             .add_user_token(
                 "certuser",
@@ -183,10 +188,10 @@ async fn opcua_secure_logins_against_async_opcua() {
     let (known_cert, known_key) = user_cert(&users, "gearcomp-user");
     let (stranger_cert, stranger_key) = user_cert(&users, "stranger");
     let port = free_port();
-    let cnc = SecureCnc::start(port, &dir.path().join("server-pki"), &known_cert).await;
+    let cnc = SecureCnc::start(port, &dir.path().join("server-pki"), &known_cert, true).await;
     // The password reaches the service through the environment only.
     std::env::set_var("GEARCOMP_TEST_OPCUA_SECURE_PW", PASSWORD);
-    let cfg = |db: &str, mode: &str, login: &str| {
+    let cfg_at = |port: u16, db: &str, mode: &str, login: &str| {
         format!(
             "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
              [storage]\npath = \"{db}\"\n\
@@ -198,6 +203,7 @@ async fn opcua_secure_logins_against_async_opcua() {
              offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n"
         )
     };
+    let cfg = |db: &str, mode: &str, login: &str| cfg_at(port, db, mode, login);
     let password_login = "user = \"op\"\npassword_env = \"GEARCOMP_TEST_OPCUA_SECURE_PW\"\n";
 
     // 1. SignAndEncrypt, user + password: the server's certificate is not trusted yet.
@@ -260,4 +266,30 @@ async fn opcua_secure_logins_against_async_opcua() {
     assert!(m.contains("stranger.der") && m.contains("refused"), "{m}");
     run.stop().await.unwrap();
     cnc.stop().await;
+
+    // 4. A server that does not trust this client's certificate: opcua.certificate says so
+    // and names the certificate to trust on the server.
+    let port = free_port();
+    let strict = SecureCnc::start(port, &dir.path().join("strict-pki"), &known_cert, false).await;
+    std::fs::copy(&strict.server_cert, trusted.join("strict-cnc.der")).unwrap();
+    let run = start_with(
+        dir.path(),
+        &cfg_at(port, "s4.db", "SignAndEncrypt", password_login),
+    )
+    .await;
+    let ro = run.generated.clone().unwrap().read_only;
+    let api = Api::new(&run);
+    let alarms = api
+        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
+            active(v, "opcua.certificate")
+        })
+        .await;
+    let m = message(&alarms, "opcua.certificate");
+    assert!(
+        m.contains("does not trust this client's certificate") && m.contains("own/cert.der"),
+        "{m}"
+    );
+    assert!(strict.writes.lock().unwrap().is_empty());
+    run.stop().await.unwrap();
+    strict.stop().await;
 }
