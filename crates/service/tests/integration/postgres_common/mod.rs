@@ -79,16 +79,22 @@ impl PgServer {
 
     /// As [`PgServer::start`], returning why it could not start.
     pub fn try_start() -> Result<Self, String> {
-        Self::try_start_with(None)
+        Self::try_start_with(None, &[])
+    }
+
+    /// As [`PgServer::try_start`] with extra `-c name=value` settings (they override the
+    /// defaults here, e.g. `max_connections=1040` for the plant benchmark).
+    pub fn try_start_settings(extra: &[String]) -> Result<Self, String> {
+        Self::try_start_with(None, extra)
     }
 
     /// As [`PgServer::try_start`] with `ssl = on` and this certificate and key (written in
     /// the server's folder, mode 0600, owned by the server's user as PostgreSQL demands).
     pub fn try_start_tls(tls: ServerTls) -> Result<Self, String> {
-        Self::try_start_with(Some(tls))
+        Self::try_start_with(Some(tls), &[])
     }
 
-    fn try_start_with(tls: Option<ServerTls>) -> Result<Self, String> {
+    fn try_start_with(tls: Option<ServerTls>, extra: &[String]) -> Result<Self, String> {
         let bin = find_bin_dir().ok_or(
             "PostgreSQL's initdb was not found on PATH or in /usr/lib/postgresql/*/bin: \
              run .ci/run, it installs postgresql",
@@ -97,7 +103,7 @@ impl PgServer {
             .prefix("gearcomp-pg-")
             .tempdir()
             .map_err(|e| e.to_string())?;
-        let mut settings = Vec::new();
+        let mut settings = extra.to_vec();
         if let Some(t) = tls {
             use std::os::unix::fs::PermissionsExt;
             let cert = dir.path().join("server.crt");
