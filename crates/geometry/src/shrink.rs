@@ -162,6 +162,30 @@ pub fn shrink_offset_first_order_um(input: &ShrinkInput) -> Result<f64, ShrinkEr
 mod tests {
     use super::*;
 
+    /// Gear G1 of docs/dressing.md (m_n 3, z 40, α_n 20°, β 15°), hand calculation with
+    /// ISO 21771: r = 62.11657 mm, α_t = 20.64690°; the other inputs pass through.
+    #[test]
+    fn for_gear_builds_radius_and_transverse_angle() {
+        let i = ShrinkInput::for_gear(
+            3.0,
+            40,
+            20f64.to_radians(),
+            15f64.to_radians(),
+            11.5e-6,
+            25.0,
+            ShrinkReference::Radius(65.0),
+        );
+        assert!((i.reference_radius_mm - 62.11657).abs() < 1e-5);
+        assert!((i.transverse_pressure_angle_rad.to_degrees() - 20.64690).abs() < 1e-5);
+        assert_eq!(i.expansion_per_k, 11.5e-6);
+        assert_eq!(i.delta_temp_k, 25.0);
+        assert_eq!(i.reference, ShrinkReference::Radius(65.0));
+        // A spur gear: r = m·z/2, α_t = α_n.
+        let spur = ShrinkInput::for_gear(2.0, 25, 0.35, 0.0, 1e-5, 1.0, ShrinkReference::Pitch);
+        assert_eq!(spur.reference_radius_mm, 25.0);
+        assert!((spur.transverse_pressure_angle_rad - 0.35).abs() < 1e-15);
+    }
+
     fn input(m: f64, z: f64, ra: Option<f64>, dt: f64) -> ShrinkInput {
         ShrinkInput {
             reference_radius_mm: m * z / 2.0,
