@@ -132,6 +132,15 @@ struct Fold {
     val: usize,
 }
 
+/// The QR of chosen columns [1 cols] on the training rows of a fold (or of all of them).
+struct Base {
+    fold: Option<usize>,
+    n: usize,
+    qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    /// |diagonal of R| of the chosen columns.
+    diag: Vec<f64>,
+}
+
 /// Per-block and per-fold R factors of [1 F Y].
 struct Engine {
     block_r: Vec<DMatrix<f64>>,
@@ -227,29 +236,35 @@ impl Engine {
             .map(|b| b + 1)
             .max()
             .unwrap_or(0);
-        let mut block_r = Vec::with_capacity(nb);
-        let mut block_n = Vec::with_capacity(nb);
-        for b in 0..nb {
+        // The block factors, then the fold and all-rows factors, over the cores.
+        let block_n: Vec<usize> = (0..nb)
+            .map(|b| scheme.block.iter().filter(|&&x| x == Some(b)).count())
+            .collect();
+        let block_r: Vec<DMatrix<f64>> = par_map(nb, |b| {
             let rows: Vec<usize> = (0..scheme.block.len())
                 .filter(|&i| scheme.block[i] == Some(b))
                 .collect();
-            block_n.push(rows.len());
-            block_r.push(augmented_r(&rows, features, targets));
-        }
+            augmented_r(&rows, features, targets)
+        });
+        let nf = scheme.folds.len();
+        let mut stacked: Vec<DMatrix<f64>> = par_map(nf + 1, |f| {
+            let parts: Vec<&DMatrix<f64>> = match scheme.folds.get(f) {
+                Some((tr, _)) => tr.iter().map(|&b| &block_r[b]).collect(),
+                None => block_r.iter().collect(),
+            };
+            r_factor(stack(&parts, m))
+        });
+        let all_r = stacked.pop().unwrap_or_else(|| DMatrix::zeros(0, m));
         let folds = scheme
             .folds
             .iter()
-            .map(|(tr, va)| {
-                let parts: Vec<&DMatrix<f64>> = tr.iter().map(|&b| &block_r[b]).collect();
-                Fold {
-                    train_r: r_factor(stack(&parts, m)),
-                    n_train: tr.iter().map(|&b| block_n[b]).sum(),
-                    val: *va,
-                }
+            .zip(stacked)
+            .map(|((tr, va), train_r)| Fold {
+                train_r,
+                n_train: tr.iter().map(|&b| block_n[b]).sum(),
+                val: *va,
             })
             .collect();
-        let parts: Vec<&DMatrix<f64>> = block_r.iter().collect();
-        let all_r = r_factor(stack(&parts, m));
         Self {
             block_r,
             block_n,
@@ -285,6 +300,56 @@ impl Engine {
             return None;
         }
         Some(q[(p + 1, p + 1)].powi(2))
+    }
+
+    /// The QR of the columns [1 cols] already chosen, on the training rows of `fold`
+    /// (`None`: every training row), to test candidates added to them ([`Engine::add_sse`]).
+    fn base(&self, fold: Option<usize>, cols: &[usize]) -> Base {
+        let (r, n) = match fold {
+            Some(f) => (&self.folds[f].train_r, self.folds[f].n_train),
+            None => (&self.all_r, self.block_n.iter().sum()),
+        };
+        let mut sel = Vec::with_capacity(cols.len() + 1);
+        sel.push(0usize);
+        sel.extend(cols.iter().map(|c| c + 1));
+        let qr = r.select_columns(&sel).qr();
+        let rr = qr.r();
+        let diag = (0..rr.nrows().min(sel.len()))
+            .map(|j| rr[(j, j)].abs())
+            .collect();
+        Base { fold, n, qr, diag }
+    }
+
+    /// Least-squares residual SSE on the base's rows of [base columns, `cols`] for `target`,
+    /// from the base's QR: the new columns and y are reflected by Qᵀ of the base and only the
+    /// rows below it are factorised (the same R factor as [`Engine::train_sse`], several
+    /// times cheaper in a forward step); `None` when rank deficient.
+    fn add_sse(&self, base: &Base, cols: &[usize], target: usize) -> Option<f64> {
+        let r = match base.fold {
+            Some(f) => &self.folds[f].train_r,
+            None => &self.all_r,
+        };
+        let q = base.diag.len();
+        let u = cols.len();
+        if r.nrows() < q + u + 1 || base.n < q + u + 1 {
+            return None;
+        }
+        let mut sel: Vec<usize> = cols.iter().map(|c| c + 1).collect();
+        sel.push(1 + self.n_feat + target);
+        let mut z = r.select_columns(&sel);
+        base.qr.q_tr_mul(&mut z);
+        let rest = z.rows(q, z.nrows() - q).into_owned().qr().r();
+        let max_p = base
+            .diag
+            .iter()
+            .copied()
+            .chain((0..u).map(|j| rest[(j, j)].abs()))
+            .fold(0.0, f64::max);
+        let ok = |d: f64| exceeds(d, 1e-11 * max_p);
+        if !base.diag.iter().all(|&d| ok(d)) || !(0..u).all(|j| ok(rest[(j, j)].abs())) {
+            return None;
+        }
+        Some(rest[(u, u)].powi(2))
     }
 
     /// Held-out SSE of fold `fold` for the sub-model fitted on that fold's training rows.
@@ -324,6 +389,41 @@ impl Engine {
             .map(|(s, f)| (s / self.block_n[f.val].max(1) as f64).sqrt())
             .collect()
     }
+}
+
+/// `f(0), …, f(n − 1)` computed over the available cores (scoped threads), in order.
+fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |w| w.get())
+        .min(n);
+    if workers <= 1 {
+        return (0..n).map(f).collect();
+    }
+    let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
+    std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..workers)
+            .map(|w| {
+                let f = &f;
+                sc.spawn(move || {
+                    (w..n)
+                        .step_by(workers)
+                        .map(|i| (i, f(i)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            match h.join() {
+                Ok(v) => {
+                    for (i, x) in v {
+                        out[i] = Some(x);
+                    }
+                }
+                Err(p) => std::panic::resume_unwind(p),
+            }
+        }
+    });
+    out.into_iter().flatten().collect()
 }
 
 /// Coefficients (intercept first) of a sub-model from the R factor of its columns
@@ -453,11 +553,17 @@ fn greedy(
     };
     loop {
         let mut step: Option<(f64, Vec<usize>, usize)> = None;
+        let chosen_cols: Vec<usize> = chosen.iter().flatten().copied().collect();
+        let base = ctx.eng.base(fold, &chosen_cols);
         for &cand in candidates.iter().filter(|c| !path.contains(c)) {
             for unit in units(cand) {
                 let mut trial = chosen.clone();
                 trial.push(unit.clone());
-                if let Some(v) = sse_of(&trial) {
+                if sensors_of_units(ctx.feats, &trial).len() > ctx.cap {
+                    continue;
+                }
+                let v = ctx.eng.add_sse(&base, &unit, target);
+                if let Some(v) = v.filter(|v| v.is_finite()) {
                     if step.as_ref().is_none_or(|s| v < s.0) {
                         step = Some((v, unit, cand));
                     }
