@@ -25,8 +25,9 @@ use serde::Deserialize;
 use serde_json::json;
 
 use crate::auth::Tokens;
+use crate::clock::Clock;
 use crate::config::Role;
-use crate::cycle::{Clock, InputMsg, Live};
+use crate::cycle::{InputMsg, Live};
 use crate::storage::{self, Range, Record, SeriesKind, StoreStats};
 
 const DASHBOARD_HTML: &str = include_str!("../assets/dashboard.html");

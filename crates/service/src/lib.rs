@@ -6,7 +6,8 @@
 //! dashboard. One process can serve several machines.
 //!
 //! * [`config`]: `machine.toml` ([`ServiceConfig`]), unknown keys refused.
-//! * [`cycle`]: the cycle thread, the service clock, bumpless transfer on model changes.
+//! * [`cycle`]: the cycle thread, bumpless transfer on model changes.
+//! * [`clock`]: the service clock (sped-up time continuing the record; its wall-clock anchor).
 //! * [`storage`]: the backend-neutral record (`Store`), SQLite and PostgreSQL, batched
 //!   commits, CSV export for `gearcomp fit`.
 //! * [`auth`]: tokens (generated at first start, stored hashed), read-only / operator.
@@ -18,6 +19,7 @@
 
 pub mod alarms;
 pub mod auth;
+pub mod clock;
 pub mod config;
 pub mod cycle;
 pub mod error;

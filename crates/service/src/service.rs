@@ -13,8 +13,9 @@ use gearcomp_thermal::presets::bundle;
 use gearcomp_thermal::{Engine, EngineConfig, Preset, Simulator};
 
 use crate::auth::Tokens;
+use crate::clock::Clock;
 use crate::config::{InputSection, MachineEntry, ServiceConfig};
-use crate::cycle::{Clock, Cycle, CycleParts, InputMsg, Live, OffsetOut, ResumeState};
+use crate::cycle::{Cycle, CycleParts, InputMsg, Live, OffsetOut, ResumeState};
 use crate::error::{Result, ServiceError};
 use crate::http::{self, AppState, ModelInfo};
 use crate::storage::{self, StoreStats};

@@ -19,8 +19,9 @@ use std::time::{Duration, Instant};
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 use serde::Serialize;
 
+pub use crate::clock::unix_now_s;
+use crate::clock::Clock;
 use crate::config::{ServiceConfig, StorageBackend};
-use crate::cycle::Clock;
 use crate::error::{Result, ServiceError};
 
 #[cfg(feature = "postgres")]
@@ -190,13 +191,6 @@ pub fn open_read(path: &Path) -> Result<Connection> {
     )?;
     conn.busy_timeout(Duration::from_secs(5))?;
     Ok(conn)
-}
-
-/// Seconds since the Unix epoch (for audit rows only; the record uses the service clock).
-pub fn unix_now_s() -> f64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// Writes the names of channels, axes and targets; an existing database must use the
