@@ -15,6 +15,9 @@ pub(super) trait GrindMesh: AnalyticTransfer {
     fn rho1_default_rad(&self) -> f64;
     /// Reference roll distance of the worm flank (mm), where a worm modification is centred.
     fn worm_ref_mm(&self) -> f64;
+    /// Reference roll distance of the gear flank (mm), where the wanted gear modification is
+    /// centred.
+    fn gear_ref_mm(&self) -> f64;
     /// K_ZV1 for a wanted gear line direction ρ_F2 (`--gear-rho-deg`) and, where it exists,
     /// the line map X_F1 = k·X_F2 + c0.
     fn gear_line_choice(
@@ -34,6 +37,10 @@ impl GrindMesh for WormGearPair {
 
     fn worm_ref_mm(&self) -> f64 {
         self.worm.w_ref_mm
+    }
+
+    fn gear_ref_mm(&self) -> f64 {
+        self.gear.w_ref_mm
     }
 
     fn gear_line_choice(
@@ -73,6 +80,10 @@ impl GrindMesh for ConicalPair {
 
     fn worm_ref_mm(&self) -> f64 {
         self.worm.w_ref_mm
+    }
+
+    fn gear_ref_mm(&self) -> f64 {
+        self.gear.w_ref_mm
     }
 
     fn gear_line_choice(

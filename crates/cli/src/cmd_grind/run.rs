@@ -344,17 +344,7 @@ pub(super) fn solve(a: SolveArgs) -> Result<()> {
         return solve_conical(&a, c);
     }
     let s = setup(&a.setup, None)?;
-    let rho1 = a
-        .worm_rho_deg
-        .map_or_else(|| rho1_estimate_rad(&s.pair), deg_to_rad);
-    let wanted = LineModification::new(
-        deg_to_rad(a.gear_rho_deg),
-        s.pair.gear.w_ref_mm,
-        poly_um(&a.gear_c),
-        poly_um(&a.gear_l),
-        poly_um(&a.gear_q),
-    )
-    .context("wanted gear modification")?;
+    let (rho1, wanted) = solve_targets(&a, &s.pair)?;
     let opts = IterationOptions::default();
     let it = solve_iterated(
         &s.pair,
@@ -423,17 +413,7 @@ pub(super) fn solve(a: SolveArgs) -> Result<()> {
 /// w_01 = a'·w_02 + g (the worm roll distance along the gear line, docs/grinding.md).
 pub(super) fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
     let s = setup_conical(&a.setup, c)?;
-    let rho1 = a
-        .worm_rho_deg
-        .map_or_else(|| conical::rho1_estimate_rad(&s.pair.worm), deg_to_rad);
-    let wanted = LineModification::new(
-        deg_to_rad(a.gear_rho_deg),
-        s.pair.gear.w_ref_mm,
-        poly_um(&a.gear_c),
-        poly_um(&a.gear_l),
-        poly_um(&a.gear_q),
-    )
-    .context("wanted gear modification")?;
+    let (rho1, wanted) = solve_targets(a, &s.pair)?;
     let (lm, worm_mod) =
         conical_lines::worm_modification_for_gear(&s.pair, &wanted, rho1, a.setup.shift_offset_mm)
             .context("worm modification for the wanted gear modification (conical chain)")?;
@@ -451,6 +431,23 @@ pub(super) fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
         Extras::default(),
     )?;
     emit(&out, &a.setup)
+}
+
+/// ρ_F1 (--worm-rho-deg, or the mesh's estimate) and the wanted gear line modification
+/// (--gear-rho-deg, --gear-c/-l/-q) of `solve`, on either mesh.
+fn solve_targets<M: GrindMesh>(a: &SolveArgs, pair: &M) -> Result<(f64, LineModification)> {
+    let rho1 = a
+        .worm_rho_deg
+        .map_or_else(|| pair.rho1_default_rad(), deg_to_rad);
+    let wanted = LineModification::new(
+        deg_to_rad(a.gear_rho_deg),
+        pair.gear_ref_mm(),
+        poly_um(&a.gear_c),
+        poly_um(&a.gear_l),
+        poly_um(&a.gear_q),
+    )
+    .context("wanted gear modification")?;
+    Ok((rho1, wanted))
 }
 
 /// `grind equalise`: T14 on a config, ϑ1 and both flanks' K.
