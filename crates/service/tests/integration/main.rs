@@ -8,6 +8,7 @@ mod common;
 mod postgres_common;
 
 mod alarm_flood;
+mod chaos;
 mod dashboard_browser;
 mod envelope;
 mod http_api;
