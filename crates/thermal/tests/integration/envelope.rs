@@ -450,3 +450,48 @@ fn fl_thermal_warns_in_the_5000_rpm_period_and_not_on_training_rows() {
         first.warning
     );
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The warning's hysteresis and hold, as four properties of any input sequence (one
+    /// channel, range 10…30 °C, so the shrunk range is 10.4…29.6 °C; random steps of 1 … 300 s
+    /// and values wandering across both boundaries): an input outside raises it; it is
+    /// never raised without one; it clears only at the end of a run of inputs inside the
+    /// shrunk range lasting at least 600 s; and such a run always clears it.
+    #[test]
+    fn hysteresis_and_hold_hold_for_any_sequence(
+        steps in proptest::collection::vec((1u32..300, -1.0f64..1.0), 50..300),
+    ) {
+        let env = Envelope {
+            axis: "X".into(),
+            ranges: vec![ChannelRange { channel: "a".into(), min: 10.0, max: 30.0 }],
+            feature_mean: vec![],
+            whitening: vec![],
+            max_d2: 0.0,
+            rows: 50,
+        };
+        let mut e = engine(&["a"], Some(env));
+        let (mut t, mut v) = (0.0, 20.0);
+        let mut was_on = false;
+        let mut run_start: Option<f64> = None;
+        for (dt, dv) in steps {
+            t += f64::from(dt);
+            // A walk biased towards the upper boundary region, reflected into 8…32 °C.
+            v = (v + 3.0 * dv + 0.4).clamp(8.0, 32.0);
+            if v >= 32.0 {
+                v = 27.0;
+            }
+            let on = step(&mut e, t, &[v]).warning.is_some();
+            let outside = !(10.0..=30.0).contains(&v);
+            let inside_shrunk = (10.4..=29.6).contains(&v);
+            run_start = if inside_shrunk { run_start.or(Some(t)) } else { None };
+            let long_run = run_start.is_some_and(|s| t - s >= ENVELOPE_CLEAR_HOLD_S);
+            prop_assert!(!outside || on, "outside at {t} s ({v} °C) without a warning");
+            prop_assert!(was_on || outside || !on, "raised at {t} s without an excursion");
+            prop_assert!(!(was_on && !on) || long_run, "cleared at {t} s after a short run");
+            prop_assert!(!(long_run && on), "still on at {t} s after {:?}", run_start);
+            was_on = on;
+        }
+    }
+}
