@@ -489,7 +489,8 @@ proptest! {
             let long_run = run_start.is_some_and(|s| t - s >= ENVELOPE_CLEAR_HOLD_S);
             prop_assert!(!outside || on, "outside at {t} s ({v} °C) without a warning");
             prop_assert!(was_on || outside || !on, "raised at {t} s without an excursion");
-            prop_assert!(!(was_on && !on) || long_run, "cleared at {t} s after a short run");
+            let cleared = was_on && !on;
+            prop_assert!(!cleared || long_run, "cleared at {t} s after a short run");
             prop_assert!(!(long_run && on), "still on at {t} s after {:?}", run_start);
             was_on = on;
         }
