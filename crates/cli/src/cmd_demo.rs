@@ -15,7 +15,7 @@ use gearcomp_thermal::{
 /// Options of `gearcomp demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Machine preset: grinder (seed 001), shaper (seed 000) or hobbing (dry, model file).
+    /// Machine preset: grinder (JPH0761598B2), shaper (EP0138375) or hobbing (CN105397560, dry, model file).
     #[arg(long, default_value = "grinder")]
     pub preset: String,
     /// Shift length in hours (default: the preset's shift, 8 h).
@@ -145,7 +145,7 @@ fn report(
     r.paragraph(
         "Sign convention: a positive offset increases the centre distance; the residual is drift + offset. \
          Drift range is max − min over the shift (ISO 230-3 total drift). The machine is simulated by a \
-         lumped thermal network with illustrative constants tuned to the seeds' magnitudes.",
+         lumped thermal network with illustrative constants tuned to the magnitudes of EP0138375, JPH0761598B2 and CN105397560.",
     );
     r.write(out)
         .with_context(|| format!("writing the report {}", out.display()))?;

@@ -130,7 +130,7 @@ fn sigterm_finishes_the_cycle_flushes_and_exits_0() {
         .unwrap();
     assert_eq!(rows as u64, n);
 
-    // Independent check of the recorded law (seed 001's Kz·(A − B), in common).
+    // Independent check of the recorded law (JPH0761598B2's Kz·(A − B), in common).
     assert_grinder_law(&db);
 }
 

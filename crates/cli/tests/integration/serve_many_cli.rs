@@ -175,7 +175,7 @@ fn two_machines_run_apart_in_one_process_and_stop_together() {
     assert!(!ca.iter().any(|c| c == "proximity_um"), "{ca:?}");
     assert!(cb.iter().any(|c| c == "proximity_um"), "{cb:?}");
 
-    // The grinder's record still follows its own law (seed 001's Kz·(A − B)): the second
+    // The grinder's record still follows its own law (JPH0761598B2's Kz·(A − B)): the second
     // machine in the process did not leak into it.
     assert_grinder_law(&dir.join("a.db"));
 }
