@@ -12,7 +12,10 @@ use crate::config::Backoff;
 use crate::error::{check_range, invalid, Result};
 
 /// OPC UA input (CNC variables, temperatures the CNC exposes) and offset output.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// `Debug` prints the password as `Some("(hidden)")`, so a configuration printed for a
+/// diagnosis never shows it.
+#[derive(Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpcUaInput {
     /// Server endpoint URL, `opc.tcp://host:port/path`.
@@ -92,6 +95,36 @@ pub struct OpcUaInput {
     /// compensation cycle steps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heartbeat: Option<OpcUaHeartbeat>,
+}
+
+impl std::fmt::Debug for OpcUaInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OpcUaInput")
+            .field("endpoint", &self.endpoint)
+            .field("security_policy", &self.security_policy)
+            .field("security_mode", &self.security_mode)
+            .field("user", &self.user)
+            .field("password", &self.password.as_ref().map(|_| "(hidden)"))
+            .field("password_env", &self.password_env)
+            .field("password_file", &self.password_file)
+            .field("user_certificate", &self.user_certificate)
+            .field("user_private_key", &self.user_private_key)
+            .field("pki_dir", &self.pki_dir)
+            .field("trust_server_cert", &self.trust_server_cert)
+            .field("publishing_interval_s", &self.publishing_interval_s)
+            .field("scan_period_s", &self.scan_period_s)
+            .field("keep_alive_s", &self.keep_alive_s)
+            .field("reconnect", &self.reconnect)
+            .field("channels", &self.channels)
+            .field("positions", &self.positions)
+            .field("trigger", &self.trigger)
+            .field("program_state", &self.program_state)
+            .field("offset_output", &self.offset_output)
+            .field("offset_outputs", &self.offset_outputs)
+            .field("stop_output", &self.stop_output)
+            .field("heartbeat", &self.heartbeat)
+            .finish()
+    }
 }
 
 /// The stop / feed-hold node.
@@ -621,6 +654,19 @@ mod tests {
         assert!(
             e.contains("input.user_certificate") && e.contains("one login"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn debug_hides_the_password() {
+        let o: OpcUaInput = toml::from_str(
+            "endpoint = \"opc.tcp://cnc:4840/\"\nuser = \"op\"\npassword = \"Hunter-2-pw\"\n",
+        )
+        .unwrap();
+        let d = format!("{o:?}");
+        assert!(
+            !d.contains("Hunter-2-pw") && d.contains("(hidden)") && d.contains("\"op\""),
+            "{d}"
         );
     }
 
