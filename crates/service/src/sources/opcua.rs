@@ -18,11 +18,19 @@
 //! * **Wrong data.** A node of the wrong data type, with a bad status or without a value
 //!   raises `opcua.node.<node id>` naming the node, the type found and the type expected;
 //!   a channel then gets NaN (the engine freezes the axes reading it), nothing crashes.
-//! * **Output.** The applied offset is written as an absolute Double,
-//!   `node = offset_um·scale`, once per offset sequence number, and once more at the
-//!   start of every session (a CNC restarted while the service runs gets the current value
-//!   at once); a failed write raises `opcua.offset_output` and is retried with back-off with
-//!   the newest value.
+//! * **Outputs.** One offset output per axis: the applied offset is written absolute,
+//!   `node = offset_um·scale`, in the node's data type (Double, Float, Int16 or Int32
+//!   counts, rounded, never wrapped: a value outside the type raises
+//!   `opcua.offset_output.<axis>` and the node keeps its last value), once per offset
+//!   sequence number, and once more at the start of every session (a CNC restarted while
+//!   the service runs gets the current value at once); a failed write raises the same key
+//!   and is retried with back-off with the newest value. At every connect each output
+//!   node (offsets, stop, heartbeat) is checked: it exists, declares the data type written
+//!   and may be written; a node failing the check is alarmed and not written.
+//! * **Security.** The server's endpoints are read first: a policy/mode it does not offer
+//!   raises `opcua.security_policy` naming what it offers; its certificate must be in
+//!   `pki_dir/trusted` under any file name (matched by thumbprint), else
+//!   `opcua.certificate`; a refused login raises `opcua.login`.
 //! * **Reconnect.** A failed connect or a lost session raises `opcua.connection` and is
 //!   retried with the same capped exponential back-off as Modbus and MQTT.
 
