@@ -11,7 +11,7 @@ errors (QR), R², train/test RMSE, 3-fold validation by contiguous time blocks, 
 squares on all inputs, the Mahalanobis training envelope and 95 % prediction intervals, and
 a text report.
 
-Usage: python3 numpy_static.py [fl_thermal.csv.gz]   (needs numpy only)
+Usage: python3 numpy_static.py [fl_thermal.csv.gz | plain.csv]   (needs numpy only)
 """
 import gzip
 import sys
@@ -65,7 +65,7 @@ def ols(X, y):
 
 
 def main():
-    with gzip.open(PATH, "rt") as f:
+    with (gzip.open(PATH, "rt") if PATH.endswith(".gz") else open(PATH)) as f:
         header = f.readline().strip().split(",")
         data = np.loadtxt(f, delimiter=",")
     col = {h: i for i, h in enumerate(header)}

@@ -21,7 +21,7 @@ fn table() -> Table {
 }
 
 fn golden() -> serde_json::Value {
-    serde_json::from_str(include_str!("data/numpy_reference.json")).unwrap()
+    serde_json::from_str(include_str!("../data/numpy_reference.json")).unwrap()
 }
 
 fn rel_close(a: f64, b: f64, tol: f64) -> bool {

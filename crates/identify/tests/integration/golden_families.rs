@@ -38,7 +38,8 @@ fn close(a: f64, b: f64) -> bool {
 
 #[test]
 fn every_family_matches_numpy() {
-    let g: serde_json::Value = serde_json::from_str(include_str!("golden/families.json")).unwrap();
+    let g: serde_json::Value =
+        serde_json::from_str(include_str!("../golden/families.json")).unwrap();
     let cases = g["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 16);
     for runs in [false, true] {

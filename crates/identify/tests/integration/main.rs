@@ -1,0 +1,12 @@
+//! Integration tests of gearcomp-identify in one test binary (one link instead of seven):
+//! FL_THERMAL with the default and the fixed kinds, the numpy goldens, multi-run data, runs
+//! and segments, property tests, and the CN105397560 test vector.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod fl_auto;
+mod fl_thermal;
+mod golden_families;
+mod multirun;
+mod properties;
+mod runs;
+mod seed003;
