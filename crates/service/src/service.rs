@@ -279,9 +279,24 @@ pub struct Running {
     server: tokio::task::JoinHandle<()>,
 }
 
-/// Starts every part of the service on the current tokio runtime (multi-threaded).
-pub async fn start(cfg: ServiceConfig) -> Result<Running> {
-    cfg.validate()?;
+/// What the input needs, worked out from the configuration and the engine's names before
+/// anything starts.
+struct InputPlan {
+    /// Service-clock seconds per wall-clock second.
+    speedup: f64,
+    /// The simulator and its channel map, for `kind = "simulator"`.
+    sim: Option<(Simulator, Vec<usize>)>,
+    /// The cycle's tick, s.
+    period_s: f64,
+    /// The opened log, for `kind = "replay"`.
+    replay: Option<crate::sources::replay::ReplayPlan>,
+    /// Names of the target series the record keeps.
+    targets: Vec<String>,
+}
+
+/// Phase 1: the configuration's inputs checked against the engine (a bad credential, a
+/// channel the input does not map, a log that does not fit stop the start here).
+fn plan_input(cfg: &ServiceConfig, channels: &[String], axes: &[String]) -> Result<InputPlan> {
     // The broker password is read at start so a missing file or variable stops it here.
     #[cfg(feature = "mqtt")]
     if let crate::config::InputSection::Mqtt(m) = &cfg.input {
@@ -290,15 +305,10 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             crate::sources::mqtt::tls_config(t)?;
         }
     }
-    let (engine_cfg, model_source) = engine_config(&cfg)?;
-    let engine = Engine::new(&engine_cfg)?;
-    let channels: Vec<String> = engine.channel_names().to_vec();
-    let axes: Vec<String> = engine.axis_names().to_vec();
-
     // Inputs that need the engine's channels are checked before anything starts.
-    let replay_plan = match &cfg.input {
+    let replay = match &cfg.input {
         InputSection::Replay(r) => Some(crate::sources::replay::ReplayPlan::open_with_axes(
-            r, &channels, &axes,
+            r, channels, axes,
         )?),
         _ => None,
     };
@@ -306,9 +316,9 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         InputSection::Simulator {
             seed, speedup: s, ..
         } => {
-            let p = preset_of(&cfg)?;
+            let p = preset_of(cfg)?;
             let simulator = Simulator::new(bundle(p).machine, *seed)?;
-            let map = crate::sources::sim::channel_map(&simulator, &channels)?;
+            let map = crate::sources::sim::channel_map(&simulator, channels)?;
             // The simulator scans every dt_s; a shorter tick would only re-sample held
             // readings between scans.
             let period_s = cfg.cycle.period_s.max(simulator.spec().dt_s);
@@ -318,135 +328,138 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         InputSection::Mqtt(_) => (1.0, None, cfg.cycle.period_s),
         #[cfg(feature = "modbus")]
         InputSection::Modbus(m) => {
-            crate::sources::modbus::resolve(m, &channels, &axes)?;
+            crate::sources::modbus::resolve(m, channels, axes)?;
             (1.0, None, cfg.cycle.period_s)
         }
         #[cfg(feature = "opcua")]
         InputSection::OpcUa(o) => {
-            crate::sources::opcua::resolve(o, &channels, &axes)?;
+            crate::sources::opcua::resolve(o, channels, axes)?;
             (1.0, None, cfg.cycle.period_s)
         }
         // The log's rows time every step: a clock tick between two rows would add a step
         // an offline replay of the same log does not have.
         InputSection::Replay(r) => (r.speedup, None, f64::INFINITY),
     };
-    let targets: Vec<String> = if sim.is_some() {
-        vec!["measured_drift_um".into()]
-    } else {
-        vec![]
-    };
-    let targets = match &replay_plan {
+    let targets = match &replay {
         Some(p) => p.target_names(),
-        None => targets,
+        None if sim.is_some() => vec!["measured_drift_um".into()],
+        None => vec![],
     };
+    Ok(InputPlan {
+        speedup,
+        sim,
+        period_s,
+        replay,
+        targets,
+    })
+}
 
-    let db_path = cfg.storage.path.clone();
-    // Opening the store blocks (a PostgreSQL client runs its own small runtime), so it
-    // happens off the async workers; the backend is chosen by `[storage] backend`.
+/// What the record holds at start.
+struct Opened {
+    store: Arc<dyn storage::Store>,
+    /// Where the clock resumes, s.
+    origin_s: f64,
+    tokens: Tokens,
+    generated: Option<crate::auth::Generated>,
+    /// Committed samples and the last sample id.
+    totals: (u64, u64),
+    /// The state the last run kept, encoded.
+    resume: Option<String>,
+}
+
+/// Phase 2: the record opened (names registered, stale alarms closed, tokens loaded or
+/// generated, the model logged). Opening blocks (a PostgreSQL client runs its own small
+/// runtime), so it happens off the async workers.
+async fn open_record(
+    cfg: &ServiceConfig,
+    names: [Vec<String>; 3],
+    model_src: String,
+    model_toml: String,
+) -> Result<Opened> {
     let store_cfg = cfg.clone();
-    let (ch, ax, tg) = (channels.clone(), axes.clone(), targets.clone());
-    let model_toml = engine_cfg.to_toml_string().unwrap_or_default();
-    let model_src = model_source.clone();
-    let (store, origin_s, tokens, generated, totals, resume) =
-        tokio::task::spawn_blocking(move || -> Result<_> {
-            let store = storage::open_store(&store_cfg)?;
-            store.register_names(&ch, &ax, &tg)?;
-            let last = store.last_time_s()?;
-            // Resume the clock one second after the record ends so time stays increasing.
-            let origin_s = if last.is_finite() {
-                last.ceil() + 1.0
-            } else {
-                0.0
-            };
-            store.close_stale_alarms(origin_s)?;
-            let (tokens, mut generated) =
-                Tokens::load_or_generate_in(&*store, &store_cfg.auth.tokens)?;
-            crate::auth::secure_record(&store_cfg, generated.as_mut())?;
-            store.add_model(&model_src, &model_toml)?;
-            let totals = store.sample_totals()?;
-            let resume = store.resume_state()?;
-            Ok((store, origin_s, tokens, generated, totals, resume))
+    tokio::task::spawn_blocking(move || -> Result<Opened> {
+        let [ch, ax, tg] = names;
+        let store = storage::open_store(&store_cfg)?;
+        store.register_names(&ch, &ax, &tg)?;
+        let last = store.last_time_s()?;
+        // Resume the clock one second after the record ends so time stays increasing.
+        let origin_s = if last.is_finite() {
+            last.ceil() + 1.0
+        } else {
+            0.0
+        };
+        store.close_stale_alarms(origin_s)?;
+        let (tokens, mut generated) = Tokens::load_or_generate_in(&*store, &store_cfg.auth.tokens)?;
+        crate::auth::secure_record(&store_cfg, generated.as_mut())?;
+        store.add_model(&model_src, &model_toml)?;
+        let totals = store.sample_totals()?;
+        let resume = store.resume_state()?;
+        Ok(Opened {
+            store,
+            origin_s,
+            tokens,
+            generated,
+            totals,
+            resume,
         })
-        .await
-        .map_err(|_| ServiceError::Stopped("opening the store"))??;
-    let model_source_shown = model_source.clone();
-    let stats = Arc::new(StoreStats::default());
-    stats.committed_samples.store(totals.0, Ordering::Release);
-    stats.last_sample_id.store(totals.1, Ordering::Release);
+    })
+    .await
+    .map_err(|_| ServiceError::Stopped("opening the store"))?
+}
 
-    let http_tls = cfg.http.tls.as_ref().map(http::tls_acceptor).transpose()?;
-    let scheme = if http_tls.is_some() { "https" } else { "http" };
-    let http_limits = http::ServerLimits::of(&cfg.http);
-    let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
-        .await
-        .map_err(|source| ServiceError::Io {
-            action: "bind",
-            path: format!("{}:{}", cfg.http.bind, cfg.http.port),
-            source,
-        })?;
-    let addr = listener.local_addr().map_err(|source| ServiceError::Io {
+/// The HTTP side before it serves: the listener bound, TLS and limits read.
+struct HttpBound {
+    listener: tokio::net::TcpListener,
+    addr: std::net::SocketAddr,
+    tls: Option<tokio_rustls::TlsAcceptor>,
+    limits: http::ServerLimits,
+}
+
+/// Phase 3: the HTTP listener bound (a port in use or a bad certificate stop the start).
+async fn bind_http(cfg: &ServiceConfig) -> Result<HttpBound> {
+    let tls = cfg.http.tls.as_ref().map(http::tls_acceptor).transpose()?;
+    let limits = http::ServerLimits::of(&cfg.http);
+    let io_err = |source| ServiceError::Io {
         action: "bind",
         path: format!("{}:{}", cfg.http.bind, cfg.http.port),
         source,
-    })?;
-    let clock = Clock::new(origin_s, speedup);
-    let shutdown = Arc::new(AtomicBool::new(false));
-    let (rec_tx, rec_rx) = sync_channel(RECORD_QUEUE);
-    let (in_tx, in_rx) = sync_channel::<InputMsg>(INPUT_QUEUE);
-    let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
-    let live = Arc::new(Mutex::new(Live::new(&channels, &axes)));
-
-    let commit = Duration::from_secs_f64(cfg.storage.commit_interval_s);
-    let stats_w = stats.clone();
-    let writer = {
-        let store = store.clone();
-        let params = storage::WriterParams {
-            commit_interval: commit,
-            clock,
-        };
-        tokio::task::spawn_blocking(move || store.spawn_writer(rec_rx, params, stats_w))
-            .await
-            .map_err(|_| ServiceError::Stopped("the store thread"))??
     };
-    let mut cycle = Cycle::new(CycleParts {
-        engine,
-        config: engine_cfg.clone(),
-        clock,
-        period_s,
-        bumpless_step_um: cfg.cycle.bumpless_step_um,
-        records: rec_tx.clone(),
-        live: live.clone(),
-        offsets: off_tx,
-        shutdown: shutdown.clone(),
-    });
-    // Bumpless restart: the state the last run kept (applied offsets, filters, rate
-    // limit, latched stop) is taken over; it is kept again while this run goes on.
-    cycle.keep_state(commit);
-    if let Some(state) = resume.as_deref().and_then(ResumeState::decode) {
-        cycle.resume(&state);
-    }
-    // A source that reports the machine state starts "not at a safe point", so nothing
-    // moves mid-cut before its first report.
-    #[cfg(feature = "opcua")]
-    if let InputSection::OpcUa(o) = &cfg.input {
-        if o.program_state.is_some() {
-            cycle.set_safe_point(false);
-        }
-    }
-    #[cfg_attr(
-        not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
-        allow(unused_variables)
-    )]
-    let alive = cycle.alive();
-    let cycle_thread = std::thread::Builder::new()
-        .name("gearcomp-cycle".into())
-        .spawn(move || cycle.run(in_rx))
-        .map_err(|source| ServiceError::Io {
-            action: "start",
-            path: "the cycle thread".into(),
-            source,
-        })?;
+    let listener = tokio::net::TcpListener::bind((cfg.http.bind, cfg.http.port))
+        .await
+        .map_err(io_err)?;
+    let addr = listener.local_addr().map_err(io_err)?;
+    Ok(HttpBound {
+        listener,
+        addr,
+        tls,
+        limits,
+    })
+}
 
+/// The running sources: a thread (simulator, replay) or tasks (network inputs).
+struct Sources {
+    thread: Option<std::thread::JoinHandle<()>>,
+    tasks: Vec<tokio::task::JoinHandle<()>>,
+}
+
+/// Phase 5: the input started, feeding the cycle; network outputs watch `off_rx`.
+#[allow(clippy::too_many_arguments)]
+#[cfg_attr(
+    not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
+    allow(unused_variables)
+)]
+fn start_sources(
+    cfg: &ServiceConfig,
+    sim: Option<(Simulator, Vec<usize>)>,
+    replay_plan: Option<crate::sources::replay::ReplayPlan>,
+    channels: &[String],
+    axes: &[String],
+    clock: Clock,
+    in_tx: &std::sync::mpsc::SyncSender<InputMsg>,
+    off_rx: tokio::sync::watch::Receiver<OffsetOut>,
+    shutdown: &Arc<AtomicBool>,
+    alive: Arc<std::sync::atomic::AtomicU64>,
+) -> Result<Sources> {
     let mut sim_thread = None;
     #[cfg_attr(
         not(any(feature = "mqtt", feature = "modbus", feature = "opcua")),
@@ -495,8 +508,8 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
                 crate::sources::mqtt::MqttParts {
                     cfg: m.clone(),
                     machine: cfg.machine.name.clone(),
-                    channels: channels.clone(),
-                    axes: axes.clone(),
+                    channels: channels.to_vec(),
+                    axes: axes.to_vec(),
                     clock,
                     tx: in_tx.clone(),
                     offsets: off_rx.clone(),
@@ -508,8 +521,8 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         InputSection::Modbus(m) => {
             let parts = crate::sources::modbus::ModbusParts {
                 cfg: m.clone(),
-                channels: channels.clone(),
-                axes: axes.clone(),
+                channels: channels.to_vec(),
+                axes: axes.to_vec(),
                 clock,
                 tx: in_tx.clone(),
                 offsets: off_rx.clone(),
@@ -524,8 +537,8 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
             // Prepared here so a bad client setup or a missing password fails the start.
             let adapter = crate::sources::opcua::prepare(crate::sources::opcua::OpcUaParts {
                 cfg: (**o).clone(),
-                channels: channels.clone(),
-                axes: axes.clone(),
+                channels: channels.to_vec(),
+                axes: axes.to_vec(),
                 clock,
                 tx: in_tx.clone(),
                 offsets: off_rx.clone(),
@@ -535,13 +548,114 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         }
     }
     drop(off_rx);
+    Ok(Sources {
+        thread: sim_thread,
+        tasks,
+    })
+}
 
+/// Starts every part of the service on the current tokio runtime (multi-threaded), in
+/// phases: the input planned, the record opened, HTTP bound, the store writer and the
+/// cycle started (resuming the last run's state), the input started, HTTP served.
+pub async fn start(cfg: ServiceConfig) -> Result<Running> {
+    cfg.validate()?;
+    let (engine_cfg, model_source) = engine_config(&cfg)?;
+    let engine = Engine::new(&engine_cfg)?;
+    let channels: Vec<String> = engine.channel_names().to_vec();
+    let axes: Vec<String> = engine.axis_names().to_vec();
+    let plan = plan_input(&cfg, &channels, &axes)?;
+    let opened = open_record(
+        &cfg,
+        [channels.clone(), axes.clone(), plan.targets.clone()],
+        model_source.clone(),
+        engine_cfg.to_toml_string().unwrap_or_default(),
+    )
+    .await?;
+    let store = opened.store;
+    let stats = Arc::new(StoreStats::default());
+    stats
+        .committed_samples
+        .store(opened.totals.0, Ordering::Release);
+    stats
+        .last_sample_id
+        .store(opened.totals.1, Ordering::Release);
+    let bound = bind_http(&cfg).await?;
+    let scheme = if bound.tls.is_some() { "https" } else { "http" };
+
+    // Phase 4: the store writer and the cycle.
+    let clock = Clock::new(opened.origin_s, plan.speedup);
+    let shutdown = Arc::new(AtomicBool::new(false));
+    let (rec_tx, rec_rx) = sync_channel(RECORD_QUEUE);
+    let (in_tx, in_rx) = sync_channel::<InputMsg>(INPUT_QUEUE);
+    let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
+    let live = Arc::new(Mutex::new(Live::new(&channels, &axes)));
+    let commit = Duration::from_secs_f64(cfg.storage.commit_interval_s);
+    let writer = {
+        let (store, stats) = (store.clone(), stats.clone());
+        let params = storage::WriterParams {
+            commit_interval: commit,
+            clock,
+        };
+        tokio::task::spawn_blocking(move || store.spawn_writer(rec_rx, params, stats))
+            .await
+            .map_err(|_| ServiceError::Stopped("the store thread"))??
+    };
+    let mut cycle = Cycle::new(CycleParts {
+        engine,
+        config: engine_cfg.clone(),
+        clock,
+        period_s: plan.period_s,
+        bumpless_step_um: cfg.cycle.bumpless_step_um,
+        records: rec_tx.clone(),
+        live: live.clone(),
+        offsets: off_tx,
+        shutdown: shutdown.clone(),
+    });
+    // Bumpless restart: the state the last run kept (applied offsets, filters, rate
+    // limit, latched stop) is taken over; it is kept again while this run goes on.
+    cycle.keep_state(commit);
+    if let Some(state) = opened.resume.as_deref().and_then(ResumeState::decode) {
+        cycle.resume(&state);
+    }
+    // A source that reports the machine state starts "not at a safe point", so nothing
+    // moves mid-cut before its first report.
+    #[cfg(feature = "opcua")]
+    if let InputSection::OpcUa(o) = &cfg.input {
+        if o.program_state.is_some() {
+            cycle.set_safe_point(false);
+        }
+    }
+    let alive = cycle.alive();
+    let cycle_thread = std::thread::Builder::new()
+        .name("gearcomp-cycle".into())
+        .spawn(move || cycle.run(in_rx))
+        .map_err(|source| ServiceError::Io {
+            action: "start",
+            path: "the cycle thread".into(),
+            source,
+        })?;
+
+    let sources = start_sources(
+        &cfg,
+        plan.sim,
+        plan.replay,
+        &channels,
+        &axes,
+        clock,
+        &in_tx,
+        off_rx,
+        &shutdown,
+        alive,
+    )?;
+
+    // Phase 6: HTTP served.
+    let db_path = cfg.storage.path.clone();
     let state = Arc::new(AppState {
         db: db_path.clone(),
         machine: cfg.machine.name.clone(),
         input: input_name(&cfg),
         live,
-        tokens,
+        tokens: opened.tokens,
         cycle: in_tx.clone(),
         records: rec_tx.clone(),
         store: store.clone(),
@@ -554,29 +668,28 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         started: Instant::now(),
     });
     let (http_stop_tx, http_stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let HttpBound {
+        listener,
+        addr,
+        tls,
+        limits,
+    } = bound;
     let server = tokio::spawn(async move {
-        http::serve(
-            listener,
-            http::router(state),
-            http_limits,
-            http_tls,
-            http_stop_rx,
-        )
-        .await;
+        http::serve(listener, http::router(state), limits, tls, http_stop_rx).await;
     });
 
     Ok(Running {
         addr,
         scheme,
-        generated,
+        generated: opened.generated,
         db: db_path,
         machine: cfg.machine.name.clone(),
-        model_source: model_source_shown,
+        model_source,
         stats,
         store,
         shutdown,
-        tasks,
-        sim_thread,
+        tasks: sources.tasks,
+        sim_thread: sources.thread,
         in_tx,
         cycle_thread,
         writer,
