@@ -204,6 +204,22 @@ pub async fn run(p: ModbusParts) -> crate::error::Result<()> {
         .offset_output
         .as_ref()
         .and_then(|o| p.axes.iter().position(|a| a == &o.axis));
+    if let Some(o) = &p.cfg.pulse_output {
+        let pulse_axis = p.axes.iter().position(|a| a == &o.axis);
+        if pulse_axis.is_none_or(|a| p.offsets.borrow().pulse_um.get(a).is_none_or(|u| *u <= 0.0)) {
+            // Nothing is written for it; said once, not per poll.
+            send(
+                &p.tx,
+                InputMsg::RaiseAlarm {
+                    key: PULSE_KEY.into(),
+                    message: format!(
+                        "input.pulse_output.axis = {:?}: the axis is not applied as pulses (engine apply kind = \"pulses\" expected); no pulses are written",
+                        o.axis
+                    ),
+                },
+            );
+        }
+    }
     // A JoinSet aborts the module tasks when this future is dropped (service stop).
     let mut tasks = tokio::task::JoinSet::new();
     for (i, (m, idx)) in p.cfg.modules.iter().cloned().zip(index).enumerate() {
@@ -944,6 +960,83 @@ mod tests {
             .unwrap_err()
             .contains("32767"));
         assert!(decode_register(0x8000, &map(true, 0.1, 0.0)).is_err());
+    }
+
+    #[test]
+    fn pulse_counter_words_by_hand() {
+        // −21 as i32 = 0xFFFF_FFEB: high 0xFFFF, low 0xFFEB.
+        assert_eq!(encode_pulse_total(-21).unwrap(), [0xFFFF, 0xFFEB]);
+        // 70 000 = 0x0001_1170.
+        assert_eq!(encode_pulse_total(70_000).unwrap(), [0x0001, 0x1170]);
+        assert_eq!(decode_pulse_total([0xFFFF, 0xFFEB]), -21);
+        assert_eq!(decode_pulse_total([0x0001, 0x1170]), 70_000);
+        assert!(encode_pulse_total(i64::from(i32::MAX) + 1)
+            .unwrap_err()
+            .contains("i32"));
+    }
+
+    #[test]
+    fn position_registers_by_hand() {
+        let p = |words: u8, mm_per_count: f64, offset_mm: f64| ModbusPosition {
+            axis: "Z".into(),
+            address: 2,
+            table: RegisterTable::Input,
+            words,
+            mm_per_count,
+            offset_mm,
+        };
+        // 0xC568 = −15000 as i16 → −15 mm at 0.001 mm/count.
+        assert_eq!(
+            decode_position(&[0xC568], &p(1, 0.001, 0.0)).unwrap(),
+            -15.0
+        );
+        // 0x0001_86A0 = 100 000 → 100 mm at 0.001 mm/count, + 5 mm.
+        assert_eq!(
+            decode_position(&[0x0001, 0x86A0], &p(2, 0.001, 5.0)).unwrap(),
+            105.0
+        );
+        // 0xFFFF_FFFF = −1 → −0.5 mm at 0.5 mm/count.
+        assert_eq!(
+            decode_position(&[0xFFFF, 0xFFFF], &p(2, 0.5, 0.0)).unwrap(),
+            -0.5
+        );
+        assert!(decode_position(&[0x0001], &p(2, 0.001, 0.0)).is_err());
+    }
+
+    #[test]
+    fn position_and_pulse_keys_are_checked() {
+        let cfg = |extra: &str| {
+            crate::ServiceConfig::from_toml_str(
+                &format!(
+                    "[input]\nkind = \"modbus\"\n{extra}\n[[input.modules]]\nhost = \"127.0.0.1\"\nregisters = []\n"
+                ),
+                "machine.toml",
+            )
+        };
+        let e = cfg("positions = [{ axis = \"Z\", address = 2, words = 3 }]")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("input.positions[0].words = 3"), "{e}");
+        let e = cfg("positions = [{ axis = \"Z\", address = 2, mm_per_count = 0.0 }]")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("input.positions[0].mm_per_count"), "{e}");
+        assert!(cfg("pulse_output = { axis = \"Z\", address = 12 }\npositions = [{ axis = \"Z\", address = 2 }]").is_ok());
+        let r = resolve(
+            &match cfg("pulse_output = { axis = \"Q\", address = 12 }")
+                .unwrap()
+                .input
+            {
+                crate::config::InputSection::Modbus(m) => m,
+                _ => unreachable!(),
+            },
+            &[],
+            &["Z".to_string()],
+        );
+        assert!(r
+            .unwrap_err()
+            .to_string()
+            .contains("input.pulse_output.axis"));
     }
 
     #[test]
