@@ -5,13 +5,12 @@
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use gearcomp_core::model::{
-    AxisModel, ModelFile, Provenance, ReferenceRadius, ShrinkGear, ShrinkMethod, MODEL_FORMAT,
-};
+use gearcomp_core::model::{ModelFile, ReferenceRadius, ShrinkGear, ShrinkMethod};
 use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
 use gearcomp_identify::dendrogram::dendrogram_svg;
 use gearcomp_identify::identify::{
-    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, RepresentativeBy, Split,
+    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
+    Split,
 };
 use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::{combined_offsets_um, shrink_offset_um, workpiece_shrink};
@@ -501,56 +500,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         workpiece = Some((w, wid.targets[0].clone()));
     }
 
-    let axes: Vec<AxisModel> = id
-        .targets
-        .iter()
-        .enumerate()
-        .map(|(j, m)| AxisModel {
-            axis: args
-                .axis
-                .get(j)
-                .cloned()
-                .unwrap_or_else(|| m.target.clone()),
-            target: m.target.clone(),
-            machine: m.model.clone(),
-            workpiece: if j == 0 {
-                workpiece.as_ref().map(|w| w.0.clone())
-            } else {
-                None
-            },
-        })
-        .collect();
-    let axes_names: Vec<String> = axes.iter().map(|a| a.axis.clone()).collect();
-    let file = ModelFile {
-        format: MODEL_FORMAT.into(),
-        name: args.name.clone(),
-        description: format!("identified from {data_name} ({} rows)", table.time_s.len()),
-        axes,
-        provenance: Some(Provenance {
-            data: data_name.clone(),
-            created_by: format!("gearcomp fit {}", env!("CARGO_PKG_VERSION")),
-            method: id.method.clone(),
-            train_rmse_um: id.targets.iter().map(|m| m.train_rmse).collect(),
-            test_rmse_um: id
-                .targets
-                .iter()
-                .map(|m| m.test_rmse.unwrap_or(f64::NAN))
-                .filter(|v| v.is_finite())
-                .collect(),
-        }),
-        envelopes: id
-            .targets
-            .iter()
-            .zip(&axes_names)
-            .filter_map(|(m, axis)| {
-                m.envelope.clone().map(|mut e| {
-                    e.axis = axis.clone();
-                    e
-                })
-            })
-            .collect(),
+    let created_by = format!("gearcomp fit {}", env!("CARGO_PKG_VERSION"));
+    let origin = Origin {
+        name: &args.name,
+        data: &data_name,
+        rows: table.time_s.len(),
+        created_by: &created_by,
     };
-    file.validate()?;
+    let file = id.to_model_file(&origin, &args.axis, workpiece.as_ref().map(|w| w.0.clone()))?;
 
     // Text summary.
     let mut out = String::new();

@@ -7,7 +7,9 @@ use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
 use crate::regress::{self, augmented_r, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
-use gearcomp_core::model::{LinearModel, Term, Transform};
+use gearcomp_core::model::{
+    AxisModel, LinearModel, ModelFile, Provenance, Term, Transform, WorkpieceShrink, MODEL_FORMAT,
+};
 use nalgebra::{DMatrix, DVector};
 
 /// The kind of model fitted per target.
@@ -171,6 +173,84 @@ pub struct Identification {
     pub input_names: Vec<String>,
     /// Notes about the inputs (dropped sensors, with the reason).
     pub notes: Vec<String>,
+}
+
+/// Where an identification came from, for the model file's provenance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Origin<'a> {
+    /// Model name.
+    pub name: &'a str,
+    /// Data description (file names or the embedded data set).
+    pub data: &'a str,
+    /// Rows read.
+    pub rows: usize,
+    /// Tool and version that fitted it.
+    pub created_by: &'a str,
+}
+
+impl Identification {
+    /// The model file the engine loads: one axis per target (named `axes[j]`, the target's
+    /// name when not given), `workpiece` attached to the first axis, provenance (data,
+    /// method, train and test RMSE) and each target's training envelope under its axis name;
+    /// validated.
+    pub fn to_model_file(
+        &self,
+        origin: &Origin,
+        axes: &[String],
+        workpiece: Option<WorkpieceShrink>,
+    ) -> Result<ModelFile> {
+        if !axes.is_empty() && axes.len() != self.targets.len() {
+            return Err(invalid(
+                "axis",
+                axes.join(" "),
+                &format!("one axis name per target ({})", self.targets.len()),
+            ));
+        }
+        let mut workpiece = workpiece;
+        let axes: Vec<AxisModel> = self
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(j, m)| AxisModel {
+                axis: axes.get(j).cloned().unwrap_or_else(|| m.target.clone()),
+                target: m.target.clone(),
+                machine: m.model.clone(),
+                workpiece: workpiece.take(),
+            })
+            .collect();
+        let envelopes = self
+            .targets
+            .iter()
+            .zip(&axes)
+            .filter_map(|(m, a)| {
+                m.envelope.clone().map(|mut e| {
+                    e.axis = a.axis.clone();
+                    e
+                })
+            })
+            .collect();
+        let file = ModelFile {
+            format: MODEL_FORMAT.into(),
+            name: origin.name.to_string(),
+            description: format!("identified from {} ({} rows)", origin.data, origin.rows),
+            axes,
+            provenance: Some(Provenance {
+                data: origin.data.to_string(),
+                created_by: origin.created_by.to_string(),
+                method: self.method.clone(),
+                train_rmse_um: self.targets.iter().map(|m| m.train_rmse).collect(),
+                test_rmse_um: self
+                    .targets
+                    .iter()
+                    .filter_map(|m| m.test_rmse)
+                    .filter(|v| v.is_finite())
+                    .collect(),
+            }),
+            envelopes,
+        };
+        file.validate()?;
+        Ok(file)
+    }
 }
 
 pub(crate) fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {

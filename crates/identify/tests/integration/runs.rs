@@ -256,3 +256,52 @@ fn constant_and_duplicated_sensors_are_dropped_with_a_note() {
         assert!(m.cv_rmse.is_finite() && m.train_rmse < tol, "{model:?}");
     }
 }
+
+/// `Identification::to_model_file`: axes named as asked (the target's name otherwise), the
+/// fitted models and envelopes under those names, provenance RMSE equal to the fit's, and a
+/// file that survives its own TOML round trip; a wrong number of axis names is refused.
+#[test]
+fn model_file_of_an_identification() {
+    use gearcomp_core::model::ModelFile;
+    use gearcomp_identify::identify::Origin;
+    let mut rows = run_rows(0, 300, 60.0);
+    rows.extend(
+        run_rows(1, 300, 60.0)
+            .into_iter()
+            .map(|r| (r.0 + 18_000.0, r.1, r.2, r.3)),
+    );
+    let t = read_csv(&csv(&rows, None), "two", &sel(None), ReadOptions::default()).unwrap();
+    let id = identify(
+        &t,
+        &IdentifyOptions {
+            split: Split::TimeBefore(18_000.0),
+            ..IdentifyOptions::default()
+        },
+    )
+    .unwrap();
+    let origin = Origin {
+        name: "m",
+        data: "two.csv",
+        rows: t.time_s.len(),
+        created_by: "test",
+    };
+    let f = id.to_model_file(&origin, &["X".into()], None).unwrap();
+    assert_eq!(f.axes.len(), 1);
+    assert_eq!(f.axes[0].axis, "X");
+    assert_eq!(f.axes[0].target, "y_um");
+    assert_eq!(f.axes[0].machine, id.targets[0].model);
+    assert_eq!(f.envelopes.len(), 1);
+    assert_eq!(f.envelopes[0].axis, "X");
+    let p = f.provenance.as_ref().unwrap();
+    assert_eq!(p.train_rmse_um, vec![id.targets[0].train_rmse]);
+    assert_eq!(p.test_rmse_um, vec![id.targets[0].test_rmse.unwrap()]);
+    assert_eq!(f.description, "identified from two.csv (600 rows)");
+    let back = ModelFile::from_toml_str(&f.to_toml_string().unwrap()).unwrap();
+    assert_eq!(back.axes, f.axes);
+    let unnamed = id.to_model_file(&origin, &[], None).unwrap();
+    assert_eq!(unnamed.axes[0].axis, "y_um");
+    let e = id
+        .to_model_file(&origin, &["X".into(), "Z".into()], None)
+        .unwrap_err();
+    assert!(e.to_string().contains("axis"), "{e}");
+}
