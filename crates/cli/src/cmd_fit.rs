@@ -5,12 +5,12 @@
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use gearcomp_core::model::{ModelFile, ReferenceRadius, ShrinkGear, ShrinkMethod};
+use gearcomp_core::model::{ModelFile, ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink};
 use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
 use gearcomp_identify::dendrogram::dendrogram_svg;
 use gearcomp_identify::identify::{
     identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
-    Split,
+    Split, TargetModel,
 };
 use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::{combined_offsets_um, shrink_offset_um, workpiece_shrink};
@@ -381,15 +381,8 @@ fn fit_json(
     }))
 }
 
-/// Runs `gearcomp fit`.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let sel = Selection {
-        time: args.time_column.clone(),
-        inputs: args.inputs.clone(),
-        targets: args.target.clone(),
-        run: args.run_column.clone(),
-    };
-    let (table, data_name) = load(&args.data, &sel, args.skip_bad_rows, args.sample_interval_s)?;
+/// The train/test split the options ask for, and a note when it was chosen by default.
+fn split_of(args: &Args, table: &Table) -> anyhow::Result<(Split, Option<String>)> {
     let mut split_note = None;
     let split = if args.no_test {
         Split::None
@@ -415,7 +408,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Split::TimeBefore(h * 3600.0)
     };
-    let opts = IdentifyOptions {
+    Ok((split, split_note))
+}
+
+/// The identification options of the command line.
+fn options(args: &Args, split: &Split) -> IdentifyOptions {
+    IdentifyOptions {
         model: match args.model {
             ModelArg::Dynamic => ModelKind::Dynamic,
             ModelArg::Static => ModelKind::Static,
@@ -439,7 +437,75 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         split: split.clone(),
         delays_s: args.delay_s.clone(),
         families: args.family.iter().map(|&f| f.into()).collect(),
+    }
+}
+
+/// The workpiece shrink model (`--workpiece-data`): its temperature model (the seed's
+/// static method) and the shrink of the gear; `None` without workpiece data.
+fn workpiece_model(
+    args: &Args,
+    opts: &IdentifyOptions,
+) -> anyhow::Result<Option<(WorkpieceShrink, TargetModel)>> {
+    let Some(path) = &args.workpiece_data else {
+        return Ok(None);
     };
+    let wsel = Selection {
+        time: args.time_column.clone(),
+        inputs: args.inputs.clone(),
+        targets: vec![args.workpiece_target.clone().unwrap_or_default()],
+        run: None,
+    };
+    let (wt, _) = load(
+        std::slice::from_ref(path),
+        &wsel,
+        args.skip_bad_rows,
+        args.sample_interval_s,
+    )?;
+    let wid = identify(
+        &wt,
+        &IdentifyOptions {
+            model: ModelKind::Static,
+            classes: Some(args.workpiece_classes),
+            split: Split::None,
+            ..opts.clone()
+        },
+    )
+    .context("workpiece temperature model")?;
+    let gear = ShrinkGear {
+        normal_module_mm: args.module_mm.unwrap_or(f64::NAN),
+        pressure_angle_deg: args.pressure_angle_deg,
+        teeth: args.teeth.unwrap_or(0),
+        helix_angle_deg: args.helix_angle_deg,
+        tip_diameter_mm: args.tip_diameter_mm,
+    };
+    let w = workpiece_shrink(
+        wid.targets[0].model.clone(),
+        gear,
+        args.design_temp_c,
+        args.expansion_per_k,
+        match args.shrink_reference {
+            ReferenceArg::Pitch => ReferenceRadius::Pitch,
+            ReferenceArg::Tip => ReferenceRadius::Tip,
+        },
+        match args.shrink_method {
+            ShrinkMethodArg::Exact => ShrinkMethod::Exact,
+            ShrinkMethodArg::FirstOrder => ShrinkMethod::FirstOrder,
+        },
+    )?;
+    Ok(Some((w, wid.targets[0].clone())))
+}
+
+/// Runs `gearcomp fit`: read, identify, write the model file, the summary and the report.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let sel = Selection {
+        time: args.time_column.clone(),
+        inputs: args.inputs.clone(),
+        targets: args.target.clone(),
+        run: args.run_column.clone(),
+    };
+    let (table, data_name) = load(&args.data, &sel, args.skip_bad_rows, args.sample_interval_s)?;
+    let (split, split_note) = split_of(&args, &table)?;
+    let opts = options(&args, &split);
     let id = identify(&table, &opts)?;
     let base = plain_least_squares(&table, &split)?;
     if !args.axis.is_empty() && args.axis.len() != table.targets.len() {
@@ -452,53 +518,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     // Workpiece shrink model (seed 003 eqs. (3)–(8)), attached to the first axis.
-    let mut workpiece = None;
-    if let Some(path) = &args.workpiece_data {
-        let wsel = Selection {
-            time: args.time_column.clone(),
-            inputs: args.inputs.clone(),
-            targets: vec![args.workpiece_target.clone().unwrap_or_default()],
-            run: None,
-        };
-        let (wt, _) = load(
-            std::slice::from_ref(path),
-            &wsel,
-            args.skip_bad_rows,
-            args.sample_interval_s,
-        )?;
-        let wid = identify(
-            &wt,
-            &IdentifyOptions {
-                model: ModelKind::Static,
-                classes: Some(args.workpiece_classes),
-                split: Split::None,
-                ..opts.clone()
-            },
-        )
-        .context("workpiece temperature model")?;
-        let gear = ShrinkGear {
-            normal_module_mm: args.module_mm.unwrap_or(f64::NAN),
-            pressure_angle_deg: args.pressure_angle_deg,
-            teeth: args.teeth.unwrap_or(0),
-            helix_angle_deg: args.helix_angle_deg,
-            tip_diameter_mm: args.tip_diameter_mm,
-        };
-        let w = workpiece_shrink(
-            wid.targets[0].model.clone(),
-            gear,
-            args.design_temp_c,
-            args.expansion_per_k,
-            match args.shrink_reference {
-                ReferenceArg::Pitch => ReferenceRadius::Pitch,
-                ReferenceArg::Tip => ReferenceRadius::Tip,
-            },
-            match args.shrink_method {
-                ShrinkMethodArg::Exact => ShrinkMethod::Exact,
-                ShrinkMethodArg::FirstOrder => ShrinkMethod::FirstOrder,
-            },
-        )?;
-        workpiece = Some((w, wid.targets[0].clone()));
-    }
+    let workpiece = workpiece_model(&args, &opts)?;
 
     let created_by = format!("gearcomp fit {}", env!("CARGO_PKG_VERSION"));
     let origin = Origin {
