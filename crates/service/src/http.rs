@@ -908,6 +908,7 @@ async fn closed(closing: &mut tokio::sync::watch::Receiver<bool>) {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
     /// `thinned` over a synthetic series against a direct construction: the newest row of
