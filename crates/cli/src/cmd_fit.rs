@@ -9,8 +9,8 @@ use gearcomp_core::model::{ModelFile, ReferenceRadius, ShrinkGear, ShrinkMethod,
 use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
 use gearcomp_identify::dendrogram::dendrogram_svg;
 use gearcomp_identify::identify::{
-    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
-    Split, TargetModel,
+    identify, plain_least_squares, Grouping, Identification, IdentifyOptions, ModelKind, Origin,
+    RepresentativeBy, Split, TargetModel,
 };
 use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::{combined_offsets_um, shrink_offset_um, workpiece_shrink};
@@ -702,220 +702,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     if let Some(p) = &args.report {
-        let mut r = HtmlReport::new(format!("gearcomp fit: {}", args.name));
-        r.paragraph(&format!("Data: {data_name}. {}", id.method));
-        r.heading("Summary (RMSE in the target unit, µm)");
-        r.table(
-            &[
-                "target",
-                "family",
-                "chosen sensors",
-                "rate τ / s",
-                "train",
-                "test",
-                "cross-validation",
-                "plain LS test (all inputs)",
-            ],
+        write_report(
+            p,
+            &args,
+            &data_name,
+            &table,
+            &id,
             &rows,
-        );
-        if !table.issues.is_empty() {
-            r.heading("Data notes");
-            r.preformatted(
-                &table
-                    .issues
-                    .iter()
-                    .map(|i| i.to_string())
-                    .collect::<Vec<_>>()
-                    .join("\n"),
-            );
-        }
-        r.heading("Sensor classes (fuzzy equivalence dendrogram, training rows)");
-        let first = &id.targets[0];
-        let cut = if first.classes.is_empty() {
-            None
-        } else {
-            let merges = &id.dendrogram.merges;
-            let k = first.classes.len();
-            let done = id.input_names.len().saturating_sub(k);
-            merges
-                .get(done)
-                .map(|m| m.level)
-                .or_else(|| merges.last().map(|m| m.level))
-        };
-        r.raw_svg(&dendrogram_svg(
-            &id.dendrogram,
-            &id.input_names,
-            cut,
-            &first.sensors,
-        ));
-        if cut.is_some() {
-            r.paragraph(&format!(
-                "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
-                first.classes.len(),
-                first.target
-            ));
-        } else {
-            r.paragraph(&format!("Red: the sensors chosen for {}.", first.target));
-        }
-        for (j, m) in id.targets.iter().enumerate() {
-            r.heading(&m.target);
-            if !m.comparison.is_empty() {
-                r.paragraph(&format!("Family comparison ({}), validation RMSE on the training rows in µm; the lowest eligible is kept: {}.", id.method, m.family));
-                let crow: Vec<Vec<String>> = m
-                    .comparison
-                    .iter()
-                    .map(|c| {
-                        vec![
-                            c.family.clone(),
-                            c.sensors.to_string(),
-                            num(c.cv_rmse, 3),
-                            c.fold_rmse
-                                .iter()
-                                .map(|v| num(*v, 3))
-                                .collect::<Vec<_>>()
-                                .join(", "),
-                            c.detail.clone(),
-                            if c.kept { "kept".into() } else { String::new() },
-                        ]
-                    })
-                    .collect();
-                r.table(
-                    &[
-                        "family",
-                        "sensors",
-                        "validation RMSE",
-                        "folds",
-                        "choice",
-                        "",
-                    ],
-                    &crow,
-                );
-            }
-            let cls: Vec<String> = m
-                .classes
-                .iter()
-                .map(|c| {
-                    format!(
-                        "{{{}}}",
-                        c.iter()
-                            .map(|&i| id.input_names[i].as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })
-                .collect();
-            r.paragraph(&format!(
-                "Classes: {}. Chosen: {}.",
-                cls.join(" "),
-                m.sensors
-                    .iter()
-                    .map(|&s| id.input_names[s].as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-            let hours: Vec<f64> = table.time_s.iter().map(|t| t / 3600.0).collect();
-            let meas = thin(
-                hours
-                    .iter()
-                    .copied()
-                    .zip(table.targets[j].iter().copied())
-                    .collect(),
-                2500,
-            );
-            let pred = thin(
-                hours
-                    .iter()
-                    .copied()
-                    .zip(m.predicted.iter().copied())
-                    .collect(),
-                2500,
-            );
-            let res = thin(
-                hours
-                    .iter()
-                    .zip(table.targets[j].iter().zip(&m.predicted))
-                    .map(|(h, (y, p))| (*h, y - p))
-                    .collect(),
-                2500,
-            );
-            let split_h = match &split {
-                Split::TimeBefore(s) => format!(" (train before {:.1} h)", s / 3600.0),
-                _ => String::new(),
-            };
-            r.chart(
-                &Chart::new(
-                    format!("{}: measured vs predicted{split_h}", m.target),
-                    "time / h",
-                    "displacement / µm",
-                )
-                .with(Series::line("measured", meas))
-                .with(Series::line("predicted", pred))
-                .with(Series::line(
-                    "95 % interval (upper)",
-                    thin(
-                        hours
-                            .iter()
-                            .zip(m.predicted.iter().zip(&m.interval_um))
-                            .map(|(h, (p, w))| (*h, p + w))
-                            .collect(),
-                        2500,
-                    ),
-                ))
-                .with(Series::line(
-                    "95 % interval (lower)",
-                    thin(
-                        hours
-                            .iter()
-                            .zip(m.predicted.iter().zip(&m.interval_um))
-                            .map(|(h, (p, w))| (*h, p - w))
-                            .collect(),
-                        2500,
-                    ),
-                ))
-                .with(Series::points(
-                    "outside the training envelope (extrapolating)",
-                    thin(
-                        hours
-                            .iter()
-                            .zip(m.predicted.iter().zip(&m.outside))
-                            .filter(|(_, (_, &o))| o)
-                            .map(|(h, (p, _))| (*h, *p))
-                            .collect(),
-                        1500,
-                    ),
-                )),
-            )?;
-            let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
-            r.paragraph(&format!(
-                "{n_out} of {n_test} test rows are outside the training envelope (a channel outside its training range, or the regressors farther from the training mean than any training row: Mahalanobis bound); they are marked on the chart. 95 % prediction interval: ± {} µm on average.",
-                num(mean_half, 3)
-            ));
-            r.chart(
-                &Chart::new(
-                    format!("{}: residual (measured − predicted)", m.target),
-                    "time / h",
-                    "residual / µm",
-                )
-                .with(Series::line("residual", res)),
-            )?;
-        }
-        if let Some((w, _)) = &workpiece {
-            let offs = combined_offsets_um(&table, &file.axes[0]).ok();
-            r.heading("Workpiece shrink (dry hobbing)");
-            r.paragraph(&format!(
-                "Ta model intercept {:.6} °C, {} term(s); δT at Ta = Tb + 30 K: {:.4} µm.",
-                w.temperature.intercept,
-                w.temperature.terms.len(),
-                shrink_offset_um(w, w.design_temp_c + 30.0)?
-            ));
-            if offs.is_none() {
-                r.paragraph("The combined offset δM + δT is not drawn: the workpiece model's channels are not all in the main data.");
-            }
-        }
-        r.heading("Model file");
-        r.preformatted(&file.to_toml_string()?);
-        r.write(p)
-            .with_context(|| format!("write report {}", p.display()))?;
+            &file,
+            workpiece.as_ref(),
+            &split,
+        )?;
         if !args.json {
             std::io::Write::write_all(
                 &mut stdout,
@@ -923,5 +720,236 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )?;
         }
     }
+    Ok(())
+}
+
+/// The HTML report: summary table, data notes, dendrogram, per-target charts and terms,
+/// the workpiece shrink, and the model file.
+#[allow(clippy::too_many_arguments)]
+fn write_report(
+    p: &std::path::Path,
+    args: &Args,
+    data_name: &str,
+    table: &Table,
+    id: &Identification,
+    rows: &[Vec<String>],
+    file: &ModelFile,
+    workpiece: Option<&(WorkpieceShrink, TargetModel)>,
+    split: &Split,
+) -> anyhow::Result<()> {
+    let mut r = HtmlReport::new(format!("gearcomp fit: {}", args.name));
+    r.paragraph(&format!("Data: {data_name}. {}", id.method));
+    r.heading("Summary (RMSE in the target unit, µm)");
+    r.table(
+        &[
+            "target",
+            "family",
+            "chosen sensors",
+            "rate τ / s",
+            "train",
+            "test",
+            "cross-validation",
+            "plain LS test (all inputs)",
+        ],
+        rows,
+    );
+    if !table.issues.is_empty() {
+        r.heading("Data notes");
+        r.preformatted(
+            &table
+                .issues
+                .iter()
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join("\n"),
+        );
+    }
+    r.heading("Sensor classes (fuzzy equivalence dendrogram, training rows)");
+    let first = &id.targets[0];
+    let cut = if first.classes.is_empty() {
+        None
+    } else {
+        let merges = &id.dendrogram.merges;
+        let k = first.classes.len();
+        let done = id.input_names.len().saturating_sub(k);
+        merges
+            .get(done)
+            .map(|m| m.level)
+            .or_else(|| merges.last().map(|m| m.level))
+    };
+    r.raw_svg(&dendrogram_svg(
+        &id.dendrogram,
+        &id.input_names,
+        cut,
+        &first.sensors,
+    ));
+    if cut.is_some() {
+        r.paragraph(&format!(
+            "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
+            first.classes.len(),
+            first.target
+        ));
+    } else {
+        r.paragraph(&format!("Red: the sensors chosen for {}.", first.target));
+    }
+    for (j, m) in id.targets.iter().enumerate() {
+        r.heading(&m.target);
+        if !m.comparison.is_empty() {
+            r.paragraph(&format!("Family comparison ({}), validation RMSE on the training rows in µm; the lowest eligible is kept: {}.", id.method, m.family));
+            let crow: Vec<Vec<String>> = m
+                .comparison
+                .iter()
+                .map(|c| {
+                    vec![
+                        c.family.clone(),
+                        c.sensors.to_string(),
+                        num(c.cv_rmse, 3),
+                        c.fold_rmse
+                            .iter()
+                            .map(|v| num(*v, 3))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        c.detail.clone(),
+                        if c.kept { "kept".into() } else { String::new() },
+                    ]
+                })
+                .collect();
+            r.table(
+                &[
+                    "family",
+                    "sensors",
+                    "validation RMSE",
+                    "folds",
+                    "choice",
+                    "",
+                ],
+                &crow,
+            );
+        }
+        let cls: Vec<String> = m
+            .classes
+            .iter()
+            .map(|c| {
+                format!(
+                    "{{{}}}",
+                    c.iter()
+                        .map(|&i| id.input_names[i].as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+            .collect();
+        r.paragraph(&format!(
+            "Classes: {}. Chosen: {}.",
+            cls.join(" "),
+            m.sensors
+                .iter()
+                .map(|&s| id.input_names[s].as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        let hours: Vec<f64> = table.time_s.iter().map(|t| t / 3600.0).collect();
+        let meas = thin(
+            hours
+                .iter()
+                .copied()
+                .zip(table.targets[j].iter().copied())
+                .collect(),
+            2500,
+        );
+        let pred = thin(
+            hours
+                .iter()
+                .copied()
+                .zip(m.predicted.iter().copied())
+                .collect(),
+            2500,
+        );
+        let res = thin(
+            hours
+                .iter()
+                .zip(table.targets[j].iter().zip(&m.predicted))
+                .map(|(h, (y, p))| (*h, y - p))
+                .collect(),
+            2500,
+        );
+        let split_h = match &split {
+            Split::TimeBefore(s) => format!(" (train before {:.1} h)", s / 3600.0),
+            _ => String::new(),
+        };
+        r.chart(
+            &Chart::new(
+                format!("{}: measured vs predicted{split_h}", m.target),
+                "time / h",
+                "displacement / µm",
+            )
+            .with(Series::line("measured", meas))
+            .with(Series::line("predicted", pred))
+            .with(Series::line(
+                "95 % interval (upper)",
+                thin(
+                    hours
+                        .iter()
+                        .zip(m.predicted.iter().zip(&m.interval_um))
+                        .map(|(h, (p, w))| (*h, p + w))
+                        .collect(),
+                    2500,
+                ),
+            ))
+            .with(Series::line(
+                "95 % interval (lower)",
+                thin(
+                    hours
+                        .iter()
+                        .zip(m.predicted.iter().zip(&m.interval_um))
+                        .map(|(h, (p, w))| (*h, p - w))
+                        .collect(),
+                    2500,
+                ),
+            ))
+            .with(Series::points(
+                "outside the training envelope (extrapolating)",
+                thin(
+                    hours
+                        .iter()
+                        .zip(m.predicted.iter().zip(&m.outside))
+                        .filter(|(_, (_, &o))| o)
+                        .map(|(h, (p, _))| (*h, *p))
+                        .collect(),
+                    1500,
+                ),
+            )),
+        )?;
+        let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
+        r.paragraph(&format!(
+            "{n_out} of {n_test} test rows are outside the training envelope (a channel outside its training range, or the regressors farther from the training mean than any training row: Mahalanobis bound); they are marked on the chart. 95 % prediction interval: ± {} µm on average.",
+            num(mean_half, 3)
+        ));
+        r.chart(
+            &Chart::new(
+                format!("{}: residual (measured − predicted)", m.target),
+                "time / h",
+                "residual / µm",
+            )
+            .with(Series::line("residual", res)),
+        )?;
+    }
+    if let Some((w, _)) = &workpiece {
+        let offs = combined_offsets_um(table, &file.axes[0]).ok();
+        r.heading("Workpiece shrink (dry hobbing)");
+        r.paragraph(&format!(
+            "Ta model intercept {:.6} °C, {} term(s); δT at Ta = Tb + 30 K: {:.4} µm.",
+            w.temperature.intercept,
+            w.temperature.terms.len(),
+            shrink_offset_um(w, w.design_temp_c + 30.0)?
+        ));
+        if offs.is_none() {
+            r.paragraph("The combined offset δM + δT is not drawn: the workpiece model's channels are not all in the main data.");
+        }
+    }
+    r.heading("Model file");
+    r.preformatted(&file.to_toml_string()?);
+    r.write(p)
+        .with_context(|| format!("write report {}", p.display()))?;
     Ok(())
 }
