@@ -2,7 +2,7 @@
 """Independent numpy reference for gearcomp-identify (issue 4).
 
 Computes, with plain numpy (np.linalg.lstsq, SVD based; no code shared with the Rust crate):
-  * the OLS coefficients of the seed 003 clustering/regression vector (n = 8, c = 5);
+  * the OLS coefficients of the CN105397560 clustering/regression vector (n = 8, c = 5);
   * the dynamic identification on FL_THERMAL (train time_s < 86400, test the rest):
     single-linkage classes on |r| (= lambda-cuts of the max-min transitive closure), one
     representative per class (max |r| with the target), Value + Rate(tau) terms per sensor,

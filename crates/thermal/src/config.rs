@@ -37,7 +37,7 @@ pub struct SamplingConfig {
     /// What makes the engine take a sample.
     #[serde(default)]
     pub trigger: Trigger,
-    /// N samples averaged into one value (seed 000: N readings at the stroke switch).
+    /// N samples averaged into one value (EP0138375: N readings at the stroke switch).
     #[serde(default = "one")]
     pub samples_per_average: usize,
     /// Time averaging of the N-sample averages.
@@ -119,7 +119,7 @@ pub struct ChannelConfig {
     pub valid_min: f64,
     /// Highest plausible value (°C or µm); above it the sensor is faulty.
     pub valid_max: f64,
-    /// Stop the machine when the averaged value falls below this (seed 000 limits).
+    /// Stop the machine when the averaged value falls below this (EP0138375 limits).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub limit_min: Option<f64>,
     /// Stop the machine when the averaged value rises above this.
@@ -188,7 +188,7 @@ pub struct AxisConfig {
     /// Where the offset goes.
     pub apply: Application,
     /// Boundary constant D in µm: a new correction only when it differs from the running
-    /// compensation by at least this (seed 000 block 602).
+    /// compensation by at least this (EP0138375 block 602).
     #[serde(default)]
     pub dead_band_um: f64,
     /// Largest |offset| in µm; larger law values are clamped and flagged.
@@ -207,11 +207,11 @@ pub struct AxisConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Application {
-    /// To the scale reading: D′ = D + Cz (seed 001, linear-scale machines).
+    /// To the scale reading: D′ = D + Cz (JPH0761598B2, linear-scale machines).
     MeasuringSystem {},
-    /// To the commanded position: Z′ = Z + Cz (seed 001, pulse-motor machines).
+    /// To the commanded position: Z′ = Z + Cz (JPH0761598B2, pulse-motor machines).
     Command {},
-    /// As pulses to an infeed motor, the rounding remainder carried (seed 000, 606–608).
+    /// As pulses to an infeed motor, the rounding remainder carried (EP0138375, 606–608).
     Pulses {
         /// Travel of one pulse in µm, > 0.
         pulse_um: f64,
@@ -225,7 +225,7 @@ pub enum Sign {
     /// Added.
     #[default]
     Plus,
-    /// Subtracted (e.g. seed 000's base correction, the base being the mounting reference).
+    /// Subtracted (e.g. EP0138375's base correction, the base being the mounting reference).
     Minus,
 }
 
@@ -243,7 +243,7 @@ impl Sign {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TermConfig {
-    /// Cz = Kd·T + α (seed 001, EDM).
+    /// Cz = Kd·T + α (JPH0761598B2, EDM).
     Linear {
         /// Temperature channel T.
         channel: String,
@@ -256,7 +256,7 @@ pub enum TermConfig {
         #[serde(default)]
         sign: Sign,
     },
-    /// Cz = Kz·(A − B) (seed 001, surface grinder).
+    /// Cz = Kz·(A − B) (JPH0761598B2, surface grinder).
     Difference {
         /// Channel A (bed top).
         a: String,
@@ -268,7 +268,7 @@ pub enum TermConfig {
         #[serde(default)]
         sign: Sign,
     },
-    /// Cz = Kz·A − Kz·(b·t + c), B replaced by its linear rise (seed 001, f1(t)).
+    /// Cz = Kz·A − Kz·(b·t + c), B replaced by its linear rise (JPH0761598B2, f1(t)).
     TimeLinear {
         /// Channel A.
         a: String,
@@ -282,7 +282,7 @@ pub enum TermConfig {
         #[serde(default)]
         sign: Sign,
     },
-    /// Cz = Kz′·B + K·√t, A replaced by its √t rise (seed 001, f2(t)).
+    /// Cz = Kz′·B + K·√t, A replaced by its √t rise (JPH0761598B2, f2(t)).
     TimeSqrt {
         /// Channel B.
         b: String,
@@ -294,7 +294,7 @@ pub enum TermConfig {
         #[serde(default)]
         sign: Sign,
     },
-    /// C = K·(value − midpoint) (seed 000, subroutines 300/400/500).
+    /// C = K·(value − midpoint) (EP0138375, subroutines 300/400/500).
     Component {
         /// Channel (temperature or displacement).
         channel: String,

@@ -179,7 +179,7 @@ pub const ENVELOPE_CLEAR_HOLD_S: f64 = 600.0;
 /// in the last bits from the identification's.
 pub const ENVELOPE_D2_REL_TOL: f64 = 1e-9;
 
-/// Why the engine requests a machine stop (seed 000: averaged value outside its limits).
+/// Why the engine requests a machine stop (EP0138375: averaged value outside its limits).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StopReason {
     /// Channel index.
@@ -224,7 +224,7 @@ pub struct AxisOutput {
     pub law_um: f64,
     /// Pulses issued this cycle (pulse application only).
     pub pulses: i64,
-    /// Pulses issued since the start (the distance counter of seed 000 block 606).
+    /// Pulses issued since the start (the distance counter of EP0138375 block 606).
     pub pulse_total: i64,
     /// What happened.
     pub status: AxisStatus,
@@ -803,7 +803,7 @@ impl ShrinkEval {
     /// # Domain
     /// |ΔT_w| ≤ 500 K and cos α*_ρ ≤ 1, as `gearcomp_geometry::shrink` checks.
     /// # Source
-    /// seed 003, eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
+    /// CN105397560, eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
     #[inline]
     fn offset_um(&self, delta_temp_k: f64) -> f64 {
         if !(delta_temp_k.is_finite() && delta_temp_k.abs() <= 500.0) {
@@ -891,7 +891,7 @@ impl WorkpieceEval {
     /// # Formula
     /// Ta = intercept + Σ a_i·x_i;  δT = shrink(Ta − Tb)
     /// # Source
-    /// seed 003 eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
+    /// CN105397560 eq. (7) via `gearcomp_geometry::shrink` [DERIVED]
     fn value(&self) -> f64 {
         self.shrink
             .offset_um(self.temperature.value() - self.design_temp_c)
@@ -2205,7 +2205,7 @@ impl Engine {
                 };
                 ch.value = value;
                 read.fresh |= bit;
-                // Seed 000 claims: an averaged value outside its limits stops the
+                // EP0138375 claims: an averaged value outside its limits stops the
                 // machine.
                 if value < ch.limit_min || value > ch.limit_max {
                     read.over_limit |= bit;
@@ -2392,7 +2392,7 @@ impl AxisState {
         }
         self.out.law_um = law_um;
         let clamped = law_um.clamp(-self.max_offset_um, self.max_offset_um);
-        // Seed 000 blocks 602/604: update the running compensation only when the required
+        // EP0138375 blocks 602/604: update the running compensation only when the required
         // correction differs from it by at least D.
         let mut status = if (clamped - self.out.target_um).abs() >= self.dead_band_um {
             self.out.target_um = clamped;
@@ -2762,7 +2762,7 @@ mod tests {
     }
 
     /// The precomputed shrink agrees bit for bit with `gearcomp_geometry::shrink` (the
-    /// reference, tested there against the seed 003 vectors), NaN where it errs.
+    /// reference, tested there against the CN105397560 vectors), NaN where it errs.
     #[test]
     fn precomputed_shrink_is_bit_identical_to_geometry() {
         let geometries = [

@@ -1,7 +1,7 @@
 //! Averaging and filtering state: fixed-capacity, allocated once at build time, updated
 //! in the control cycle without allocation.
 
-/// N-sample block average (seed 000 Fig. 4: take N samples at the trigger, then average).
+/// N-sample block average (EP0138375 Fig. 4: take N samples at the trigger, then average).
 #[derive(Debug, Clone)]
 pub struct BlockAverage {
     n: usize,
@@ -28,7 +28,7 @@ impl BlockAverage {
     /// # Formula
     /// P̄ = (1/N)·Σ P_i
     /// # Source
-    /// seed 000, Fig. 4 blocks 104–110 and Fig. 6 block 300 [SEED]
+    /// EP0138375, Fig. 4 blocks 104–110 and Fig. 6 block 300 [SEED]
     #[inline]
     pub fn push(&mut self, v: f64) -> Option<f64> {
         self.sum += v;

@@ -5,12 +5,12 @@
 //! * [`sensor`]: NTC (β, Steinhart–Hart), Pt100/Pt1000 (IEC 60751 Callendar–Van Dusen),
 //!   ready °C and displacement transducers.
 //! * [`filter`]: N-sample block average, first-order filter, moving window, delay line.
-//! * [`law`]: the compensation forms of seeds 000 and 001 and the SINUMERIK/TwinCAT
+//! * [`law`]: the compensation forms of EP0138375 and JPH0761598B2 and the SINUMERIK/TwinCAT
 //!   position-dependent form, one pure function each.
 //! * [`config`]: the TOML configuration ([`EngineConfig`]).
 //! * [`engine`]: [`Engine`], built once, then [`Engine::step`] per cycle (no allocation);
 //!   identified models (`gearcomp_core::model::ModelFile`) run as `kind = "model"` terms.
-//! * [`sim`]: lumped thermal network with presets for the seeds' machines.
+//! * [`sim`]: lumped thermal network with presets for the machines of EP0138375, JPH0761598B2 and CN105397560.
 //!
 //! Offsets are in µm; a positive offset increases the centre distance (see
 //! `docs/thermal.md` for every convention fixed here).

@@ -1,13 +1,13 @@
-//! Machine presets for the simulator, each with the compensation its seed describes.
+//! Machine presets for the simulator, each with the compensation its publication describes.
 //!
-//! | preset | seed | sensors | law |
+//! | preset | publication | sensors | law |
 //! |---|---|---|---|
-//! | `grinder` | 001 | Pt100 bed top A, wheel-drive case B | Cz = Kz·(A − B), Kz = −3.75 µm/°C, D′ = D + Cz |
-//! | `shaper` | 000 | proximity P, NTC sub-base S, NTC base B | TC = K_P(P̄−X) + K_S(S̄−Z) − K_B(B̄−Y), pulses of 0.0001 in, D = 0.0002 in |
-//! | `hobbing` | 003 (dry) | °C on bed, column, hob head, table | a thermal model file (value and first-order-lag terms) |
+//! | `grinder` | JPH0761598B2 | Pt100 bed top A, wheel-drive case B | Cz = Kz·(A − B), Kz = −3.75 µm/°C, D′ = D + Cz |
+//! | `shaper` | EP0138375 | proximity P, NTC sub-base S, NTC base B | TC = K_P(P̄−X) + K_S(S̄−Z) − K_B(B̄−Y), pulses of 0.0001 in, D = 0.0002 in |
+//! | `hobbing` | CN105397560 (dry) | °C on bed, column, hob head, table | a thermal model file (value and first-order-lag terms) |
 //!
 //! The thermal constants are illustrative; they are tuned so the uncompensated drift has
-//! the seeds' magnitudes (see `docs/thermal.md`).
+//! the magnitudes those publications report (see `docs/thermal.md`).
 
 use gearcomp_core::model::{AxisModel, LinearModel, ModelFile, Term, Transform, MODEL_FORMAT};
 

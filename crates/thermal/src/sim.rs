@@ -16,8 +16,8 @@
 //! shortest time constant in the presets, so the integration error is far below the
 //! sensor noise).
 //! # Source
-//! lumped-capacitance network [STANDARD heat transfer]; magnitudes tuned to seed 000
-//! (≈ 76 µm size error over a run) and seed 001 (≈ −20 µm after 6 h on the grinder)
+//! lumped-capacitance network [STANDARD heat transfer]; magnitudes tuned to EP0138375
+//! (≈ 76 µm size error over a run) and JPH0761598B2 (≈ −20 µm after 6 h on the grinder)
 //! [RECONSTRUCTED: constants are illustrative, not from the seeds]
 
 use nalgebra::{DMatrix, DVector};

@@ -22,7 +22,7 @@ pub fn um_to_mm(um: f64) -> f64 {
     um / UM_PER_MM
 }
 
-/// Inches → µm (seed 000 works in inches).
+/// Inches → µm (EP0138375 works in inches).
 pub fn inch_to_um(inch: f64) -> f64 {
     inch * UM_PER_INCH
 }

@@ -24,7 +24,7 @@ fn demo(dir: &PathBuf, extra: &[&str]) -> (serde_json::Value, String) {
     (serde_json::from_slice(&o.stdout).unwrap(), stderr)
 }
 
-/// The default demo (grinder, seed 001): uncompensated > 15 µm, compensated ≤ 5 µm, and a
+/// The default demo (grinder, JPH0761598B2): uncompensated > 15 µm, compensated ≤ 5 µm, and a
 /// self-contained HTML report with the charts.
 #[test]
 fn demo_default_grinder() {
@@ -69,7 +69,7 @@ fn demo_shaper_pulses_and_custom_out() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A model file equivalent to seed 001's Kz·(A − B) gives the same quality as the preset.
+/// A model file equivalent to JPH0761598B2's Kz·(A − B) gives the same quality as the preset.
 #[test]
 fn demo_with_model_file() {
     let dir = tmp("model");

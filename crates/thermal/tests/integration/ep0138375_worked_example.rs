@@ -72,7 +72,7 @@ midpoint = 21.11111111111111
 sign = "minus"
 "#;
 
-/// Runs one seed-000 cycle: 8 stroke-switch samples whose means are the given averages
+/// Runs one EP0138375 cycle: 8 stroke-switch samples whose means are the given averages
 /// (P in inches, B and S in °F), spread ±3 steps so the average is really computed.
 fn cycle(
     engine: &mut Engine,

@@ -102,7 +102,7 @@ transform = TRANSFORM
 fn seed003_workpiece_shrink_chain() {
     let base = r#"
 format = "gearcomp-thermal-model/1"
-name = "seed 003 chain"
+name = "CN105397560 chain"
 [[axes]]
 axis = "X"
 [axes.machine]
