@@ -70,4 +70,20 @@ mod tests {
         assert_eq!(lines.filter(|l| !l.trim().is_empty()).count(), 11_115);
         assert!(super::FL_THERMAL_LICENSE.contains("MIT"));
     }
+
+    #[test]
+    fn damaged_gzip_is_an_error_not_a_panic() {
+        let gz = super::FL_THERMAL_GZ;
+        for k in [100, gz.len() / 2, gz.len() - 6] {
+            let mut bad = gz.to_vec();
+            bad[k] ^= 0x5a;
+            assert!(super::gunzip_text(&bad).is_err(), "byte {k}");
+        }
+        for n in [0, 10, 17, gz.len() - 1] {
+            assert!(super::gunzip_text(&gz[..n]).is_err(), "{n} bytes");
+        }
+        let mut flags = gz.to_vec();
+        flags[3] |= 4 | 16;
+        assert!(super::gunzip_text(&flags).is_err());
+    }
 }
