@@ -1,8 +1,10 @@
 //! Interface units of the gear crates: the one place where the units users write (degrees,
 //! µm, rpm, rev/s²) become the internal ones (rad, mm, rad/s, rad/s²) and back.
 //!
-//! Geometry, grinding, dressing, shaping and the CLI's gear commands all convert here. (The
-//! thermal crate keeps its own temperature and inch conversions for the thermal model files.)
+//! Geometry, grinding, dressing, shaping, the thermal engine and the CLI all convert here:
+//! besides the gear units, the time (h ↔ s) and imperial units (inch, °F) that the thermal
+//! presets and model files use (EP0138375 works in inches and °F). `gearcomp_thermal::units`
+//! re-exports this module.
 
 use std::f64::consts::PI;
 
@@ -57,6 +59,41 @@ pub fn rad_s2_to_rev_s2(rad_s2: f64) -> f64 {
     rad_s2 / (2.0 * PI)
 }
 
+/// Seconds per hour.
+pub const S_PER_H: f64 = 3600.0;
+/// Micrometres per inch (exact by definition of the inch).
+pub const UM_PER_INCH: f64 = 25_400.0;
+
+/// Hours → seconds.
+pub fn h_to_s(h: f64) -> f64 {
+    h * S_PER_H
+}
+
+/// Seconds → hours.
+pub fn s_to_h(s: f64) -> f64 {
+    s / S_PER_H
+}
+
+/// Inches → µm (EP0138375 works in inches).
+pub fn inch_to_um(inch: f64) -> f64 {
+    inch * UM_PER_INCH
+}
+
+/// µm → inches.
+pub fn um_to_inch(um: f64) -> f64 {
+    um / UM_PER_INCH
+}
+
+/// A temperature in °F → °C.
+pub fn f_to_c(temp_f: f64) -> f64 {
+    (temp_f - 32.0) * 5.0 / 9.0
+}
+
+/// A coefficient per °F → per °C (a 1 °C step is 1.8 °F).
+pub fn per_f_to_per_c(k_per_f: f64) -> f64 {
+    k_per_f * 1.8
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -72,5 +109,14 @@ mod tests {
         assert!((rad_s_to_rpm(2.0 * PI) - 60.0).abs() < 1e-12);
         assert!((rev_s2_to_rad_s2(1.0) - 2.0 * PI).abs() < 1e-12);
         assert!((rad_s2_to_rev_s2(2.0 * PI) - 1.0).abs() < 1e-12);
+        // Time and imperial units by definition: 1 h = 3600 s, 1 in = 25.4 mm,
+        // 212 °F = 100 °C, 32 °F = 0 °C.
+        assert_eq!(h_to_s(2.0), 7200.0);
+        assert_eq!(s_to_h(5400.0), 1.5);
+        assert!((inch_to_um(0.0001) - 2.54).abs() < 1e-12);
+        assert!((um_to_inch(25.4) - 0.001).abs() < 1e-15);
+        assert!((f_to_c(212.0) - 100.0).abs() < 1e-12);
+        assert_eq!(f_to_c(32.0), 0.0);
+        assert!((per_f_to_per_c(1.0) - 1.8).abs() < 1e-15);
     }
 }

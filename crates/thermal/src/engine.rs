@@ -13,6 +13,7 @@ use gearcomp_core::model::{
 };
 use gearcomp_geometry::involute::inv;
 use gearcomp_geometry::shrink::{shrink_offset_exact_um, ShrinkInput, ShrinkReference};
+use gearcomp_geometry::units::deg_to_rad;
 
 use crate::config::{
     Application, AxisConfig, ChannelConfig, EngineConfig, TermConfig, TimeFilterConfig, Trigger,
@@ -847,10 +848,6 @@ struct WorkpieceEval {
 impl WorkpieceEval {
     fn build(w: &WorkpieceShrink, field: &str, names: &[String]) -> Result<Self> {
         let g = &w.gear;
-        let beta_rad = g.helix_angle_deg.to_radians();
-        let alpha_n_rad = g.pressure_angle_deg.to_radians();
-        let reference_radius_mm = g.normal_module_mm * f64::from(g.teeth) / (2.0 * beta_rad.cos());
-        let transverse_pressure_angle_rad = (alpha_n_rad.tan() / beta_rad.cos()).atan();
         let reference = match w.reference {
             ReferenceRadius::Pitch => ShrinkReference::Pitch,
             ReferenceRadius::Tip => match g.tip_diameter_mm {
@@ -864,13 +861,15 @@ impl WorkpieceEval {
                 }
             },
         };
-        let template = ShrinkInput {
-            reference_radius_mm,
-            transverse_pressure_angle_rad,
-            expansion_per_k: w.expansion_per_k,
-            delta_temp_k: 0.0,
+        let template = ShrinkInput::for_gear(
+            g.normal_module_mm,
+            g.teeth,
+            deg_to_rad(g.pressure_angle_deg),
+            deg_to_rad(g.helix_angle_deg),
+            w.expansion_per_k,
+            0.0,
             reference,
-        };
+        );
         // Validate the geometry now so the cycle only meets temperature-domain errors.
         shrink_offset_exact_um(&template).map_err(|e| {
             invalid(
