@@ -1,4 +1,4 @@
-//! `gearcomp fit`: thermal model identification from measured data (issue 4, seed 003).
+//! `gearcomp fit`: thermal model identification from measured data (issue 4, CN105397560).
 //!
 //! Data in (CSV; the embedded FL_THERMAL test by default), model file and report out.
 
@@ -24,7 +24,7 @@ pub enum ModelArg {
     Auto,
     /// Value + filtered rate per sensor; sensors, τ and class count by cross-validation.
     Dynamic,
-    /// Seed 003 as written: every class representative, current values, least squares.
+    /// CN105397560 as written: every class representative, current values, least squares.
     Static,
     /// As static, fitted by ridge regression (α by cross-validation).
     Ridge,
@@ -517,7 +517,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
 
-    // Workpiece shrink model (seed 003 eqs. (3)–(8)), attached to the first axis.
+    // Workpiece shrink model (CN105397560 eqs. (3)–(8)), attached to the first axis.
     let workpiece = workpiece_model(&args, &opts)?;
 
     let created_by = format!("gearcomp fit {}", env!("CARGO_PKG_VERSION"));

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The seed 003 (CN105397560) static pipeline scripted in numpy: the baseline of the
+"""The CN105397560 static pipeline scripted in numpy: the baseline of the
 whole-process benchmark `static_vs_numpy.py` (issue 12, performance).
 
 Same steps as `gearcomp fit --model static --classes 6 --target ch1_um ch3_um ch5_um` on the

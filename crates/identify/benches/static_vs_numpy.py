@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Whole-process benchmark of the seed 003 static pipeline (issue 12, performance):
+"""Whole-process benchmark of the CN105397560 static pipeline (issue 12, performance):
 `gearcomp fit --model static --classes 6 --target ch1_um ch3_um ch5_um` (embedded FL_THERMAL)
 against the same steps scripted in numpy (`numpy_static.py`, reading the same gzip file),
 each run as a fresh process, alternately, in one run; medians and their ratio. Also the full

@@ -1,4 +1,4 @@
-//! Sensor selection (seed 003): Pearson correlation, fuzzy-equivalence clustering by the
+//! Sensor selection (CN105397560): Pearson correlation, fuzzy-equivalence clustering by the
 //! max–min transitive closure with its λ-cut dendrogram, one representative per class;
 //! and the alternatives of the open-source workbench (fuzzy c-means, grey relational grade).
 
@@ -40,7 +40,7 @@ pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
 /// The Pearson correlation matrix of the columns (diagonal 1).
 ///
 /// # Source
-/// seed 003, eq. (1) [RECONSTRUCTED]
+/// CN105397560, eq. (1) [RECONSTRUCTED]
 pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatrix<f64>> {
     let c = columns.len();
     let mut r = DMatrix::identity(c, c);
@@ -137,7 +137,7 @@ impl Dendrogram {
     /// classes after m merges are exactly the λ-cuts of the max–min closure.
     ///
     /// # Source
-    /// seed 003 ("clustering dendrogram"); single-linkage equivalence per
+    /// CN105397560 ("clustering dendrogram"); single-linkage equivalence per
     /// docs/identification.md, "CN105397560 as implemented" [RECONSTRUCTED]
     pub fn single_linkage(similarity: &DMatrix<f64>) -> Self {
         let c = similarity.nrows();
@@ -219,7 +219,7 @@ impl Dendrogram {
 /// Per class, the member with the largest score (ties: lower index).
 ///
 /// # Source
-/// seed 003, representative = largest |r_TiTa| (or |r_TiδM|) in its class [RECONSTRUCTED]
+/// CN105397560, representative = largest |r_TiTa| (or |r_TiδM|) in its class [RECONSTRUCTED]
 pub fn representatives(classes: &[Vec<usize>], score: &[f64]) -> Vec<usize> {
     classes
         .iter()

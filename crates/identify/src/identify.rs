@@ -18,7 +18,7 @@ pub enum ModelKind {
     /// Value + filtered rate (lead–lag) per sensor, sensors chosen by forward selection
     /// among the class representatives, τ and class count by cross-validation.
     Dynamic,
-    /// Seed 003 as written: every class representative, current values, OLS.
+    /// CN105397560 as written: every class representative, current values, OLS.
     Static,
     /// As `Static`, fitted by ridge regression with α chosen by cross-validation.
     Ridge,
@@ -31,7 +31,7 @@ pub enum ModelKind {
 /// How the inputs are grouped into classes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Grouping {
-    /// Fuzzy-equivalence (max–min closure, λ-cut), i.e. single linkage on |r| (seed 003).
+    /// Fuzzy-equivalence (max–min closure, λ-cut), i.e. single linkage on |r| (CN105397560).
     #[default]
     FuzzyEquivalence,
     /// Fuzzy c-means on the range-normalised series (the open-source workbench).
@@ -41,7 +41,7 @@ pub enum Grouping {
 /// How the representative of a class is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum RepresentativeBy {
-    /// Largest |Pearson r| with the target (seed 003).
+    /// Largest |Pearson r| with the target (CN105397560).
     #[default]
     Pearson,
     /// Largest grey relational grade with the target, ρ = 0.5 (the workbench).
@@ -706,7 +706,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         "{} model; classes by {}; representative by {}; {}-fold cross-validation by {}",
         match opts.model {
             ModelKind::Dynamic => "dynamic (value + filtered rate per sensor, forward selection)",
-            ModelKind::Static => "static (seed 003: all class representatives, OLS)",
+            ModelKind::Static => "static (CN105397560: all class representatives, OLS)",
             ModelKind::Ridge => "static ridge (all class representatives)",
             ModelKind::Auto => "every family compared",
         },

@@ -1,4 +1,4 @@
-//! Thermal model identification from measured data (issue 4, seed 003).
+//! Thermal model identification from measured data (issue 4, CN105397560).
 //!
 //! Reads a thermal-test log ([`data`]), groups the temperature sensors by fuzzy-equivalence
 //! clustering of their correlation ([`cluster`]), keeps one representative per class, fits

@@ -1,4 +1,4 @@
-//! Dry-hobbing workpiece shrink (seed 003): the workpiece temperature model
+//! Dry-hobbing workpiece shrink (CN105397560): the workpiece temperature model
 //! Ta = a0 + Σ a_i·t_i and the radial offset δT that makes the cooled gear right, combined
 //! with the machine error δM into one radial offset.
 
@@ -49,9 +49,6 @@ pub fn shrink_offset_um(w: &WorkpieceShrink, ta_c: f64) -> Result<f64> {
             "−60° < β < 60°",
         ));
     }
-    let alpha_n = deg_to_rad(g.pressure_angle_deg);
-    let r_mm = g.normal_module_mm * f64::from(g.teeth) / (2.0 * beta.cos());
-    let alpha_t = (alpha_n.tan() / beta.cos()).atan();
     let reference = match w.reference {
         ReferenceRadius::Pitch => ShrinkReference::Pitch,
         ReferenceRadius::Tip => {
@@ -65,13 +62,15 @@ pub fn shrink_offset_um(w: &WorkpieceShrink, ta_c: f64) -> Result<f64> {
             ShrinkReference::Radius(da / 2.0)
         }
     };
-    let input = ShrinkInput {
-        reference_radius_mm: r_mm,
-        transverse_pressure_angle_rad: alpha_t,
-        expansion_per_k: w.expansion_per_k,
-        delta_temp_k: ta_c - w.design_temp_c,
+    let input = ShrinkInput::for_gear(
+        g.normal_module_mm,
+        g.teeth,
+        deg_to_rad(g.pressure_angle_deg),
+        beta,
+        w.expansion_per_k,
+        ta_c - w.design_temp_c,
         reference,
-    };
+    );
     Ok(match w.method {
         ShrinkMethod::Exact => shrink_offset_exact_um(&input)?,
         ShrinkMethod::FirstOrder => shrink_offset_first_order_um(&input)?,
@@ -121,7 +120,7 @@ pub fn workpiece_shrink(
 /// # Formula
 /// offset = δM(t) + δT(Ta(t)),  Ta = a0 + Σ a_i·transform_i(t_i)
 /// # Source
-/// seed 003, "total compensation δM + δT as an X offset" [SEED]
+/// CN105397560, "total compensation δM + δT as an X offset" [SEED]
 pub fn combined_offsets_um(table: &Table, axis: &AxisModel) -> Result<Vec<f64>> {
     let mut out = predict(table, &axis.machine)?;
     if let Some(w) = &axis.workpiece {

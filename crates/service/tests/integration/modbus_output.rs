@@ -229,7 +229,7 @@ async fn device_restart_and_lost_register_get_the_offset_again() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn stop_coil_follows_the_latched_request_and_heartbeat_counts() {
     let dir = tempfile::tempdir().unwrap();
-    // Channel A has an upper limit of 30 °C (seed 000: an averaged value outside its
+    // Channel A has an upper limit of 30 °C (EP0138375: an averaged value outside its
     // limits requests a stop).
     let engine = engine_ab(1.0).replacen(
         "stale_timeout_s = 1\n",

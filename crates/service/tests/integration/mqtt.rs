@@ -121,7 +121,7 @@ async fn mqtt_in_and_out_with_faults() {
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
     }
-    // Cz = −3.75·(A − B): A = 24, B = 20 → −15 µm (seed 001's law, exact in binary).
+    // Cz = −3.75·(A − B): A = 24, B = 20 → −15 µm (JPH0761598B2's law, exact in binary).
     let f1 = || {
         let (gw1, gw2) = (gw.clone(), gw.clone());
         tokio::spawn(async move {

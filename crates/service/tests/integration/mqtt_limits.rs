@@ -3,7 +3,7 @@
 //! the service connects, an oversized live message, a flood of distinct unconfigured
 //! topics (one with a 5,000-character name), and a broker that requires a login.
 //! Asserted on the record: the input keeps delivering readings (offsets computed by hand
-//! from seed 001's Cz = −3.75·(A − B)), the connection is never dropped, each cause is
+//! from JPH0761598B2's Cz = −3.75·(A − B)), the connection is never dropped, each cause is
 //! one alarm with a count, keys stay short, and a password never appears in an alarm.
 #![cfg(feature = "mqtt")]
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]

@@ -245,7 +245,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     let cnc = Cnc::start(port, &vars(24.0, 280.0), refuse.clone()).await;
     assert_eq!(cnc.ns, 2, "the node ids of the configuration assume ns=2");
 
-    // Seed 001's grinder law Cz = −3.75·(A − B): A − B = 4 K → −15 µm, exact in binary.
+    // JPH0761598B2's grinder law Cz = −3.75·(A − B): A − B = 4 K → −15 µm, exact in binary.
     cnc.wait_comp(-15.0, 20.0).await;
     let log = cnc.log();
     assert!(log.iter().all(|v| *v == 0.0 || *v == -15.0), "{log:?}");

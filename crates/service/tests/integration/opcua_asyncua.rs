@@ -164,7 +164,7 @@ fn message(v: &serde_json::Value, key: &str) -> String {
         .unwrap_or_default()
 }
 
-/// Engine AB with two axes: Z = −3.75·(A − B) µm (seed 001's grinder law) and
+/// Engine AB with two axes: Z = −3.75·(A − B) µm (JPH0761598B2's grinder law) and
 /// X = 2.5·(A − B) µm, no averaging, dead band or rate limit.
 fn engine_zx() -> String {
     format!(

@@ -1,6 +1,6 @@
 //! The PostgreSQL record against a real server started by the test: every record type
 //! round-trips and reads back exactly as from SQLite, several machines share a database,
-//! the seed 001 grinder recorded by both backends at once gives the same offsets and the
+//! the JPH0761598B2 grinder recorded by both backends at once gives the same offsets and the
 //! same CSV export, and a server stopped mid-run loses no sample.
 #![cfg(feature = "postgres")]
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
@@ -317,7 +317,7 @@ fn every_record_type_round_trips_as_in_sqlite_and_machines_stay_apart() {
     assert_eq!(machines, 2);
 }
 
-/// Runs the seed 001 grinder (the grinder preset's simulator and engine) through the
+/// Runs the JPH0761598B2 grinder (the grinder preset's simulator and engine) through the
 /// service's simulator and cycle threads for `wall`, with every record sent to both stores.
 fn grinder_into_both(pg: &Arc<dyn Store>, sq: &Arc<dyn Store>, wall: Duration) {
     let b = bundle(Preset::from_name("grinder").unwrap());
@@ -407,7 +407,7 @@ fn seed001_grinder_stores_the_same_offsets_in_postgres_as_in_sqlite() {
     }
     assert_eq!(pg.sample_totals().unwrap(), sq.sample_totals().unwrap());
 
-    // Independent reference: seed 001's law Cz = Kz·(A − B), Kz = −3.75 µm/°C, on the
+    // Independent reference: JPH0761598B2's law Cz = Kz·(A − B), Kz = −3.75 µm/°C, on the
     // averaged bed-top (A) and wheel-head (B) temperatures of the same cycle.
     let a = pg.channel_history(0, SeriesKind::Average, ALL).unwrap();
     let bb = pg.channel_history(1, SeriesKind::Average, ALL).unwrap();
