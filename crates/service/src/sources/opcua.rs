@@ -417,6 +417,17 @@ struct OutSpec {
     ty: OpcUaNumericType,
 }
 
+/// An infeed-pulse output node with its engine axis.
+#[derive(Debug, Clone)]
+struct PulseSpec {
+    node: NodeId,
+    axis: usize,
+    axis_name: String,
+    /// The configuration key, e.g. `input.pulse_outputs[0]`.
+    field: String,
+    ty: OpcUaNumericType,
+}
+
 /// The configuration with node ids parsed and names resolved against the engine.
 #[derive(Debug, Clone)]
 pub struct Resolved {
@@ -427,6 +438,7 @@ pub struct Resolved {
     outputs: Vec<OutSpec>,
     stop: Option<NodeId>,
     beat: Option<(NodeId, Duration, OpcUaNumericType)>,
+    pulses: Vec<PulseSpec>,
 }
 
 /// Checks every node id, mapped channel and the offset axis.
@@ -510,6 +522,24 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         )),
         None => None,
     };
+    let mut pulses = Vec::new();
+    for (i, o) in cfg.pulse_outputs.iter().enumerate() {
+        let field = format!("input.pulse_outputs[{i}]");
+        let axis = axes.iter().position(|a| a == &o.axis).ok_or_else(|| {
+            invalid(
+                format!("{field}.axis"),
+                &o.axis,
+                format!("an engine axis: {}", axes.join(", ")),
+            )
+        })?;
+        pulses.push(PulseSpec {
+            node: parse_node(&format!("{field}.node"), &o.node)?,
+            axis,
+            axis_name: o.axis.clone(),
+            field,
+            ty: o.data_type,
+        });
+    }
     Ok(Resolved {
         channels: out,
         positions,
@@ -518,6 +548,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
         outputs,
         stop,
         beat,
+        pulses,
     })
 }
 
@@ -552,6 +583,8 @@ struct Flags {
     last_alive: u64,
     next_beat: Instant,
     alive: Arc<std::sync::atomic::AtomicU64>,
+    /// The infeed-pulse outputs, one per pulse axis.
+    pulses: Vec<PulseOut>,
 }
 
 const STOP_KEY: &str = "opcua.stop_output";
@@ -1149,6 +1182,21 @@ async fn run(a: Adapter) {
         last_alive: 0,
         next_beat: Instant::now(),
         alive: p.alive.clone(),
+        pulses: r
+            .pulses
+            .iter()
+            .map(|spec| PulseOut {
+                key: format!("{PULSE_KEY}.{}", spec.axis_name),
+                spec: spec.clone(),
+                usable: false,
+                acked: None,
+                pending: None,
+                force: false,
+                not_pulse_alarmed: false,
+                failures: 0,
+                next_try: Instant::now(),
+            })
+            .collect(),
     };
     loop {
         let ended = session(
@@ -1426,6 +1474,12 @@ async fn session(
         }
     }
 
+    // Every pulse node: checked as the other outputs, then read back (a server that
+    // restarted holds 0 or whatever it kept instead of the acknowledged total).
+    for po in flags.pulses.iter_mut() {
+        start_pulses(&session, po, offsets, tx).await;
+    }
+
     // A CNC restarted while the service ran holds 0 (or whatever it kept): write the
     // current offset at once, not at the next change. The value is absolute, so writing it
     // again where it is already in place changes nothing.
@@ -1438,6 +1492,9 @@ async fn session(
     // A new session: the stop flag is written at once (the server may have restarted).
     flags.stop_written = None;
     write_flags(&session, flags, offsets, tx).await;
+    for po in flags.pulses.iter_mut() {
+        write_pulses(&session, po, offsets, tx).await;
+    }
 
     let timed = r.trigger.is_none() && (!r.channels.is_empty() || !r.positions.is_empty());
     let mut tick = tokio::time::interval(Duration::from_secs_f64(cfg.scan_period_s));
@@ -1450,6 +1507,12 @@ async fn session(
             .map(|o| o.next_try)
             .min()
             .unwrap_or_else(|| Instant::now() + Duration::from_secs(3600));
+        let pulse_retry = flags
+            .pulses
+            .iter()
+            .filter(|p| p.usable && p.failures > 0)
+            .map(|p| p.next_try)
+            .min();
         tokio::select! {
             ch = state_rx.changed() => {
                 let ended = match (ch, state_rx.borrow().clone()) {
@@ -1472,11 +1535,16 @@ async fn session(
             }
             _ = tokio::time::sleep_until(retry_at), if !outputs.is_empty() => {}
             _ = tokio::time::sleep_until(flags.next_beat), if flags.beat.is_some() => {}
+            _ = tokio::time::sleep_until(pulse_retry.unwrap_or_else(Instant::now)),
+                if pulse_retry.is_some() => {}
         }
         for o in outputs.iter_mut() {
             write_offset(&session, o, offsets, tx).await;
         }
         write_flags(&session, flags, offsets, tx).await;
+        for po in flags.pulses.iter_mut() {
+            write_pulses(&session, po, offsets, tx).await;
+        }
     }
 }
 
@@ -1551,6 +1619,265 @@ async fn write_offset(
                         o.spec.scale,
                         o.spec.node,
                         o.spec.axis_name
+                    ),
+                },
+            );
+        }
+    }
+}
+
+/// Prefix of the pulse outputs' alarm keys: `opcua.pulse_output.<axis>` (write failures)
+/// and `opcua.pulse_output.<axis>.held` (the node does not hold the acknowledged total).
+const PULSE_KEY: &str = "opcua.pulse_output";
+
+/// An infeed-pulse output's state, kept across sessions: the total the PLC acknowledged
+/// (a Good write status) and a total written whose status never arrived.
+struct PulseOut {
+    spec: PulseSpec,
+    /// `opcua.pulse_output.<axis>`.
+    key: String,
+    /// The node passed the connect check in this session.
+    usable: bool,
+    /// The total acknowledged (None: the cycle's, from the resume state, at first use).
+    acked: Option<i64>,
+    /// A total written without a Good status seen (it may have landed).
+    pending: Option<i64>,
+    /// Write the issued total even when it equals `acked`: the node does not hold it.
+    force: bool,
+    /// The axis is not applied as pulses: alarmed once.
+    not_pulse_alarmed: bool,
+    failures: u32,
+    next_try: Instant,
+}
+
+/// The value written to a pulse node for a cumulative total: Int32, or a whole Double.
+///
+/// # Formula
+/// Int32: total (refused outside −2³¹…2³¹−1, never wrapped); Double: total as f64
+/// (exact up to 2⁵³)
+/// # Source
+/// OPC UA Part 6 §5.1.2 (built-in types) [STANDARD]; the cumulative count is this
+/// service's [CONVENTION, docs/service.md]
+pub fn encode_pulse_total(
+    total: i64,
+    ty: OpcUaNumericType,
+) -> std::result::Result<Variant, String> {
+    match ty {
+        OpcUaNumericType::Double if total.unsigned_abs() <= 1 << 53 => {
+            Ok(Variant::Double(total as f64))
+        }
+        OpcUaNumericType::Int32 => i32::try_from(total)
+            .map(Variant::Int32)
+            .map_err(|_| format!("pulse total {total} outside the Int32 range of the node")),
+        _ => Err(format!(
+            "pulse total {total} cannot be written exactly as {}",
+            ty.name()
+        )),
+    }
+}
+
+/// The cumulative total a pulse node holds (an integer type, or a whole Double).
+pub fn decode_pulse_total(dv: &DataValue) -> std::result::Result<i64, String> {
+    match good_value(dv)? {
+        Variant::Double(x) if x.fract() == 0.0 && x.abs() <= 9.0e15 => Ok(*x as i64),
+        Variant::Double(x) => Err(format!("{x}, not a whole pulse count")),
+        _ => integer_value(dv, "Int32 or Double"),
+    }
+}
+
+/// Reads a node's value once (5 s bound).
+async fn read_value(
+    session: &Arc<Session>,
+    node: &NodeId,
+) -> std::result::Result<DataValue, String> {
+    let id = ReadValueId {
+        node_id: node.clone(),
+        attribute_id: AttributeId::Value as u32,
+        ..Default::default()
+    };
+    match tokio::time::timeout(
+        Duration::from_secs(5),
+        session.read(&[id], TimestampsToReturn::Neither, 0.0),
+    )
+    .await
+    {
+        Ok(Ok(mut v)) if v.len() == 1 => Ok(v.remove(0)),
+        Ok(Ok(_)) => Err("the server answered the read incompletely".into()),
+        Ok(Err(e)) => Err(format!("{e}")),
+        Err(_) => Err("no answer within 5 s".into()),
+    }
+}
+
+/// At every new session: the pulse node is checked (exists, data type, writable) and read
+/// back. Holding the acknowledged total: nothing to do. Holding a total written whose
+/// status was lost: that total counts as acknowledged. Anything else (the server
+/// restarted, or someone wrote it): alarmed, and the issued total is written again — the
+/// PLC applies the difference to the total it last applied, so nothing moves twice.
+async fn start_pulses(
+    session: &Arc<Session>,
+    p: &mut PulseOut,
+    offsets: &watch::Receiver<OffsetOut>,
+    tx: &SyncSender<InputMsg>,
+) {
+    let spec = &p.spec;
+    let held_key = format!("{}.held", p.key);
+    p.failures = 0;
+    p.next_try = Instant::now();
+    let checked = check_output_node(session, &spec.node, type_id(spec.ty), spec.ty.name()).await;
+    p.usable = checked.is_ok();
+    if let Err(why) = checked {
+        send(
+            tx,
+            InputMsg::RaiseAlarm {
+                key: p.key.clone(),
+                message: format!(
+                    "OPC UA pulse output of axis {} ({}): node {} {why} ({}.data_type = \"{}\"; Int32 | Double); no pulses are sent until it is fixed (checked at every connect)",
+                    spec.axis_name,
+                    spec.field,
+                    spec.node,
+                    spec.field,
+                    spec.ty.name()
+                ),
+            },
+        );
+        return;
+    }
+    let snap = *offsets.borrow();
+    let axis = spec.axis;
+    if axis >= snap.n_axes as usize || snap.pulse_um[axis] <= 0.0 {
+        return;
+    }
+    let acked = *p.acked.get_or_insert(snap.pulses_acked[axis]);
+    match read_value(session, &spec.node)
+        .await
+        .and_then(|dv| decode_pulse_total(&dv))
+    {
+        Ok(held) if held == acked => {
+            p.force = false;
+            send(tx, InputMsg::ClearAlarm { key: held_key });
+        }
+        Ok(held) if Some(held) == p.pending => {
+            // Written before the session was lost, status never seen: it landed.
+            p.acked = Some(held);
+            p.force = false;
+            send(
+                tx,
+                InputMsg::PulsesAcked {
+                    axis: axis as u8,
+                    total: held,
+                },
+            );
+            send(tx, InputMsg::ClearAlarm { key: held_key });
+        }
+        Ok(held) => {
+            p.force = true;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: held_key,
+                    message: format!(
+                        "OPC UA pulse node {} of axis {} holds {held}, the PLC had acknowledged {acked}: server restarted or node overwritten; the total is written again (the PLC applies the difference to the total it last applied)",
+                        spec.node, spec.axis_name
+                    ),
+                },
+            );
+        }
+        Err(why) => {
+            p.force = true;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: held_key,
+                    message: format!(
+                        "OPC UA pulse node {} of axis {}: cannot read it back ({why}); the total is written again",
+                        spec.node, spec.axis_name
+                    ),
+                },
+            );
+        }
+    }
+    p.pending = None;
+}
+
+/// Writes the cumulative pulse total of the axis when it differs from the acknowledged
+/// one (or the node lost it); it counts as acknowledged only on a Good status, then the
+/// cycle keeps it in the resume state. A failed write is retried with back-off.
+async fn write_pulses(
+    session: &Arc<Session>,
+    p: &mut PulseOut,
+    offsets: &watch::Receiver<OffsetOut>,
+    tx: &SyncSender<InputMsg>,
+) {
+    let snap = *offsets.borrow();
+    let axis = p.spec.axis;
+    if !p.usable || axis >= snap.n_axes as usize || Instant::now() < p.next_try {
+        return;
+    }
+    if snap.pulse_um[axis] <= 0.0 {
+        if !p.not_pulse_alarmed {
+            p.not_pulse_alarmed = true;
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: p.key.clone(),
+                    message: format!(
+                        "OPC UA pulse output of axis {} ({}): the axis is not applied as pulses (engine apply.kind); nothing is sent to node {}",
+                        p.spec.axis_name, p.spec.field, p.spec.node
+                    ),
+                },
+            );
+        }
+        return;
+    }
+    let acked = *p.acked.get_or_insert(snap.pulses_acked[axis]);
+    let total = snap.pulse_total[axis];
+    if total == acked && !p.force {
+        return;
+    }
+    let value = match encode_pulse_total(total, p.spec.ty) {
+        Ok(v) => v,
+        Err(msg) => {
+            p.failures = p.failures.saturating_add(1);
+            p.next_try = Instant::now() + Duration::from_secs(5);
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: p.key.clone(),
+                    message: format!("OPC UA pulse node {}: {msg}", p.spec.node),
+                },
+            );
+            return;
+        }
+    };
+    p.pending = Some(total);
+    match write_value(session, &p.spec.node, value).await {
+        Ok(()) => {
+            p.pending = None;
+            p.acked = Some(total);
+            p.force = false;
+            p.failures = 0;
+            send(
+                tx,
+                InputMsg::PulsesAcked {
+                    axis: axis as u8,
+                    total,
+                },
+            );
+            send(tx, InputMsg::ClearAlarm { key: p.key.clone() });
+        }
+        Err(why) => {
+            // Unanswered, it may have landed (`pending`, settled by the read-back at the
+            // next session); the same total written again moves nothing on the PLC.
+            p.failures = p.failures.saturating_add(1);
+            let wait_s = (0.2 * 2f64.powi(p.failures.min(6) as i32 - 1)).min(5.0);
+            p.next_try = Instant::now() + Duration::from_secs_f64(wait_s);
+            send(
+                tx,
+                InputMsg::RaiseAlarm {
+                    key: p.key.clone(),
+                    message: format!(
+                        "OPC UA pulse total {total} (acknowledged {acked}) to node {} (axis {}):                          {why}; retrying with back-off",
+                        p.spec.node, p.spec.axis_name
                     ),
                 },
             );
@@ -1675,6 +2002,38 @@ mod tests {
             Ok(Variant::Double(-2.5))
         );
         assert!(encode_offset(f64::NAN, 1.0, T::Double).is_err());
+    }
+
+    #[test]
+    fn pulse_totals_written_and_read_back() {
+        // Int32: the total itself; refused (never wrapped) outside ±2³¹.
+        assert_eq!(
+            encode_pulse_total(-21, T::Int32).unwrap(),
+            Variant::Int32(-21)
+        );
+        assert_eq!(
+            encode_pulse_total(2_147_483_647, T::Int32).unwrap(),
+            Variant::Int32(i32::MAX)
+        );
+        let e = encode_pulse_total(2_147_483_648, T::Int32).unwrap_err();
+        assert!(e.contains("2147483648") && e.contains("Int32"), "{e}");
+        assert_eq!(
+            encode_pulse_total(-3_000_000_000, T::Double).unwrap(),
+            Variant::Double(-3.0e9)
+        );
+        assert!(encode_pulse_total(1, T::Float).is_err());
+        assert!(encode_pulse_total(1, T::Int16).is_err());
+        // Read back: integers, whole Doubles; a fraction, a bad status or no value is not
+        // a total.
+        assert_eq!(decode_pulse_total(&dv(Variant::Int32(-4))).unwrap(), -4);
+        assert_eq!(decode_pulse_total(&dv(Variant::Double(-4.0))).unwrap(), -4);
+        assert_eq!(decode_pulse_total(&dv(Variant::Int16(7))).unwrap(), 7);
+        assert!(decode_pulse_total(&dv(Variant::Double(-4.5))).is_err());
+        assert!(decode_pulse_total(&dv(Variant::Double(f64::NAN))).is_err());
+        assert!(decode_pulse_total(&dv(Variant::String(UAString::from("4")))).is_err());
+        let mut bad = dv(Variant::Int32(3));
+        bad.status = Some(StatusCode::BadNodeIdUnknown);
+        assert!(decode_pulse_total(&bad).is_err());
     }
 
     #[test]

@@ -95,6 +95,10 @@ pub struct OpcUaInput {
     /// compensation cycle steps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heartbeat: Option<OpcUaHeartbeat>,
+    /// EP0138375 infeed pulses: per axis applied as pulses, a writable node receiving the
+    /// cumulative pulse total (the PLC applies the difference to the total it last applied).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pulse_outputs: Vec<OpcUaPulseOutput>,
 }
 
 impl std::fmt::Debug for OpcUaInput {
@@ -123,6 +127,7 @@ impl std::fmt::Debug for OpcUaInput {
             .field("offset_outputs", &self.offset_outputs)
             .field("stop_output", &self.stop_output)
             .field("heartbeat", &self.heartbeat)
+            .field("pulse_outputs", &self.pulse_outputs)
             .finish()
     }
 }
@@ -147,6 +152,19 @@ pub struct OpcUaHeartbeat {
     /// Period, s (0.05…3600; at least `cycle.period_s` so a live cycle always moves it).
     #[serde(default = "one")]
     pub period_s: f64,
+}
+
+/// The infeed-pulse node of one axis applied as pulses (EP0138375).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpcUaPulseOutput {
+    /// Axis name (an engine axis with `apply = { kind = "pulses", ... }`).
+    pub axis: String,
+    /// Node id of a writable variable receiving the cumulative pulse total.
+    pub node: String,
+    /// The node's data type: Int32 (DINT, default) or Double (LREAL, a whole number).
+    #[serde(default = "int32")]
+    pub data_type: OpcUaNumericType,
 }
 
 fn none_name() -> String {
@@ -461,6 +479,36 @@ impl OpcUaInput {
                 "0.05…3600 s",
             )?;
         }
+        for (i, o) in self.pulse_outputs.iter().enumerate() {
+            let f = format!("input.pulse_outputs[{i}]");
+            crate::sources::opcua::parse_node(&format!("{f}.node"), &o.node)?;
+            if !matches!(
+                o.data_type,
+                OpcUaNumericType::Int32 | OpcUaNumericType::Double
+            ) {
+                return Err(invalid(
+                    format!("{f}.data_type"),
+                    o.data_type.name(),
+                    "Int32 | Double (a cumulative pulse count)",
+                ));
+            }
+            if self.pulse_outputs[..i].iter().any(|p| p.axis == o.axis) {
+                return Err(invalid(
+                    format!("{f}.axis"),
+                    format!("{:?}", o.axis),
+                    "an axis not already given a pulse output (one per axis)",
+                ));
+            }
+            if self.pulse_outputs[..i].iter().any(|p| p.node == o.node)
+                || self.outputs().iter().any(|(_, p)| p.node == o.node)
+            {
+                return Err(invalid(
+                    format!("{f}.node"),
+                    format!("{:?}", o.node),
+                    "a node not already written by another output",
+                ));
+            }
+        }
         let outputs = self.outputs();
         for (i, (f, o)) in outputs.iter().enumerate() {
             crate::sources::opcua::parse_node(&format!("{f}.node"), &o.node)?;
@@ -755,5 +803,37 @@ mod tests {
             e.contains("input.endpoint") && e.contains("opc.tcp://"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn pulse_outputs_parse_or_name_the_key() {
+        let c = ServiceConfig::from_toml_str(
+            &format!(
+                "{BASE}pulse_outputs = [{{ axis = \"Z\", node = \"ns=2;s=PZ\" }}, \
+                 {{ axis = \"X\", node = \"ns=2;s=PX\", data_type = \"LREAL\" }}]\n"
+            ),
+            "m.toml",
+        )
+        .unwrap();
+        let InputSection::OpcUa(o) = &c.input else {
+            panic!("not opcua")
+        };
+        assert_eq!(o.pulse_outputs[0].data_type, OpcUaNumericType::Int32);
+        assert_eq!(o.pulse_outputs[1].data_type, OpcUaNumericType::Double);
+        let e =
+            err("pulse_outputs = [{ axis = \"Z\", node = \"ns=2;s=P\", data_type = \"Int16\" }]\n");
+        assert!(
+            e.contains("input.pulse_outputs[0].data_type") && e.contains("Int32 | Double"),
+            "{e}"
+        );
+        let e = err(
+            "pulse_outputs = [{ axis = \"Z\", node = \"ns=2;s=P\" }, { axis = \"Z\", node = \"ns=2;s=Q\" }]\n",
+        );
+        assert!(e.contains("input.pulse_outputs[1].axis"), "{e}");
+        let e = err("offset_output = { axis = \"Z\", node = \"ns=2;s=P\" }\n\
+             pulse_outputs = [{ axis = \"Z\", node = \"ns=2;s=P\" }]\n");
+        assert!(e.contains("input.pulse_outputs[0].node"), "{e}");
+        let e = err("pulse_outputs = [{ axis = \"Z\", node = \"nonsense\" }]\n");
+        assert!(e.contains("input.pulse_outputs[0].node"), "{e}");
     }
 }

@@ -23,6 +23,7 @@ mod mqtt_outputs;
 mod mqtt_reconnect;
 mod opcua;
 mod opcua_asyncua;
+mod opcua_pulses;
 mod opcua_secure;
 mod postgres;
 mod postgres_kill;

@@ -1,0 +1,244 @@
+//! OPC UA pulse output (issue 14 item 9): EP0138375 infeed pulses as a cumulative total
+//! written to an Int32 node of an async-opcua server standing in for the PLC, exactly
+//! once across a server restart (the node comes back at 0) and a service restart; the
+//! PLC applies each written total minus the total it last applied.
+#![cfg(feature = "opcua")]
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use crate::common::{free_port, start_with, Api, PULSE_ENGINE};
+use opcua::server::address_space::VariableBuilder;
+use opcua::server::diagnostics::NamespaceMetadata;
+use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
+use opcua::server::{ServerBuilder, ServerHandle};
+use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, Variant};
+
+const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
+
+/// The PLC stand-in: Temp.A and Temp.B (Double) and a writable Int32 `Pulses` whose
+/// accepted writes are logged and held (a read returns the last accepted write, 0 after
+/// a start: the server keeps nothing across its restart).
+struct Plc {
+    handle: ServerHandle,
+    task: tokio::task::JoinHandle<Result<(), String>>,
+    nm: Arc<SimpleNodeManager>,
+    ns: u16,
+    held: Arc<Mutex<i32>>,
+    writes: Arc<Mutex<Vec<i32>>>,
+    _pki: tempfile::TempDir,
+}
+
+impl Plc {
+    async fn start(port: u16, temp_a: f64) -> Plc {
+        // The port may still be held by the previous instance for a moment.
+        let mut listener = None;
+        for _ in 0..100 {
+            match tokio::net::TcpListener::bind(("127.0.0.1", port)).await {
+                Ok(l) => {
+                    listener = Some(l);
+                    break;
+                }
+                Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
+            }
+        }
+        let listener = listener.unwrap();
+        let pki = tempfile::tempdir().unwrap();
+        let (server, handle) = ServerBuilder::new_anonymous("gearcomp test pulse PLC")
+            .application_uri("urn:gearcomp-test-pulse-plc")
+            .product_uri("urn:gearcomp-test-pulse-plc")
+            .host("127.0.0.1")
+            .port(port)
+            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
+            .pki_dir(pki.path())
+            .create_sample_keypair(false)
+            .with_node_manager(simple_node_manager(
+                NamespaceMetadata {
+                    namespace_uri: NS_URI.to_owned(),
+                    ..Default::default()
+                },
+                "plc",
+            ))
+            .build()
+            .unwrap();
+        let nm = handle
+            .node_managers()
+            .get_of_type::<SimpleNodeManager>()
+            .unwrap();
+        let ns = handle.get_namespace_index(NS_URI).unwrap();
+        let held: Arc<Mutex<i32>> = Arc::default();
+        let writes: Arc<Mutex<Vec<i32>>> = Arc::default();
+        {
+            let mut space = nm.address_space().write();
+            for (name, v) in [("Temp.A", temp_a), ("Temp.B", 20.0)] {
+                VariableBuilder::new(&NodeId::new(ns, name), name, name)
+                    .data_type(DataTypeId::Double)
+                    .value(v)
+                    .organized_by(ObjectId::ObjectsFolder)
+                    .insert(&mut *space);
+            }
+            let pulses = NodeId::new(ns, "Pulses");
+            VariableBuilder::new(&pulses, "Pulses", "Pulses")
+                .data_type(DataTypeId::Int32)
+                .value(0i32)
+                .writable()
+                .organized_by(ObjectId::ObjectsFolder)
+                .insert(&mut *space);
+            let (h, w) = (held.clone(), writes.clone());
+            nm.inner()
+                .add_write_callback(pulses.clone(), move |dv: DataValue, _| match dv.value {
+                    Some(Variant::Int32(x)) => {
+                        *h.lock().unwrap() = x;
+                        w.lock().unwrap().push(x);
+                        StatusCode::Good
+                    }
+                    _ => StatusCode::BadTypeMismatch,
+                });
+            let h = held.clone();
+            nm.inner().add_read_callback(pulses, move |_, _, _| {
+                Ok(DataValue::new_now(Variant::Int32(*h.lock().unwrap())))
+            });
+        }
+        let task = tokio::spawn(server.run_with(listener));
+        Plc {
+            handle,
+            task,
+            nm,
+            ns,
+            held,
+            writes,
+            _pki: pki,
+        }
+    }
+
+    fn set(&self, name: &str, v: f64) {
+        self.nm
+            .set_value(
+                self.handle.subscriptions(),
+                &NodeId::new(self.ns, name),
+                None,
+                DataValue::new_now(Variant::Double(v)),
+            )
+            .unwrap();
+    }
+
+    fn held(&self) -> i64 {
+        i64::from(*self.held.lock().unwrap())
+    }
+
+    fn writes(&self) -> Vec<i64> {
+        self.writes
+            .lock()
+            .unwrap()
+            .iter()
+            .map(|x| i64::from(*x))
+            .collect()
+    }
+
+    async fn stop(self) {
+        self.handle.cancel();
+        let _ = tokio::time::timeout(Duration::from_secs(10), self.task).await;
+    }
+}
+
+async fn wait(what: &str, secs: f64, f: impl Fn() -> bool) {
+    let deadline = Instant::now() + Duration::from_secs_f64(secs);
+    while !f() {
+        assert!(Instant::now() < deadline, "timed out: {what}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
+    let dir = tempfile::tempdir().unwrap();
+    let engine = PULSE_ENGINE.replacen("max_step_um = 0.1", "max_step_um = 0.25", 1);
+    assert!(engine.contains("max_step_um = 0.25"));
+    std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
+    let port = free_port();
+    // A = 24 °C, B = 20 °C: target −3.75·4 = −15 µm, ramped 0.25 µm per 0.1 s cycle.
+    let plc1 = Plc::start(port, 24.0).await;
+    let ns = plc1.ns;
+    let config = format!(
+        "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+         [storage]\npath = \"op.db\"\ncommit_interval_s = 0.05\n\
+         [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+         publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
+         reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+         channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
+         pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n"
+    );
+    let run = start_with(dir.path(), &config).await;
+    let ro = run.generated.clone().unwrap().read_only;
+    wait("first pulses", 30.0, || plc1.held() <= -4).await;
+
+    // The server restarts mid-ramp: its node comes back holding 0.
+    let w1_len = plc1.writes().len();
+    let w1 = plc1.writes();
+    plc1.stop().await;
+    let plc2 = Plc::start(port, 24.0).await;
+    assert_eq!(plc2.ns, ns);
+    wait("pulses after the server restart", 30.0, || {
+        plc2.held() <= -8
+    })
+    .await;
+    let api = Api::new(&run);
+    let held = api
+        .wait_alarm("/api/alarms", &ro, "opcua.pulse_output.Z.held", 10.0)
+        .await;
+    assert!(
+        held["message"].as_str().unwrap().contains("holds 0"),
+        "{held}"
+    );
+    assert_eq!(w1.len(), w1_len);
+
+    // The service restarts mid-ramp on the same record; the target moves to
+    // −3.75·(25.5 − 20) = −20.625 µm.
+    run.stop().await.unwrap();
+    let run = start_with(dir.path(), &config).await;
+    let api = Api::new(&run);
+    plc2.set("Temp.A", 25.5);
+    let st = api
+        .wait_for("/api/status", &ro, 60.0, |v| {
+            v["axes"][0]["offset_um"].as_f64() == Some(-20.625)
+        })
+        .await;
+    let y = st["axes"][0]["offset_um"].as_f64().unwrap();
+    // Independent: the nearest whole count of 1 µm pulses (the remainder carried keeps
+    // the train within half a pulse): −20.625 → −21.
+    let want = (y / 1.0).round() as i64;
+    assert_eq!(want, -21);
+    wait("the last pulses", 20.0, || plc2.held() == want).await;
+    // Nothing more arrives afterwards (no total repeated late).
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let store = run.store.clone();
+    run.stop().await.unwrap();
+
+    // The PLC applies each written total minus the total it last applied, keeping that
+    // in retained memory across the server's restart.
+    let w2 = plc2.writes();
+    let mut last = 0i64;
+    let mut moved = 0i64;
+    let mut steps = Vec::new();
+    for t in w1.iter().chain(&w2) {
+        moved += t - last;
+        steps.push(t - last);
+        last = *t;
+    }
+    println!(
+        "opcua pulses: final offset {y} µm → {want} pulses; server writes {w1:?} then {w2:?}; PLC moved {moved}"
+    );
+    assert_eq!(moved, want);
+    assert_eq!(plc2.held(), want);
+    // The ramp is monotonic: no total ever goes back (a repeated batch would).
+    assert!(steps.iter().all(|s| *s <= 0), "{steps:?}");
+    // After the server restart the first write restores the total acknowledged before it
+    // (or more), never starts again from 0.
+    assert!(w2[0] <= *w1.last().unwrap(), "{w1:?} {w2:?}");
+    // The record keeps what the PLC acknowledged: all of it.
+    let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
+    let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
+    assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
+    plc2.stop().await;
+}
