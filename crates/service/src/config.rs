@@ -904,7 +904,7 @@ pub use crate::sources::replay::ReplayInput;
 #[cfg(feature = "opcua")]
 pub use crate::sources::opcua_config::{
     OpcUaChannel, OpcUaInput, OpcUaNumericType, OpcUaOffsetOutput, OpcUaProgramState,
-    OpcUaTrigger,
+    OpcUaPulseOutput, OpcUaTrigger,
 };
 
 impl ServiceConfig {
