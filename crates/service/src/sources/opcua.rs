@@ -25,8 +25,15 @@
 //!   sequence number, and once more at the start of every session (a CNC restarted while
 //!   the service runs gets the current value at once); a failed write raises the same key
 //!   and is retried with back-off with the newest value. At every connect each output
-//!   node (offsets, stop, heartbeat) is checked: it exists, declares the data type written
-//!   and may be written; a node failing the check is alarmed and not written.
+//!   node (offsets, stop, heartbeat, pulses) is checked: it exists, declares the data type
+//!   written and may be written; a node failing the check is alarmed and not written.
+//! * **Infeed pulses** (EP0138375). One `pulse_outputs` node per axis applied as pulses
+//!   receives the cumulative pulse total (Int32, or a whole Double); the PLC applies the
+//!   difference to the total it last applied, so a total written twice moves nothing. A
+//!   total counts as acknowledged (kept in the resume state) only on a Good write status;
+//!   at every new session the node is read back and, when it does not hold the
+//!   acknowledged total (server restarted), `opcua.pulse_output.<axis>.held` is raised
+//!   and the issued total written again.
 //! * **Security.** The server's endpoints are read first: a policy/mode it does not offer
 //!   raises `opcua.security_policy` naming what it offers; its certificate must be in
 //!   `pki_dir/trusted` under any file name (matched by thumbprint), else
