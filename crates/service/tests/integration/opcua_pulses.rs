@@ -17,21 +17,25 @@ use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, Variant}
 
 const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
 
-/// The PLC stand-in: Temp.A and Temp.B (Double) and a writable Int32 `Pulses` whose
-/// accepted writes are logged and held (a read returns the last accepted write, 0 after
-/// a start: the server keeps nothing across its restart).
+/// The PLC stand-in: Temp.A and Temp.B (Double) and a writable `Pulses` node (Int32, or
+/// Double with `double`) whose accepted writes are logged and held (a read returns the
+/// last accepted write, 0 after a start: the server keeps nothing across its restart).
 struct Plc {
     handle: ServerHandle,
     task: tokio::task::JoinHandle<Result<(), String>>,
     nm: Arc<SimpleNodeManager>,
     ns: u16,
-    held: Arc<Mutex<i32>>,
-    writes: Arc<Mutex<Vec<i32>>>,
+    held: Arc<Mutex<f64>>,
+    writes: Arc<Mutex<Vec<f64>>>,
     _pki: tempfile::TempDir,
 }
 
 impl Plc {
     async fn start(port: u16, temp_a: f64) -> Plc {
+        Self::start_typed(port, temp_a, false).await
+    }
+
+    async fn start_typed(port: u16, temp_a: f64, double: bool) -> Plc {
         // The port may still be held by the previous instance for a moment.
         let mut listener = None;
         for _ in 0..100 {
@@ -67,8 +71,8 @@ impl Plc {
             .get_of_type::<SimpleNodeManager>()
             .unwrap();
         let ns = handle.get_namespace_index(NS_URI).unwrap();
-        let held: Arc<Mutex<i32>> = Arc::default();
-        let writes: Arc<Mutex<Vec<i32>>> = Arc::default();
+        let held: Arc<Mutex<f64>> = Arc::default();
+        let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", temp_a), ("Temp.B", 20.0)] {
@@ -79,25 +83,37 @@ impl Plc {
                     .insert(&mut *space);
             }
             let pulses = NodeId::new(ns, "Pulses");
+            let (dt, zero) = if double {
+                (DataTypeId::Double, Variant::Double(0.0))
+            } else {
+                (DataTypeId::Int32, Variant::Int32(0))
+            };
             VariableBuilder::new(&pulses, "Pulses", "Pulses")
-                .data_type(DataTypeId::Int32)
-                .value(0i32)
+                .data_type(dt)
+                .value(zero)
                 .writable()
                 .organized_by(ObjectId::ObjectsFolder)
                 .insert(&mut *space);
             let (h, w) = (held.clone(), writes.clone());
             nm.inner()
-                .add_write_callback(pulses.clone(), move |dv: DataValue, _| match dv.value {
-                    Some(Variant::Int32(x)) => {
-                        *h.lock().unwrap() = x;
-                        w.lock().unwrap().push(x);
-                        StatusCode::Good
-                    }
-                    _ => StatusCode::BadTypeMismatch,
+                .add_write_callback(pulses.clone(), move |dv: DataValue, _| {
+                    let x = match (dv.value, double) {
+                        (Some(Variant::Int32(x)), false) => f64::from(x),
+                        (Some(Variant::Double(x)), true) => x,
+                        _ => return StatusCode::BadTypeMismatch,
+                    };
+                    *h.lock().unwrap() = x;
+                    w.lock().unwrap().push(x);
+                    StatusCode::Good
                 });
             let h = held.clone();
             nm.inner().add_read_callback(pulses, move |_, _, _| {
-                Ok(DataValue::new_now(Variant::Int32(*h.lock().unwrap())))
+                let x = *h.lock().unwrap();
+                Ok(DataValue::new_now(if double {
+                    Variant::Double(x)
+                } else {
+                    Variant::Int32(x as i32)
+                }))
             });
         }
         let task = tokio::spawn(server.run_with(listener));
@@ -123,17 +139,17 @@ impl Plc {
             .unwrap();
     }
 
+    /// The total held (every value written here is a whole number: checked).
     fn held(&self) -> i64 {
-        i64::from(*self.held.lock().unwrap())
+        let x = *self.held.lock().unwrap();
+        assert_eq!(x.fract(), 0.0, "{x}");
+        x as i64
     }
 
     fn writes(&self) -> Vec<i64> {
-        self.writes
-            .lock()
-            .unwrap()
-            .iter()
-            .map(|x| i64::from(*x))
-            .collect()
+        let w = self.writes.lock().unwrap();
+        assert!(w.iter().all(|x| x.fract() == 0.0), "{w:?}");
+        w.iter().map(|x| *x as i64).collect()
     }
 
     async fn stop(self) {
@@ -241,4 +257,71 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
     assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
     plc2.stop().await;
+}
+
+/// A Double (LREAL) pulse node: refused at connect while the configuration says Int32 (the
+/// alarm names both types, nothing is written), taken once `data_type = "Double"`; the
+/// total reaches round(−15 µm / 1 µm) = −15 as whole Doubles.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let engine = PULSE_ENGINE.replacen("max_step_um = 0.1", "max_step_um = 0.25", 1);
+    std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
+    let port = free_port();
+    let plc = Plc::start_typed(port, 24.0, true).await;
+    let ns = plc.ns;
+    let config = |ty: &str| {
+        format!(
+            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+             [storage]\npath = \"od.db\"\ncommit_interval_s = 0.05\n\
+             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
+             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+             channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
+             pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\"{ty} }}]\n"
+        )
+    };
+    let run = start_with(dir.path(), &config("")).await;
+    let ro = run.generated.clone().unwrap().read_only;
+    let api = Api::new(&run);
+    let a = api
+        .wait_alarm("/api/alarms", &ro, "opcua.pulse_output.Z", 20.0)
+        .await;
+    let m = a["message"].as_str().unwrap();
+    assert!(
+        m.contains("has data type Double") && m.contains("writes Int32"),
+        "{m}"
+    );
+    // The offset ramps meanwhile (pulses issued), but nothing reaches the node.
+    api.wait_for("/api/status", &ro, 20.0, |v| {
+        v["axes"][0]["offset_um"]
+            .as_f64()
+            .is_some_and(|y| y <= -3.0)
+    })
+    .await;
+    assert!(plc.writes().is_empty(), "{:?}", plc.writes());
+    run.stop().await.unwrap();
+
+    let run = start_with(dir.path(), &config(", data_type = \"Double\"")).await;
+    let api = Api::new(&run);
+    let st = api
+        .wait_for("/api/status", &ro, 60.0, |v| {
+            v["axes"][0]["offset_um"].as_f64() == Some(-15.0)
+        })
+        .await;
+    let want = st["axes"][0]["offset_um"].as_f64().unwrap().round() as i64;
+    wait("the last pulses", 20.0, || plc.held() == want).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let store = run.store.clone();
+    run.stop().await.unwrap();
+    let w = plc.writes();
+    println!("opcua Double pulses: writes {w:?}");
+    // The first write carries every pulse issued while the node was refused.
+    assert!(w[0] <= -3, "{w:?}");
+    assert!(w.windows(2).all(|p| p[1] < p[0]), "{w:?}");
+    assert_eq!(*w.last().unwrap(), -15);
+    let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
+    let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
+    assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
+    plc.stop().await;
 }
