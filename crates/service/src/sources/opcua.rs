@@ -2190,5 +2190,22 @@ mod tests {
         fn doubles_round_trip(x in -1e6f64..1e6) {
             prop_assert_eq!(channel_value(&dv(Variant::Double(x)), 1.0, 0.0).unwrap(), x);
         }
+
+        /// A pulse total written to an Int32 node reads back as itself inside
+        /// −2147483648…2147483647 and is refused (never wrapped) outside; as a Double it
+        /// reads back as itself everywhere in ±2⁵³.
+        #[test]
+        fn pulse_totals_round_trip_or_refuse(t in -5_000_000_000i64..5_000_000_000) {
+            let fits = (-2_147_483_648..=2_147_483_647).contains(&t);
+            match encode_pulse_total(t, OpcUaNumericType::Int32) {
+                Ok(v) => {
+                    prop_assert!(fits);
+                    prop_assert_eq!(decode_pulse_total(&dv(v)), Ok(t));
+                }
+                Err(_) => prop_assert!(!fits),
+            }
+            let v = encode_pulse_total(t, OpcUaNumericType::Double).unwrap();
+            prop_assert_eq!(decode_pulse_total(&dv(v)), Ok(t));
+        }
     }
 }
