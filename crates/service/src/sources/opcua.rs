@@ -1749,6 +1749,10 @@ async fn start_pulses(
         );
         return;
     }
+    // The node passed: an earlier session's check alarm is over (a node that is not of a
+    // pulse axis is alarmed again by the first write attempt).
+    send(tx, InputMsg::ClearAlarm { key: p.key.clone() });
+    p.not_pulse_alarmed = false;
     let snap = *offsets.borrow();
     let axis = spec.axis;
     if axis >= snap.n_axes as usize || snap.pulse_um[axis] <= 0.0 {
