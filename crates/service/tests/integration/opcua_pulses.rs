@@ -5,6 +5,7 @@
 #![cfg(feature = "opcua")]
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -27,15 +28,19 @@ struct Plc {
     ns: u16,
     held: Arc<Mutex<f64>>,
     writes: Arc<Mutex<Vec<f64>>>,
+    /// While set, a write is stored (it lands) but answered BadTimeout: the status of a
+    /// write that arrived is lost.
+    lose_status: Arc<AtomicBool>,
     _pki: tempfile::TempDir,
 }
 
 impl Plc {
     async fn start(port: u16, temp_a: f64) -> Plc {
-        Self::start_typed(port, temp_a, false).await
+        Self::start_typed(port, temp_a, false, 0.0).await
     }
 
-    async fn start_typed(port: u16, temp_a: f64, double: bool) -> Plc {
+    /// `held`: the node's value at start (0 for a server that keeps nothing).
+    async fn start_typed(port: u16, temp_a: f64, double: bool, held: f64) -> Plc {
         // The port may still be held by the previous instance for a moment.
         let mut listener = None;
         for _ in 0..100 {
@@ -71,7 +76,8 @@ impl Plc {
             .get_of_type::<SimpleNodeManager>()
             .unwrap();
         let ns = handle.get_namespace_index(NS_URI).unwrap();
-        let held: Arc<Mutex<f64>> = Arc::default();
+        let held: Arc<Mutex<f64>> = Arc::new(Mutex::new(held));
+        let lose_status = Arc::new(AtomicBool::new(false));
         let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
         {
             let mut space = nm.address_space().write();
@@ -94,7 +100,7 @@ impl Plc {
                 .writable()
                 .organized_by(ObjectId::ObjectsFolder)
                 .insert(&mut *space);
-            let (h, w) = (held.clone(), writes.clone());
+            let (h, w, lose) = (held.clone(), writes.clone(), lose_status.clone());
             nm.inner()
                 .add_write_callback(pulses.clone(), move |dv: DataValue, _| {
                     let x = match (dv.value, double) {
@@ -104,7 +110,11 @@ impl Plc {
                     };
                     *h.lock().unwrap() = x;
                     w.lock().unwrap().push(x);
-                    StatusCode::Good
+                    if lose.load(Ordering::SeqCst) {
+                        StatusCode::BadTimeout
+                    } else {
+                        StatusCode::Good
+                    }
                 });
             let h = held.clone();
             nm.inner().add_read_callback(pulses, move |_, _, _| {
@@ -124,6 +134,7 @@ impl Plc {
             ns,
             held,
             writes,
+            lose_status,
             _pki: pki,
         }
     }
@@ -268,7 +279,7 @@ async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
     let engine = PULSE_ENGINE.replacen("max_step_um = 0.1", "max_step_um = 0.25", 1);
     std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
     let port = free_port();
-    let plc = Plc::start_typed(port, 24.0, true).await;
+    let plc = Plc::start_typed(port, 24.0, true, 0.0).await;
     let ns = plc.ns;
     let config = |ty: &str| {
         format!(
@@ -324,4 +335,86 @@ async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
     assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
     plc.stop().await;
+}
+
+/// A write that landed but whose status was lost (the server stores the total, answers
+/// BadTimeout), then the session lost (the server restarts keeping its node, as a PLC
+/// with retained memory): the read-back at the new session finds the total written and
+/// counts it as acknowledged, no `…held` alarm, no rewrite; the count still ends at
+/// round(−15 µm / 1 µm) = −15 with issued = acknowledged in the record.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let engine = PULSE_ENGINE.replacen("max_step_um = 0.1", "max_step_um = 0.25", 1);
+    std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
+    let port = free_port();
+    let plc1 = Plc::start(port, 24.0).await;
+    let ns = plc1.ns;
+    let run = start_with(
+        dir.path(),
+        &format!(
+            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+             [storage]\npath = \"ol.db\"\ncommit_interval_s = 0.05\n\
+             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
+             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
+             channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
+             pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n"
+        ),
+    )
+    .await;
+    let ro = run.generated.clone().unwrap().read_only;
+    let api = Api::new(&run);
+    wait("first pulses", 30.0, || plc1.held() <= -3).await;
+    let n_good = plc1.writes().len();
+    plc1.lose_status.store(true, Ordering::SeqCst);
+    wait("a write with its status lost", 10.0, || {
+        plc1.writes().len() > n_good
+    })
+    .await;
+    api.wait_alarm("/api/alarms", &ro, "opcua.pulse_output.Z", 10.0)
+        .await;
+    // The session ends; the server comes back holding what it was last written.
+    let w1 = plc1.writes();
+    let kept = *plc1.held.lock().unwrap();
+    plc1.stop().await;
+    let plc2 = Plc::start_typed(port, 24.0, false, kept).await;
+    let st = api
+        .wait_for("/api/status", &ro, 60.0, |v| {
+            v["axes"][0]["offset_um"].as_f64() == Some(-15.0)
+        })
+        .await;
+    let want = st["axes"][0]["offset_um"].as_f64().unwrap().round() as i64;
+    wait("the last pulses", 20.0, || plc2.held() == want).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let (_, alarms) = api.get("/api/alarms", Some(&ro)).await;
+    let store = run.store.clone();
+    run.stop().await.unwrap();
+    let w2 = plc2.writes();
+    println!(
+        "opcua pulses, status lost: first server {w1:?} ({} answered Good), kept {kept}, second server {w2:?}",
+        n_good
+    );
+    assert!(
+        !alarms
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["key"] == "opcua.pulse_output.Z.held"),
+        "{alarms}"
+    );
+    // The total that landed is not written again: the second server's writes go on
+    // from it.
+    assert!(w2.iter().all(|t| (*t as f64) < kept), "{kept} {w2:?}");
+    let mut last = 0i64;
+    let mut moved = 0i64;
+    for t in w1.iter().chain(&w2) {
+        moved += t - last;
+        last = *t;
+    }
+    assert_eq!(moved, want);
+    let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
+    let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
+    assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
+    plc2.stop().await;
 }
