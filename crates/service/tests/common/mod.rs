@@ -137,3 +137,76 @@ pub fn position_law_um(t_c: f64, p_mm: f64) -> f64 {
     let tan_beta = 0.25 + 0.0625 * (t_c - 20.0);
     k0 + tan_beta * (p_mm - 100.0)
 }
+
+/// The anonymous async-opcua server the OPC UA tests stand up as CNC or PLC: loopback, one
+/// simple node manager (`manager`, namespace `namespace_uri`, its index in `ns`), the
+/// certificate store in a temporary directory. Bound to `port`, retrying while a previous
+/// instance still holds it (a restart on the same port); not yet running: the test adds its
+/// variables to `nm`, then spawns `server.run_with(listener)`.
+#[cfg(feature = "opcua")]
+pub struct OpcUaStandIn {
+    pub server: opcua::server::Server,
+    pub listener: tokio::net::TcpListener,
+    pub handle: opcua::server::ServerHandle,
+    pub nm: std::sync::Arc<opcua::server::node_manager::memory::SimpleNodeManager>,
+    pub ns: u16,
+    pub pki: tempfile::TempDir,
+}
+
+#[cfg(feature = "opcua")]
+impl OpcUaStandIn {
+    pub async fn bind(
+        port: u16,
+        name: &str,
+        application_uri: &str,
+        manager: &str,
+        namespace_uri: &str,
+    ) -> Self {
+        use opcua::server::diagnostics::NamespaceMetadata;
+        use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
+        use opcua::server::ServerBuilder;
+
+        let mut listener = None;
+        for _ in 0..100 {
+            match tokio::net::TcpListener::bind(("127.0.0.1", port)).await {
+                Ok(l) => {
+                    listener = Some(l);
+                    break;
+                }
+                Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
+            }
+        }
+        let listener = listener.unwrap();
+        let pki = tempfile::tempdir().unwrap();
+        let (server, handle) = ServerBuilder::new_anonymous(name)
+            .application_uri(application_uri)
+            .product_uri(application_uri)
+            .host("127.0.0.1")
+            .port(port)
+            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
+            .pki_dir(pki.path())
+            .create_sample_keypair(false)
+            .with_node_manager(simple_node_manager(
+                NamespaceMetadata {
+                    namespace_uri: namespace_uri.to_owned(),
+                    ..Default::default()
+                },
+                manager,
+            ))
+            .build()
+            .unwrap();
+        let nm = handle
+            .node_managers()
+            .get_of_type::<SimpleNodeManager>()
+            .unwrap();
+        let ns = handle.get_namespace_index(namespace_uri).unwrap();
+        OpcUaStandIn {
+            server,
+            listener,
+            handle,
+            nm,
+            ns,
+            pki,
+        }
+    }
+}

@@ -14,11 +14,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{engine_ab, free_port, start_with, Api};
+use common::{engine_ab, free_port, start_with, Api, OpcUaStandIn};
 use opcua::server::address_space::VariableBuilder;
-use opcua::server::diagnostics::NamespaceMetadata;
-use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
-use opcua::server::{ServerBuilder, ServerHandle};
+use opcua::server::node_manager::memory::SimpleNodeManager;
+use opcua::server::ServerHandle;
 use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, UAString, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-cnc";
@@ -36,41 +35,21 @@ struct Cnc {
 
 impl Cnc {
     async fn start(port: u16, vars: &[(&str, Variant)], refuse: Arc<AtomicBool>) -> Cnc {
-        // The port may still be held by the previous instance for a moment.
-        let mut listener = None;
-        for _ in 0..100 {
-            match tokio::net::TcpListener::bind(("127.0.0.1", port)).await {
-                Ok(l) => {
-                    listener = Some(l);
-                    break;
-                }
-                Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
-            }
-        }
-        let listener = listener.unwrap();
-        let pki = tempfile::tempdir().unwrap();
-        let (server, handle) = ServerBuilder::new_anonymous("gearcomp test CNC")
-            .application_uri("urn:gearcomp-test-cnc-server")
-            .product_uri("urn:gearcomp-test-cnc-server")
-            .host("127.0.0.1")
-            .port(port)
-            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
-            .pki_dir(pki.path())
-            .create_sample_keypair(false)
-            .with_node_manager(simple_node_manager(
-                NamespaceMetadata {
-                    namespace_uri: NS_URI.to_owned(),
-                    ..Default::default()
-                },
-                "cnc",
-            ))
-            .build()
-            .unwrap();
-        let nm = handle
-            .node_managers()
-            .get_of_type::<SimpleNodeManager>()
-            .unwrap();
-        let ns = handle.get_namespace_index(NS_URI).unwrap();
+        let OpcUaStandIn {
+            server,
+            listener,
+            handle,
+            nm,
+            ns,
+            pki,
+        } = OpcUaStandIn::bind(
+            port,
+            "gearcomp test CNC",
+            "urn:gearcomp-test-cnc-server",
+            "cnc",
+            NS_URI,
+        )
+        .await;
         let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
         {
             let mut space = nm.address_space().write();
@@ -520,32 +499,21 @@ struct Plc {
 
 impl Plc {
     async fn start(port: u16) -> Plc {
-        let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
-            .await
-            .unwrap();
-        let pki = tempfile::tempdir().unwrap();
-        let (server, handle) = ServerBuilder::new_anonymous("gearcomp test PLC")
-            .application_uri("urn:gearcomp-test-plc")
-            .product_uri("urn:gearcomp-test-plc")
-            .host("127.0.0.1")
-            .port(port)
-            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
-            .pki_dir(pki.path())
-            .create_sample_keypair(false)
-            .with_node_manager(simple_node_manager(
-                NamespaceMetadata {
-                    namespace_uri: NS_URI.to_owned(),
-                    ..Default::default()
-                },
-                "plc",
-            ))
-            .build()
-            .unwrap();
-        let nm = handle
-            .node_managers()
-            .get_of_type::<SimpleNodeManager>()
-            .unwrap();
-        let ns = handle.get_namespace_index(NS_URI).unwrap();
+        let OpcUaStandIn {
+            server,
+            listener,
+            handle,
+            nm,
+            ns,
+            pki,
+        } = OpcUaStandIn::bind(
+            port,
+            "gearcomp test PLC",
+            "urn:gearcomp-test-plc",
+            "plc",
+            NS_URI,
+        )
+        .await;
         let holds: Arc<Mutex<Vec<bool>>> = Arc::default();
         let beats: Arc<Mutex<Vec<i32>>> = Arc::default();
         {

@@ -9,11 +9,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::common::{free_port, start_with, Api, PULSE_ENGINE};
+use crate::common::{free_port, start_with, Api, OpcUaStandIn, PULSE_ENGINE};
 use opcua::server::address_space::VariableBuilder;
-use opcua::server::diagnostics::NamespaceMetadata;
-use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
-use opcua::server::{ServerBuilder, ServerHandle};
+use opcua::server::node_manager::memory::SimpleNodeManager;
+use opcua::server::ServerHandle;
 use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
@@ -41,41 +40,21 @@ impl Plc {
 
     /// `held`: the node's value at start (0 for a server that keeps nothing).
     async fn start_typed(port: u16, temp_a: f64, double: bool, held: f64) -> Plc {
-        // The port may still be held by the previous instance for a moment.
-        let mut listener = None;
-        for _ in 0..100 {
-            match tokio::net::TcpListener::bind(("127.0.0.1", port)).await {
-                Ok(l) => {
-                    listener = Some(l);
-                    break;
-                }
-                Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
-            }
-        }
-        let listener = listener.unwrap();
-        let pki = tempfile::tempdir().unwrap();
-        let (server, handle) = ServerBuilder::new_anonymous("gearcomp test pulse PLC")
-            .application_uri("urn:gearcomp-test-pulse-plc")
-            .product_uri("urn:gearcomp-test-pulse-plc")
-            .host("127.0.0.1")
-            .port(port)
-            .discovery_urls(vec![format!("opc.tcp://127.0.0.1:{port}/")])
-            .pki_dir(pki.path())
-            .create_sample_keypair(false)
-            .with_node_manager(simple_node_manager(
-                NamespaceMetadata {
-                    namespace_uri: NS_URI.to_owned(),
-                    ..Default::default()
-                },
-                "plc",
-            ))
-            .build()
-            .unwrap();
-        let nm = handle
-            .node_managers()
-            .get_of_type::<SimpleNodeManager>()
-            .unwrap();
-        let ns = handle.get_namespace_index(NS_URI).unwrap();
+        let OpcUaStandIn {
+            server,
+            listener,
+            handle,
+            nm,
+            ns,
+            pki,
+        } = OpcUaStandIn::bind(
+            port,
+            "gearcomp test pulse PLC",
+            "urn:gearcomp-test-pulse-plc",
+            "plc",
+            NS_URI,
+        )
+        .await;
         let held: Arc<Mutex<f64>> = Arc::new(Mutex::new(held));
         let lose_status = Arc::new(AtomicBool::new(false));
         let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
