@@ -331,16 +331,13 @@ async fn check_output_node(
         attribute_id: a as u32,
         ..Default::default()
     });
-    let res = tokio::time::timeout(
-        Duration::from_secs(5),
-        session.read(&ids, TimestampsToReturn::Neither, 0.0),
-    )
-    .await;
-    let values = match res {
-        Ok(Ok(v)) if v.len() == 3 => v,
-        Ok(Ok(_)) => return Err("the server answered the attribute read incompletely".into()),
-        Ok(Err(e)) => return Err(format!("cannot read its attributes ({e})")),
-        Err(_) => return Err("no answer to the attribute read within 5 s".into()),
+    let values = match read_attributes(session, &ids).await {
+        Ok(v) => v,
+        Err(ReadFail::Incomplete) => {
+            return Err("the server answered the attribute read incompletely".into())
+        }
+        Err(ReadFail::Service(e)) => return Err(format!("cannot read its attributes ({e})")),
+        Err(ReadFail::Timeout) => return Err("no answer to the attribute read within 5 s".into()),
     };
     let status = |dv: &DataValue| dv.status.unwrap_or(StatusCode::Good);
     let dt_status = status(&values[0]);
@@ -1702,16 +1699,39 @@ async fn read_value(
         attribute_id: AttributeId::Value as u32,
         ..Default::default()
     };
+    match read_attributes(session, &[id]).await {
+        Ok(mut v) => Ok(v.remove(0)),
+        Err(ReadFail::Incomplete) => Err("the server answered the read incompletely".into()),
+        Err(ReadFail::Service(e)) => Err(e),
+        Err(ReadFail::Timeout) => Err("no answer within 5 s".into()),
+    }
+}
+
+/// Why a read of node attributes gave no values.
+enum ReadFail {
+    /// Fewer or more values than attributes asked for.
+    Incomplete,
+    /// The service call failed; the status as text.
+    Service(String),
+    /// No answer within the 5 s bound.
+    Timeout,
+}
+
+/// Reads the given attributes once (no timestamps, 5 s bound); exactly one value per id.
+async fn read_attributes(
+    session: &Arc<Session>,
+    ids: &[ReadValueId],
+) -> std::result::Result<Vec<DataValue>, ReadFail> {
     match tokio::time::timeout(
         Duration::from_secs(5),
-        session.read(&[id], TimestampsToReturn::Neither, 0.0),
+        session.read(ids, TimestampsToReturn::Neither, 0.0),
     )
     .await
     {
-        Ok(Ok(mut v)) if v.len() == 1 => Ok(v.remove(0)),
-        Ok(Ok(_)) => Err("the server answered the read incompletely".into()),
-        Ok(Err(e)) => Err(format!("{e}")),
-        Err(_) => Err("no answer within 5 s".into()),
+        Ok(Ok(v)) if v.len() == ids.len() => Ok(v),
+        Ok(Ok(_)) => Err(ReadFail::Incomplete),
+        Ok(Err(e)) => Err(ReadFail::Service(format!("{e}"))),
+        Err(_) => Err(ReadFail::Timeout),
     }
 }
 
