@@ -1,19 +1,17 @@
 //! `gearcomp gear`: cylindrical involute gear geometry (ISO 21771 / DIN 3960) from flags or
 //! a TOML file, printed as a table with units or as JSON.
 //!
-//! Degrees exist only here: [`rad`] converts every input angle, [`deg`] every output
-//! angle. The library works in mm and rad.
+//! Glue: the options (degrees converted by [`rad`]) become a
+//! [`GearRequest`]; [`GearReport`] (`gearcomp_geometry::report`) computes the report and renders
+//! its table; this file maps the library's parameter names in errors to the options.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use gearcomp_geometry::units::{deg_to_rad as rad, rad_to_deg as deg};
-use gearcomp_geometry::{
-    shift_sum_for_centre_distance, BallMeasurement, BasicRack, Gear, GearDimensions, GearPair,
-    GearSpec, GeometryError, Hand, Mesh, PairGeometry, Span,
-};
-use serde::{Deserialize, Serialize};
+use gearcomp_geometry::report::{tooth_extent, GearReport, GearRequest, MateRequest, ReportError};
+use gearcomp_geometry::units::deg_to_rad as rad;
+use gearcomp_geometry::{BasicRack, GearSpec, GeometryError, Hand, Mesh};
+use serde::Deserialize;
 
 const AFTER_HELP: &str = "\
 Conventions (docs/geometry.md): lengths in mm, angles in degrees. An internal gear is given
@@ -162,151 +160,6 @@ impl Args {
     }
 }
 
-/// Output: the gear.
-#[derive(Debug, Serialize)]
-struct GearOut {
-    mesh: Mesh,
-    /// "right", "left" or "spur".
-    hand: &'static str,
-    teeth: u32,
-    normal_module_mm: f64,
-    normal_pressure_angle_deg: f64,
-    /// Signed: + right hand, − left hand.
-    helix_angle_deg: f64,
-    profile_shift: f64,
-    face_width_mm: Option<f64>,
-    transverse_module_mm: f64,
-    transverse_pressure_angle_deg: f64,
-    base_helix_angle_deg: f64,
-    lead_mm: Option<f64>,
-    reference_diameter_mm: f64,
-    base_diameter_mm: f64,
-    tip_diameter_mm: f64,
-    root_diameter_mm: f64,
-    root_form_diameter_mm: Option<f64>,
-    normal_pitch_mm: f64,
-    transverse_pitch_mm: f64,
-    normal_base_pitch_mm: f64,
-    transverse_base_pitch_mm: f64,
-    min_shift_undercut: Option<f64>,
-    overlap_ratio: Option<f64>,
-}
-
-impl GearOut {
-    fn new(g: &Gear) -> GearOut {
-        let s = g.spec();
-        let d: &GearDimensions = g.dims();
-        let spur = s.helix_angle_rad == 0.0;
-        let signed = s.hand.sign();
-        GearOut {
-            mesh: s.mesh,
-            hand: if spur { "spur" } else { s.hand.name() },
-            teeth: s.teeth,
-            normal_module_mm: s.normal_module_mm,
-            normal_pressure_angle_deg: deg(s.normal_pressure_angle_rad),
-            helix_angle_deg: signed * deg(s.helix_angle_rad),
-            profile_shift: s.profile_shift,
-            face_width_mm: s.face_width_mm,
-            transverse_module_mm: d.transverse_module_mm,
-            transverse_pressure_angle_deg: deg(d.transverse_pressure_angle_rad),
-            base_helix_angle_deg: deg(d.base_helix_angle_rad),
-            lead_mm: d.lead_mm,
-            reference_diameter_mm: d.reference_diameter_mm,
-            base_diameter_mm: d.base_diameter_mm,
-            tip_diameter_mm: d.tip_diameter_mm,
-            root_diameter_mm: d.root_diameter_mm,
-            root_form_diameter_mm: d.root_form_diameter_mm,
-            normal_pitch_mm: d.normal_pitch_mm,
-            transverse_pitch_mm: d.transverse_pitch_mm,
-            normal_base_pitch_mm: d.normal_base_pitch_mm,
-            transverse_base_pitch_mm: d.transverse_base_pitch_mm,
-            min_shift_undercut: d.min_shift_undercut,
-            overlap_ratio: d.overlap_ratio,
-        }
-    }
-}
-
-/// Output: the tooth at one generating profile shift (nominal or an allowance).
-#[derive(Debug, Serialize)]
-struct ToothOut {
-    /// "nominal", "lower" or "upper".
-    case: &'static str,
-    allowance_mm: f64,
-    generating_shift: f64,
-    normal_thickness_mm: f64,
-    transverse_thickness_mm: f64,
-    transverse_space_width_mm: f64,
-    tip_normal_thickness_mm: f64,
-    root_diameter_mm: f64,
-    root_form_diameter_mm: Option<f64>,
-    span: Span,
-    ball: BallMeasurement,
-}
-
-/// Output: thickness at a requested diameter (nominal shift).
-#[derive(Debug, Serialize)]
-struct AtDiameterOut {
-    diameter_mm: f64,
-    transverse_thickness_mm: f64,
-    normal_thickness_mm: f64,
-    transverse_space_width_mm: f64,
-}
-
-/// Output: backlash of the pair for one combination of allowances.
-#[derive(Debug, Serialize)]
-struct BacklashOut {
-    /// "max" (both lower allowances), "min" (both upper) or "nominal".
-    case: &'static str,
-    allowance_1_mm: f64,
-    allowance_2_mm: f64,
-    generating_shift_1: f64,
-    generating_shift_2: f64,
-    circumferential_mm: f64,
-    normal_mm: f64,
-}
-
-/// Output: the pair.
-#[derive(Debug, Serialize)]
-struct PairOut {
-    /// Which gear is gear 1 (the external one): "this" or "mate".
-    gear_1: &'static str,
-    mate: GearOut,
-    gear_ratio: f64,
-    reference_centre_distance_mm: f64,
-    centre_distance_mm: f64,
-    working_pressure_angle_deg: f64,
-    shift_sum: f64,
-    nominal_shift_sum: f64,
-    working_diameter_1_mm: f64,
-    working_diameter_2_mm: f64,
-    transverse_contact_ratio: f64,
-    overlap_ratio: Option<f64>,
-    total_contact_ratio: Option<f64>,
-    transverse_base_pitch_mm: f64,
-    normal_base_pitch_mm: f64,
-    active_root_diameter_1_mm: Option<f64>,
-    active_root_diameter_2_mm: Option<f64>,
-    backlash: Vec<BacklashOut>,
-}
-
-/// Output: recommended measurement settings at the nominal shift.
-#[derive(Debug, Serialize)]
-struct RecommendedOut {
-    span_k: u32,
-    ball_mm: f64,
-}
-
-/// The whole result of `gearcomp gear`.
-#[derive(Debug, Serialize)]
-struct Output {
-    gear: GearOut,
-    recommended: RecommendedOut,
-    tooth: Vec<ToothOut>,
-    at_diameter: Vec<AtDiameterOut>,
-    pair: Option<PairOut>,
-    warnings: Vec<String>,
-}
-
 /// The command-line option (and TOML key) a library parameter name comes from.
 fn flag_of(name: &str) -> Option<&'static str> {
     let table: [(&str, &str); 19] = [
@@ -379,12 +232,12 @@ fn flagged_mate(e: GeometryError, what: &str) -> anyhow::Error {
     }
 }
 
-/// Splits "lower,upper" (or one value) into (lower, upper) pairs labelled for the output.
-fn allowance_cases(a: Option<&[f64]>, what: &str) -> anyhow::Result<Vec<(&'static str, f64)>> {
+/// Splits "lower,upper" (or one value) into (lower, upper).
+fn allowance_pair(a: Option<&[f64]>, what: &str) -> anyhow::Result<Option<(f64, f64)>> {
     match a {
-        None | Some([]) => Ok(vec![]),
-        Some([one]) => Ok(vec![("lower", *one), ("upper", *one)]),
-        Some([a, b]) => Ok(vec![("lower", a.min(*b)), ("upper", a.max(*b))]),
+        None | Some([]) => Ok(None),
+        Some([one]) => Ok(Some((*one, *one))),
+        Some([a, b]) => Ok(Some((a.min(*b), a.max(*b)))),
         Some(v) => bail!(
             "{what} takes one or two values (lower,upper) in mm, got {} values",
             v.len()
@@ -392,22 +245,56 @@ fn allowance_cases(a: Option<&[f64]>, what: &str) -> anyhow::Result<Vec<(&'stati
     }
 }
 
+/// A report error with the option the user wrote.
+fn report_error(e: ReportError) -> anyhow::Error {
+    match e {
+        ReportError::Step {
+            what,
+            mate: false,
+            source,
+        } => flagged(source, &what),
+        ReportError::Step {
+            what,
+            mate: true,
+            source,
+        } => flagged_mate(source, &what),
+        ReportError::NoSpan(e) => {
+            let flag = match e {
+                GeometryError::SpanTooWide { .. } => "--width",
+                _ => "--span-k",
+            };
+            anyhow::anyhow!("no span measurement W_k fits this gear ({flag}): {e}")
+        }
+        ReportError::OutsideTooth {
+            diameter_mm,
+            lo_mm,
+            hi_mm,
+            mesh,
+        } => anyhow::anyhow!(
+            "thickness at diameter: --at-diameter {diameter_mm} mm is outside the tooth: \
+             allowed {lo_mm:.4} … {hi_mm:.4} mm ({})",
+            tooth_extent(mesh)
+        ),
+        e @ ReportError::Geometry(_) => e.into(),
+    }
+}
+
 /// Runs `gearcomp gear`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let args = args.merge_file()?;
-    let json = args.json;
-    let out = compute(&args)?;
-    let text = if json {
+    let out = GearReport::compute(&request(&args)?).map_err(report_error)?;
+    let text = if args.json {
         serde_json::to_string_pretty(&out)? + "\n"
     } else {
-        render(&out)
+        out.to_table()
     };
     use std::io::Write as _;
     std::io::stdout().write_all(text.as_bytes())?;
     Ok(())
 }
 
-fn compute(args: &Args) -> anyhow::Result<Output> {
+/// The gear from the options (degrees → rad, sign of the helix → hand).
+fn spec(args: &Args) -> anyhow::Result<GearSpec> {
     let Some(module) = args.module else {
         bail!("--module (normal module m_n in mm) is required (flag or `module` in --file)");
     };
@@ -418,27 +305,16 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
     if !(helix_deg.is_finite() && helix_deg.abs() < 60.0) {
         bail!("invalid helix = {helix_deg} °: expected −60 < β < 60 ° (sign = hand)");
     }
-    let hand = if helix_deg < 0.0 {
-        Hand::Left
-    } else {
-        Hand::Right
-    };
-    let rack = BasicRack {
-        addendum_coeff: args
-            .addendum_coeff
-            .unwrap_or(BasicRack::DIN_867.addendum_coeff),
-        dedendum_coeff: args
-            .dedendum_coeff
-            .unwrap_or(BasicRack::DIN_867.dedendum_coeff),
-        root_radius_coeff: args
-            .root_radius_coeff
-            .unwrap_or(BasicRack::DIN_867.root_radius_coeff),
-    };
-    let spec = GearSpec {
+    let din = BasicRack::DIN_867;
+    Ok(GearSpec {
         normal_module_mm: module,
         normal_pressure_angle_rad: rad(args.pressure_angle.unwrap_or(20.0)),
         helix_angle_rad: rad(helix_deg.abs()),
-        hand,
+        hand: if helix_deg < 0.0 {
+            Hand::Left
+        } else {
+            Hand::Right
+        },
         teeth,
         mesh: if args.internal {
             Mesh::Internal
@@ -447,607 +323,41 @@ fn compute(args: &Args) -> anyhow::Result<Output> {
         },
         profile_shift: args.shift.unwrap_or(0.0),
         face_width_mm: args.width,
-        rack,
-    };
-    let gear = Gear::new(spec).map_err(|e| flagged(e, "the gear"))?;
-    let x = spec.profile_shift;
-    let m_n = spec.normal_module_mm;
-    let mut warnings = Vec::new();
-    if let Some(u) = gear.undercut("--shift", x) {
-        warnings.push(u.to_string());
-    }
+        rack: BasicRack {
+            addendum_coeff: args.addendum_coeff.unwrap_or(din.addendum_coeff),
+            dedendum_coeff: args.dedendum_coeff.unwrap_or(din.dedendum_coeff),
+            root_radius_coeff: args.root_radius_coeff.unwrap_or(din.root_radius_coeff),
+        },
+    })
+}
 
-    let mut cases = vec![("nominal", 0.0, x)];
-    for (case, allowance) in allowance_cases(args.allowances.as_deref(), "--allowances")? {
-        let x_e = gear
-            .generating_shift(allowance)
-            .map_err(|e| flagged(e, &format!("{case} thickness allowance")))?;
-        cases.push((case, allowance, x_e));
-    }
-    let shifts: Vec<f64> = cases.iter().map(|c| c.2).collect();
-    // A k the user gave is checked first, so its own error is the one reported.
-    if let Some(k) = args.span_k {
-        for (case, _, x_e) in &cases {
-            gear.span(k, *x_e)
-                .map_err(|e| flagged(e, &format!("span W_k, {case} thickness")))?;
-        }
-    }
-    let rec_k = gear.recommended_span_k_for(x, &shifts).map_err(|e| {
-        let flag = match e {
-            GeometryError::SpanTooWide { .. } => "--width",
-            _ => "--span-k",
-        };
-        anyhow::anyhow!("no span measurement W_k fits this gear ({flag}): {e}")
-    })?;
-    let rec_ball = gear
-        .recommended_ball_mm(x)
-        .map_err(|e| flagged(e, "recommended ball"))?;
-    let k = args.span_k.unwrap_or(rec_k);
-    let ball = args.ball.unwrap_or(rec_ball);
-
-    let mut tooth = Vec::new();
-    for (case, allowance, x_e) in cases {
-        if case != "nominal" {
-            if let Some(u) = gear.undercut("generating shift x_E", x_e) {
-                if gear.undercut("--shift", x).is_none() {
-                    warnings.push(format!("{case}: {u}"));
-                }
-            }
-        }
-        let d = gear.dims().reference_diameter_mm;
-        let span = gear
-            .span(k, x_e)
-            .map_err(|e| flagged(e, &format!("span W_k, {case} thickness")))?;
-        let ball_m = gear
-            .ball_dimension(ball, x_e)
-            .map_err(|e| flagged(e, &format!("dimension over balls, {case} thickness")))?;
-        if !ball_m.protrudes_beyond_tip {
-            warnings.push(format!(
-                "{case}: the {ball} mm ball does not stand out beyond the tip circle; M_dK cannot be taken with flat anvils"
-            ));
-        }
-        let s_an = gear.tip_normal_thickness_mm(x_e)?;
-        if s_an < 0.2 * m_n {
-            warnings.push(format!(
-                "{case}: tip thickness s_an = {s_an:.4} mm is below 0.2·m_n = {:.4} mm (DIN 3960 guideline)",
-                0.2 * m_n
-            ));
-        }
-        tooth.push(ToothOut {
-            case,
-            allowance_mm: allowance,
-            generating_shift: x_e,
-            normal_thickness_mm: gear.normal_thickness_at_reference_mm(x_e),
-            transverse_thickness_mm: gear.transverse_thickness_at_mm(d, x_e)?,
-            transverse_space_width_mm: gear.space_width_at_mm(d, x_e)?,
-            tip_normal_thickness_mm: s_an,
-            root_diameter_mm: gear.root_diameter_mm(x_e),
-            root_form_diameter_mm: gear.root_form_diameter_mm(x_e),
-            span,
-            ball: ball_m,
-        });
-    }
-
-    let mut at_diameter = Vec::new();
-    // The tooth exists between the base circle (external; inside it there is no involute)
-    // or the tip circle (internal) and the tip (external) or root (internal) circle.
-    let (d_lo, d_hi) = match spec.mesh {
-        Mesh::External => (gear.dims().base_diameter_mm, gear.dims().tip_diameter_mm),
-        Mesh::Internal => (gear.dims().tip_diameter_mm, gear.dims().root_diameter_mm),
-    };
-    for &d_y in args.at_diameter.as_deref().unwrap_or(&[]) {
-        if !(d_y.is_finite() && d_y >= d_lo - 1e-9 && d_y <= d_hi + 1e-9) {
-            bail!(
-                "thickness at diameter: --at-diameter {d_y} mm is outside the tooth: allowed \
-                 {d_lo:.4} … {d_hi:.4} mm ({})",
-                match spec.mesh {
-                    Mesh::External => "base circle d_b to tip circle d_a",
-                    Mesh::Internal => "tip circle d_a to root circle d_f",
-                }
-            );
-        }
-        at_diameter.push(AtDiameterOut {
-            diameter_mm: d_y,
-            transverse_thickness_mm: gear
-                .transverse_thickness_at_mm(d_y, x)
-                .map_err(|e| flagged(e, "thickness at diameter"))?,
-            normal_thickness_mm: gear
-                .normal_thickness_at_mm(d_y, x)
-                .map_err(|e| flagged(e, "thickness at diameter"))?,
-            transverse_space_width_mm: gear
-                .space_width_at_mm(d_y, x)
-                .map_err(|e| flagged(e, "thickness at diameter"))?,
-        });
-    }
-
-    let pair = match args.mate_teeth {
+/// The library request from the options.
+fn request(args: &Args) -> anyhow::Result<GearRequest> {
+    let spec = spec(args)?;
+    let allowances_mm = allowance_pair(args.allowances.as_deref(), "--allowances")?;
+    let mate = match args.mate_teeth {
         None => {
             if args.centre_distance.is_some() || args.mate_shift.is_some() {
                 bail!("--centre-distance and --mate-shift need --mate-teeth (the mating gear)");
             }
             None
         }
-        Some(z2) => Some(compute_pair(args, &gear, z2, &mut warnings)?),
+        Some(teeth) => Some(MateRequest {
+            teeth,
+            shift_name: "--mate-shift",
+            profile_shift: args.mate_shift,
+            allowances_mm: allowance_pair(args.mate_allowances.as_deref(), "--mate-allowances")?,
+            face_width_mm: args.mate_width,
+            centre_distance_mm: args.centre_distance,
+        }),
     };
-
-    Ok(Output {
-        gear: GearOut::new(&gear),
-        recommended: RecommendedOut {
-            span_k: rec_k,
-            ball_mm: rec_ball,
-        },
-        tooth,
-        at_diameter,
-        pair,
-        warnings,
+    Ok(GearRequest {
+        spec,
+        shift_name: "--shift",
+        allowances_mm,
+        span_k: args.span_k,
+        ball_mm: args.ball,
+        at_diameters_mm: args.at_diameter.clone().unwrap_or_default(),
+        mate,
     })
-}
-
-fn compute_pair(
-    args: &Args,
-    gear: &Gear,
-    mate_teeth: u32,
-    warnings: &mut Vec<String>,
-) -> anyhow::Result<PairOut> {
-    let spec = *gear.spec();
-    let internal = spec.mesh == Mesh::Internal;
-    let mut mate_spec = spec;
-    mate_spec.teeth = mate_teeth;
-    mate_spec.mesh = Mesh::External;
-    mate_spec.face_width_mm = args.mate_width.or(spec.face_width_mm);
-    // External pairs have opposite hands, internal pairs the same hand.
-    mate_spec.hand = if internal {
-        spec.hand
-    } else {
-        spec.hand.opposite()
-    };
-    // Gear 1 is the external gear: the mate when this gear is internal.
-    let order = |this: GearSpec, mate: GearSpec| if internal { (mate, this) } else { (this, mate) };
-    let x2 = match (args.mate_shift, args.centre_distance) {
-        (Some(x2), _) => x2,
-        (None, Some(a_w)) => {
-            let (s1, s2) = order(spec, mate_spec);
-            let sum =
-                shift_sum_for_centre_distance(&s1, &s2, a_w).map_err(|e| flagged(e, "the pair"))?;
-            sum - spec.profile_shift
-        }
-        (None, None) => 0.0,
-    };
-    mate_spec.profile_shift = x2;
-    let mate = Gear::new(mate_spec).map_err(|e| flagged_mate(e, "the mating gear"))?;
-    if let Some(u) = mate.undercut("--mate-shift", x2) {
-        warnings.push(format!("mating gear: {u}"));
-    }
-    let (g1, g2) = if internal {
-        (&mate, gear)
-    } else {
-        (gear, &mate)
-    };
-    let a_w = match args.centre_distance {
-        Some(a) => a,
-        None => gearcomp_geometry::centre_distance_for_shift_sum(
-            g1.spec(),
-            g2.spec(),
-            g1.spec().profile_shift + g2.spec().profile_shift,
-        )
-        .map_err(|e| flagged(e, "the pair"))?,
-    };
-    let pair = GearPair::new(g1, g2, a_w).map_err(|e| flagged(e, "the pair"))?;
-    let p: &PairGeometry = pair.geometry();
-
-    let this_cases = allowance_cases(args.allowances.as_deref(), "--allowances")?;
-    let mate_cases = allowance_cases(args.mate_allowances.as_deref(), "--mate-allowances")?;
-    let pick = |c: &[(&'static str, f64)], i: usize| c.get(i).map_or(0.0, |v| v.1);
-    let mut combos = vec![("nominal", 0.0, 0.0)];
-    if !this_cases.is_empty() || !mate_cases.is_empty() {
-        combos.push(("max", pick(&this_cases, 0), pick(&mate_cases, 0)));
-        combos.push(("min", pick(&this_cases, 1), pick(&mate_cases, 1)));
-    }
-    let mut backlash = Vec::new();
-    for (case, a_this, a_mate) in combos {
-        let (a1, a2) = if internal {
-            (a_mate, a_this)
-        } else {
-            (a_this, a_mate)
-        };
-        let b = pair
-            .backlash(a1, a2)
-            .map_err(|e| flagged(e, &format!("backlash, {case}")))?;
-        if b.normal_mm < -1e-9 {
-            warnings.push(format!(
-                "{case} backlash j_bn = {:.4} mm is negative: the teeth would jam at a_w = {a_w} mm",
-                b.normal_mm
-            ));
-        }
-        backlash.push(BacklashOut {
-            case,
-            allowance_1_mm: a1,
-            allowance_2_mm: a2,
-            generating_shift_1: b.generating_shift_1,
-            generating_shift_2: b.generating_shift_2,
-            circumferential_mm: b.circumferential_mm,
-            normal_mm: b.normal_mm,
-        });
-    }
-    if p.transverse_contact_ratio < 1.0 {
-        warnings.push(format!(
-            "transverse contact ratio ε_α = {:.4} < 1",
-            p.transverse_contact_ratio
-        ));
-    }
-    for (i, g, d_nf) in [
-        (1, g1, p.active_root_diameter_1_mm),
-        (2, g2, p.active_root_diameter_2_mm),
-    ] {
-        let (lo, hi) = g.flank_range_mm(g.spec().profile_shift);
-        let ok = d_nf.is_some_and(|d| {
-            if i == 1 || !internal {
-                d >= lo
-            } else {
-                d <= hi
-            }
-        });
-        if !ok {
-            warnings.push(format!(
-                "gear {i}: the mate's tip reaches below the usable involute (active root {:?} mm, flank {lo:.4} … {hi:.4} mm): interference",
-                d_nf
-            ));
-        }
-    }
-    Ok(PairOut {
-        gear_1: if internal { "mate" } else { "this" },
-        mate: GearOut::new(&mate),
-        gear_ratio: p.gear_ratio,
-        reference_centre_distance_mm: p.reference_centre_distance_mm,
-        centre_distance_mm: p.centre_distance_mm,
-        working_pressure_angle_deg: deg(p.working_pressure_angle_rad),
-        shift_sum: p.shift_sum,
-        nominal_shift_sum: p.nominal_shift_sum,
-        working_diameter_1_mm: p.working_diameter_1_mm,
-        working_diameter_2_mm: p.working_diameter_2_mm,
-        transverse_contact_ratio: p.transverse_contact_ratio,
-        overlap_ratio: p.overlap_ratio,
-        total_contact_ratio: p.total_contact_ratio,
-        transverse_base_pitch_mm: p.transverse_base_pitch_mm,
-        normal_base_pitch_mm: p.normal_base_pitch_mm,
-        active_root_diameter_1_mm: p.active_root_diameter_1_mm,
-        active_root_diameter_2_mm: p.active_root_diameter_2_mm,
-        backlash,
-    })
-}
-
-/// One table row: description, symbol, value, unit.
-fn row(out: &mut String, label: &str, symbol: &str, value: String, unit: &str) {
-    let _ = writeln!(out, "  {label:<42} {symbol:<6} {value:>12} {unit}");
-}
-
-fn num(v: f64, places: usize) -> String {
-    format!("{v:.places$}")
-}
-
-fn opt(v: Option<f64>, places: usize) -> String {
-    v.map_or_else(|| "–".to_string(), |v| num(v, places))
-}
-
-fn render_gear(out: &mut String, g: &GearOut) {
-    row(out, "mesh", "", format!("{:?}", g.mesh).to_lowercase(), "");
-    row(out, "number of teeth", "z", g.teeth.to_string(), "");
-    row(
-        out,
-        "normal module",
-        "m_n",
-        num(g.normal_module_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "normal pressure angle",
-        "α_n",
-        num(g.normal_pressure_angle_deg, 4),
-        "°",
-    );
-    let hand = format!("° ({})", g.hand);
-    row(
-        out,
-        "helix angle",
-        "β",
-        num(g.helix_angle_deg.abs(), 4),
-        &hand,
-    );
-    row(
-        out,
-        "profile shift coefficient",
-        "x",
-        num(g.profile_shift, 4),
-        "",
-    );
-    row(out, "face width", "b", opt(g.face_width_mm, 3), "mm");
-    row(
-        out,
-        "transverse module",
-        "m_t",
-        num(g.transverse_module_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "transverse pressure angle",
-        "α_t",
-        num(g.transverse_pressure_angle_deg, 4),
-        "°",
-    );
-    row(
-        out,
-        "base helix angle",
-        "β_b",
-        num(g.base_helix_angle_deg, 4),
-        "°",
-    );
-    row(out, "lead", "p_z", opt(g.lead_mm, 3), "mm");
-    row(
-        out,
-        "reference diameter",
-        "d",
-        num(g.reference_diameter_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "base diameter",
-        "d_b",
-        num(g.base_diameter_mm, 4),
-        "mm",
-    );
-    row(out, "tip diameter", "d_a", num(g.tip_diameter_mm, 4), "mm");
-    row(
-        out,
-        "root diameter",
-        "d_f",
-        num(g.root_diameter_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "root form diameter",
-        "d_Ff",
-        opt(g.root_form_diameter_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "normal base pitch",
-        "p_bn",
-        num(g.normal_base_pitch_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "transverse base pitch",
-        "p_bt",
-        num(g.transverse_base_pitch_mm, 4),
-        "mm",
-    );
-    row(
-        out,
-        "smallest shift without undercut",
-        "x_min",
-        opt(g.min_shift_undercut, 4),
-        "",
-    );
-    row(out, "overlap ratio", "ε_β", opt(g.overlap_ratio, 4), "");
-}
-
-fn render(o: &Output) -> String {
-    let mut out = String::new();
-    let _ = writeln!(out, "Gear (ISO 21771 / DIN 3960)");
-    render_gear(&mut out, &o.gear);
-    let _ = writeln!(out, "\nTooth thickness and measurement");
-    for t in &o.tooth {
-        let _ = writeln!(out, " [{}] A_sn = {:+.4} mm", t.case, t.allowance_mm);
-        row(
-            &mut out,
-            "generating profile shift",
-            "x_E",
-            num(t.generating_shift, 4),
-            "",
-        );
-        row(
-            &mut out,
-            "normal tooth thickness",
-            "s_n",
-            num(t.normal_thickness_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "transverse tooth thickness",
-            "s_t",
-            num(t.transverse_thickness_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "transverse space width",
-            "e_t",
-            num(t.transverse_space_width_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "normal tip thickness",
-            "s_an",
-            num(t.tip_normal_thickness_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "root diameter",
-            "d_f",
-            num(t.root_diameter_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "root form diameter",
-            "d_Ff",
-            opt(t.root_form_diameter_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            &format!(
-                "span over k = {} (contact d_M {:.3})",
-                t.span.k, t.span.contact_diameter_mm
-            ),
-            "W_k",
-            num(t.span.span_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            &format!(
-                "over balls D_M = {:.4} (contact {:.3})",
-                t.ball.ball_mm, t.ball.contact_diameter_mm
-            ),
-            "M_dK",
-            num(t.ball.dimension_mm, 4),
-            "mm",
-        );
-    }
-    let _ = writeln!(
-        out,
-        " recommended: k = {}, ball D_M = {:.4} mm (touching at d + 2·x·m_n)",
-        o.recommended.span_k, o.recommended.ball_mm
-    );
-    if !o.at_diameter.is_empty() {
-        let _ = writeln!(out, "\nThickness at diameter (nominal shift)");
-        for a in &o.at_diameter {
-            row(
-                &mut out,
-                &format!("at d_y = {}", a.diameter_mm),
-                "s_yt",
-                num(a.transverse_thickness_mm, 4),
-                "mm",
-            );
-            row(&mut out, "", "s_yn", num(a.normal_thickness_mm, 4), "mm");
-            row(
-                &mut out,
-                "",
-                "e_yt",
-                num(a.transverse_space_width_mm, 4),
-                "mm",
-            );
-        }
-    }
-    if let Some(p) = &o.pair {
-        let _ = writeln!(
-            out,
-            "\nMating gear (gear 1 = {} gear)",
-            if p.gear_1 == "this" { "this" } else { "mating" }
-        );
-        render_gear(&mut out, &p.mate);
-        let _ = writeln!(out, "\nPair");
-        row(&mut out, "gear ratio", "u", num(p.gear_ratio, 4), "");
-        row(
-            &mut out,
-            "reference centre distance",
-            "a",
-            num(p.reference_centre_distance_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "working centre distance",
-            "a_w",
-            num(p.centre_distance_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "working pressure angle",
-            "α_wt",
-            num(p.working_pressure_angle_deg, 4),
-            "°",
-        );
-        row(
-            &mut out,
-            "sum of shifts for zero backlash",
-            "Σx",
-            num(p.shift_sum, 6),
-            "",
-        );
-        row(
-            &mut out,
-            "sum of nominal shifts",
-            "x1+x2",
-            num(p.nominal_shift_sum, 6),
-            "",
-        );
-        row(
-            &mut out,
-            "working diameter gear 1",
-            "d_w1",
-            num(p.working_diameter_1_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "working diameter gear 2",
-            "d_w2",
-            num(p.working_diameter_2_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "transverse contact ratio",
-            "ε_α",
-            num(p.transverse_contact_ratio, 4),
-            "",
-        );
-        row(
-            &mut out,
-            "overlap ratio",
-            "ε_β",
-            opt(p.overlap_ratio, 4),
-            "",
-        );
-        row(
-            &mut out,
-            "total contact ratio",
-            "ε_γ",
-            opt(p.total_contact_ratio, 4),
-            "",
-        );
-        row(
-            &mut out,
-            "active root diameter gear 1",
-            "d_Nf1",
-            opt(p.active_root_diameter_1_mm, 4),
-            "mm",
-        );
-        row(
-            &mut out,
-            "active root diameter gear 2",
-            "d_Nf2",
-            opt(p.active_root_diameter_2_mm, 4),
-            "mm",
-        );
-        for b in &p.backlash {
-            row(
-                &mut out,
-                &format!(
-                    "backlash {} (A_sn {:+.3}/{:+.3})",
-                    b.case, b.allowance_1_mm, b.allowance_2_mm
-                ),
-                "j_bn",
-                num(b.normal_mm, 4),
-                "mm",
-            );
-            row(&mut out, "", "j_wt", num(b.circumferential_mm, 4), "mm");
-        }
-    }
-    for w in &o.warnings {
-        let _ = writeln!(out, "warning: {w}");
-    }
-    out
 }

@@ -9,6 +9,8 @@
 //!   ([`Gear::ball_dimension`], [`Gear::recommended_ball_mm`]), with their inverses.
 //! - [`GearPair`]: working pressure angle, Σx ↔ centre distance, contact ratios, backlash.
 //! - [`GeneratingWorm`] (hob / grinding worm as a ZI helicoid) and [`ShaperCutter`].
+//! - [`report`]: the report of a gear and its mate (what `gearcomp gear` prints: the
+//!   [`report::GearReport`] record, its JSON and its text table).
 //! - [`involute`]: inv α and its inverse; [`shrink`]: CN105397560 workpiece shrink.
 //! - The gear vocabulary every gear crate shares: [`Hand`], [`Flank`], [`Mesh`],
 //!   [`transverse_pressure_angle_rad`] and the interface [`units`] (degrees, µm, rpm).
@@ -35,6 +37,7 @@ pub mod gear;
 pub mod involute;
 pub mod iso1328;
 pub mod pair;
+pub mod report;
 pub mod shrink;
 pub mod span;
 pub mod thickness;
