@@ -19,6 +19,8 @@
 //!   ground it.
 //! - [`simulate`]: the envelope grinder on the cylindrical chain and the contact path fitted
 //!   from it.
+//! - [`setup`]: the set-up of a run: worm body for a gear, the pair of a shifted gear or a
+//!   redressed worm, default worm radii, the usable roll range of the gear flank.
 //! - [`solve`]: the worm for a wanted gear modification, iterated on the envelope simulation.
 //! - [`iso1328`]: ISO 1328-1:2013 profile and helix evaluation and tolerances.
 //! - [`conical`]: conical (beveloid) worm and/or workpiece: beveloid flanks, chains (29)–(31),
@@ -56,6 +58,7 @@ pub mod iso1328;
 pub mod kinematics;
 pub mod machine;
 pub mod modification;
+pub mod setup;
 pub mod simulate;
 pub mod solve;
 

@@ -71,7 +71,7 @@ pub(super) fn hand_arg(a: &SetupArgs) -> Hand {
 pub(super) fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
     let alpha_r = deg_to_rad(a.pressure_angle_deg);
     let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
-    let gear = InvoluteGear::asymmetric(
+    setup::checked_gear(
         a.teeth,
         a.module_mm,
         alpha_r,
@@ -79,12 +79,7 @@ pub(super) fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
         deg_to_rad(a.helix_angle_deg),
         a.profile_shift,
     )
-    .map_err(|e| gear_error(&e))?;
-    // a gear as the geometry crate defines one (3 ≤ z, no pointed tooth, root above 0, ...)
-    for f in [Flank::Right, Flank::Left] {
-        gear.flank_limits(f).map_err(|e| gear_error(&e))?;
-    }
-    Ok(gear)
+    .map_err(|e| gear_error(&e))
 }
 
 /// A gear error with the option the user wrote.
@@ -114,32 +109,22 @@ pub(super) fn gear_error(e: &GrindError) -> anyhow::Error {
 pub(super) fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
     let alpha_r = deg_to_rad(a.pressure_angle_deg);
     let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
-    let w = InvoluteGear::worm(
+    setup::grinding_worm(
         a.worm_starts,
         a.module_mm,
         alpha_r,
+        alpha_l,
         a.worm_radius_mm,
         hand_arg(a),
     )
-    .context("worm")?;
-    InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0).context("worm")
-}
-
-/// The usable roll range of the gear flank [lo, hi] in mm and what bounds each end.
-pub(super) struct RollLimits {
-    pub(super) lo_mm: f64,
-    pub(super) hi_mm: f64,
-    pub(super) lo_what: String,
-    pub(super) hi_what: String,
-    /// Cap of the default roll end (below hi on a conical gear: the narrow end's tip).
-    pub(super) default_hi_mm: f64,
+    .context("worm")
 }
 
 /// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`.
 pub(super) fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) -> Result<FlankGrid> {
     let expected = format!(
         "expected {:.4} ≤ --roll-start-mm < --roll-end-mm ≤ {:.4} mm (from {} to {})",
-        lim.lo_mm, lim.hi_mm, lim.lo_what, lim.hi_what
+        lim.lo_mm, lim.hi_mm, lim.lo, lim.hi
     );
     if let Some(ws) = a.roll_start_mm {
         if !(ws >= lim.lo_mm - 1e-9 && ws < lim.hi_mm) {
@@ -151,14 +136,9 @@ pub(super) fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) ->
             anyhow::bail!("--roll-end-mm = {we} mm is outside the usable flank: {expected}");
         }
     }
-    let w_start = a.roll_start_mm.unwrap_or(
-        (f2.w_ref_mm - 2.0 * a.module_mm)
-            .max(0.1 * f2.w_ref_mm)
-            .max(lim.lo_mm),
-    );
-    let w_end = a
-        .roll_end_mm
-        .unwrap_or((f2.w_ref_mm + 2.0 * a.module_mm).min(lim.default_hi_mm));
+    let (start0, end0) = lim.default_range_mm(f2, a.module_mm);
+    let w_start = a.roll_start_mm.unwrap_or(start0);
+    let w_end = a.roll_end_mm.unwrap_or(end0);
     if !(a.face_width_mm.is_finite() && a.face_width_mm > 0.0 && a.face_width_mm <= 2000.0) {
         anyhow::bail!(
             "--face-width-mm = {} is out of range: expected 0 < b ≤ 2000 mm",
@@ -176,10 +156,9 @@ pub(super) fn worm_radii(
     r1_mm: f64,
     dressed: Option<&DressWorm>,
 ) -> Result<(f64, f64)> {
-    let (root0, tip0) = dressed.map_or(
-        (r1_mm - 1.25 * a.module_mm, r1_mm + 1.25 * a.module_mm),
-        |d| (d.r_f_mm, d.r_a_mm),
-    );
+    let (root0, tip0) = dressed.map_or(default_worm_radii_mm(r1_mm, a.module_mm), |d| {
+        (d.r_f_mm, d.r_a_mm)
+    });
     let root = a.worm_root_radius_mm.unwrap_or(root0);
     let tip = a.worm_tip_radius_mm.unwrap_or(tip0);
     if !(root.is_finite() && tip.is_finite() && root >= 0.0 && root < r1_mm && tip > r1_mm) {
@@ -191,92 +170,27 @@ pub(super) fn worm_radii(
     Ok((root, tip))
 }
 
-/// Usable roll range of the gear flank on a cylindrical chain: the gear's root form and tip
-/// circles, and the gear roll distances the worm thread reaches between its root and tip
-/// ((R7): w1 = a·w2 + b, exact on the cylindrical chain).
+/// [`RollLimits::cylindrical`] with the options the user wrote in its errors.
 pub(super) fn roll_limits(
     gear: &InvoluteGear,
     flank: Flank,
     pair: &WormGearPair,
     radii: (f64, f64),
 ) -> Result<RollLimits> {
-    let lim = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
-    let rb1 = pair.worm.r_b_mm;
-    let w1 = |r: f64| (r * r - rb1 * rb1).max(0.0).sqrt();
-    let (a, b) = (pair.path.a, pair.path.b_mm);
-    let w2_root = (w1(radii.0) - b) / a;
-    let w2_tip = (w1(radii.1) - b) / a;
-    let (w2_lo_worm, lo_worm_what, w2_hi_worm, hi_worm_what) = if w2_tip < w2_root {
-        (w2_tip, "worm tip", w2_root, "worm root")
-    } else {
-        (w2_root, "worm root", w2_tip, "worm tip")
-    };
-    if w2_lo_worm.is_nan() || w2_lo_worm <= 0.0 {
-        anyhow::bail!(
-            "the {lo_worm_what} (r = {:.4} mm, --worm-root-radius-mm/--worm-tip-radius-mm) \
+    RollLimits::cylindrical(gear, flank, pair, radii).map_err(|e| match e {
+        RollRangeError::Gear(e) => gear_error(&e),
+        RollRangeError::BelowBaseCircle { end, radius_mm } => anyhow::anyhow!(
+            "the {end} (r = {radius_mm:.4} mm, --worm-root-radius-mm/--worm-tip-radius-mm) \
              reaches below the gear's base circle: it undercuts the involute, which the \
              envelope simulation does not model; raise --profile-shift or --teeth, or lower \
-             the worm tip",
-            if lo_worm_what == "worm tip" {
-                radii.1
-            } else {
-                radii.0
-            }
-        );
-    }
-    let (lo, lo_what) = if lim.w_root_form_mm >= w2_lo_worm {
-        (
-            lim.w_root_form_mm,
-            match lim.root_form_diameter_mm {
-                Some(d) => format!("the root form circle d_Ff = {d:.4} mm"),
-                None => "the base circle (undercut)".to_string(),
-            },
-        )
-    } else {
-        (
-            w2_lo_worm,
-            format!(
-                "the reach of the {lo_worm_what} (r = {:.4} mm)",
-                if lo_worm_what == "worm tip" {
-                    radii.1
-                } else {
-                    radii.0
-                }
-            ),
-        )
-    };
-    let (hi, hi_what) = if lim.w_tip_mm <= w2_hi_worm {
-        (
-            lim.w_tip_mm,
-            format!("the tip circle d_a = {:.4} mm", lim.tip_diameter_mm),
-        )
-    } else {
-        (
-            w2_hi_worm,
-            format!(
-                "the reach of the {hi_worm_what} (r = {:.4} mm)",
-                if hi_worm_what == "worm tip" {
-                    radii.1
-                } else {
-                    radii.0
-                }
-            ),
-        )
-    };
-    if !(hi > lo && lo.is_finite()) {
-        anyhow::bail!(
+             the worm tip"
+        ),
+        RollRangeError::NoOverlap { lo, hi } => anyhow::anyhow!(
             "the worm (--worm-root-radius-mm {} / --worm-tip-radius-mm {}) does not reach the \
-             gear flank between {lo_what} and {hi_what}",
+             gear flank between {lo} and {hi}",
             radii.0,
             radii.1
-        );
-    }
-    Ok(RollLimits {
-        lo_mm: lo.max(1e-6),
-        hi_mm: hi,
-        lo_what,
-        hi_what,
-        default_hi_mm: hi,
+        ),
     })
 }
 
@@ -286,21 +200,8 @@ pub(super) fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup>
     let (pair, r1) = match dressed {
         None => {
             let worm = worm_body(a)?;
-            let pair = if a.profile_shift == 0.0 {
-                WormGearPair::reference(&worm, &gear, flank)
-            } else {
-                // the shifted gear's rack datum is x·m_n outside its reference circle
-                WormGearPair::new(
-                    &worm,
-                    &gear,
-                    flank,
-                    worm.reference_radius_mm()
-                        + gear.reference_radius_mm()
-                        + a.profile_shift * a.module_mm,
-                    -(worm.beta_rad + gear.beta_rad),
-                )
-            };
-            (pair.context("worm/gear mesh")?, worm.reference_radius_mm())
+            let pair = setup::shifted_pair(&worm, &gear, flank).context("worm/gear mesh")?;
+            (pair, worm.reference_radius_mm())
         }
         Some(dw) => (
             dressed_pair(a, dw, &gear, flank, hand_arg(a))?,
@@ -327,17 +228,8 @@ pub(super) struct ConeSetup {
     pub(super) grid: FlankGrid,
 }
 
-/// The conical set-up: beveloid worm and gear from the options, chain (29)–(31).
-///
-/// The default end of the roll range uses the gear's tip circle at the narrow end of the face,
-/// so every grid point lies on the flank.
-/// # Formula
-/// r_a,min = r + m_n − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone: addendum m_n
-/// over the local profile shift x(z) = z·tan ϑ2/m_n).
-/// # Source
-/// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece" [RECONSTRUCTED];
-/// addendum h_a = m_n, ISO
-/// 53 basic rack [STANDARD]; convention fixed here (docs/grinding.md).
+/// The conical set-up: beveloid worm and gear from the options, chain (29)–(31); the roll
+/// range from [`RollLimits::conical`] (default end at the narrow end's tip circle).
 pub(super) fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
     let gear = gear_body(a)?;
     let flank = flank_arg(a);
@@ -347,32 +239,16 @@ pub(super) fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
         .with_context(|| format!("--worm-cone-deg = {}", a.worm_cone_deg))?;
     let pair = ConicalPair::reference(&bev1, &bev2, flank)
         .context("conical worm/gear mesh (chains (29)–(31))")?;
-    let r_tip = gear.reference_radius_mm() + a.module_mm * (1.0 + a.profile_shift)
-        - 0.5 * a.face_width_mm * c.gear_rad.tan().abs();
-    let f2 = &pair.gear;
-    let body = gear.flank_limits(flank).map_err(|e| gear_error(&e))?;
-    // the tip and root form of the body at z = 0 bound the options; the default end stays on
-    // the flank over the whole face (the tip at the narrow end)
-    let lim = RollLimits {
-        lo_mm: body.w_root_form_mm.max(1e-6),
-        hi_mm: body.w_tip_mm,
-        lo_what: "the root form circle at z = 0".to_string(),
-        hi_what: format!(
-            "the tip circle d_a = {:.4} mm at z = 0",
-            body.tip_diameter_mm
-        ),
-        default_hi_mm: (r_tip * r_tip - f2.r_b_mm * f2.r_b_mm).max(0.0).sqrt(),
-    };
-    let grid = flank_grid(a, f2, &lim)?;
+    let lim = RollLimits::conical(&gear, flank, &pair, a.face_width_mm, c.gear_rad)
+        .map_err(|e| gear_error(&e))?;
+    let grid = flank_grid(a, &pair.gear, &lim)?;
     Ok(ConeSetup { pair, gear, grid })
 }
 
 /// The worm of a dress config as a grinding worm, and its set-up with the gear.
 ///
 /// The helicoid (r_b, β_b) is that of the design diameter d_S0 (the dressing module keeps it
-/// over the worm's life). A new worm runs at the reference setting d = d_S0/2 + r2,
-/// γ = −(β1 + β2) (R3); a redressed worm (d_S < d_S0) at d = d_S/2 + r2 with the helix angle of
-/// the same helicoid at d_S/2, tan β1(r) = tan β1(r0)·r/r0.
+/// over the worm's life); the pair at the present diameter d_S is [`setup::redressed_pair`].
 pub(super) fn dressed_pair(
     a: &SetupArgs,
     dw: &DressWorm,
@@ -404,16 +280,7 @@ pub(super) fn dressed_pair(
     let r0 = 0.5 * dw.d_s0_mm;
     let worm = InvoluteGear::worm(dw.z_s, dw.m_n_mm, dw.alpha_n_rad, r0, Hand::Right)
         .context("[worm] as grinding worm")?;
-    let r = 0.5 * dw.d_s_mm;
-    let beta1 = (worm.beta_rad.tan() * r / r0).atan();
-    WormGearPair::new(
-        &worm,
-        gear,
-        flank,
-        r + gear.reference_radius_mm() + gear.x_shift * gear.m_n_mm,
-        -(beta1 + gear.beta_rad),
-    )
-    .context("dressed worm/gear mesh")
+    setup::redressed_pair(&worm, r0, 0.5 * dw.d_s_mm, gear, flank).context("dressed worm/gear mesh")
 }
 
 /// The worm of the `gearcomp dress` config at `path` dressed as its `[dressing]` table asks
@@ -581,11 +448,16 @@ pub(super) fn equalise_spec(c: &GrindConfig) -> Result<EqualiseSpec> {
             anyhow::bail!("[worm] hand = {other:?} is not allowed: expected \"right\" or \"left\"")
         }
     };
-    let w = InvoluteGear::worm(c.worm.starts, g.module_mm, alpha_r, c.worm.radius_mm, hand)
-        .context("[worm]")?;
     // (93): equal normal base pitch per flank with equal m_n fixes the worm rack's α_nF.
-    let worm = InvoluteGear::asymmetric(w.teeth, w.m_n_mm, alpha_r, alpha_l, w.beta_rad, 0.0)
-        .context("[worm]")?;
+    let worm = setup::grinding_worm(
+        c.worm.starts,
+        g.module_mm,
+        alpha_r,
+        alpha_l,
+        c.worm.radius_mm,
+        hand,
+    )
+    .context("[worm]")?;
     let e = &c.equalise;
     let worm_lines = match (e.worm_rho_left_deg, e.worm_rho_right_deg) {
         (Some(l), Some(r)) => WormLines::Given {

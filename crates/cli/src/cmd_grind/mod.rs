@@ -47,6 +47,7 @@ use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
+use gearcomp_grinding::setup::{self, default_worm_radii_mm, RollLimits, RollRangeError};
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HeatAxis, HeatMap, HtmlReport, Series};

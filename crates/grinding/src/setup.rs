@@ -1,0 +1,458 @@
+//! The set-up of a grinding run: the worm body for a gear, the worm–gear pair at its
+//! setting (profile-shifted gear, redressed worm), the worm's default root and tip radii, and
+//! the usable roll range of the gear flank with what bounds each end.
+//!
+//! Lengths mm, angles rad. What `gearcomp grind` builds from its options before it simulates;
+//! the options' ranges are checked by the caller, the geometry here.
+
+use std::fmt;
+
+use crate::conical::ConicalPair;
+use crate::contact::WormGearPair;
+use crate::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
+use crate::GrindError;
+
+/// A gear body that is a gear as the geometry crate defines one (3 ≤ z, no pointed tooth,
+/// root above 0, …) on both flanks.
+///
+/// # Errors
+/// The [`InvoluteGear::asymmetric`] range errors, or the geometry error of
+/// [`InvoluteGear::flank_limits`] of the first flank that has none.
+pub fn checked_gear(
+    teeth: u32,
+    m_n_mm: f64,
+    alpha_n_right_rad: f64,
+    alpha_n_left_rad: f64,
+    beta_rad: f64,
+    x_shift: f64,
+) -> Result<InvoluteGear, GrindError> {
+    let gear = InvoluteGear::asymmetric(
+        teeth,
+        m_n_mm,
+        alpha_n_right_rad,
+        alpha_n_left_rad,
+        beta_rad,
+        x_shift,
+    )?;
+    for f in [Flank::Right, Flank::Left] {
+        gear.flank_limits(f)?;
+    }
+    Ok(gear)
+}
+
+/// The grinding worm for a gear: z1 starts at reference radius r1 with the gear's module, and
+/// per flank the gear's normal pressure angle.
+///
+/// # Formula
+/// cos β1 = z1·m_n/(2·r1) ([`InvoluteGear::worm`]); α_n of each worm flank = α_n of the gear
+/// flank it grinds: equal normal base pitch p_bn = π·m_n·cos α_n with equal m_n (eq. (93)).
+/// # Source
+/// JP6903407B2 eq. (93) [SEED]; ISO 21771:2007 reference diameter [STANDARD].
+pub fn grinding_worm(
+    starts: u32,
+    m_n_mm: f64,
+    alpha_n_right_rad: f64,
+    alpha_n_left_rad: f64,
+    reference_radius_mm: f64,
+    hand: Hand,
+) -> Result<InvoluteGear, GrindError> {
+    let w = InvoluteGear::worm(starts, m_n_mm, alpha_n_right_rad, reference_radius_mm, hand)?;
+    InvoluteGear::asymmetric(
+        w.teeth,
+        w.m_n_mm,
+        alpha_n_right_rad,
+        alpha_n_left_rad,
+        w.beta_rad,
+        0.0,
+    )
+}
+
+/// The cylindrical worm–gear pair at the reference setting of a profile-shifted gear.
+///
+/// # Formula
+/// d = r1 + r2 + x·m_n (the shifted gear's rack datum lies x·m_n outside its reference
+/// circle), γ = −(β1 + β2); for x = 0 this is [`WormGearPair::reference`].
+/// # Source
+/// JP6903407B2 (R3) [SEED]; profile shift, ISO 21771:2007 5.2 [STANDARD].
+pub fn shifted_pair(
+    worm: &InvoluteGear,
+    gear: &InvoluteGear,
+    flank: Flank,
+) -> Result<WormGearPair, GrindError> {
+    if gear.x_shift == 0.0 {
+        return WormGearPair::reference(worm, gear, flank);
+    }
+    WormGearPair::new(
+        worm,
+        gear,
+        flank,
+        worm.reference_radius_mm() + gear.reference_radius_mm() + gear.x_shift * gear.m_n_mm,
+        -(worm.beta_rad + gear.beta_rad),
+    )
+}
+
+/// The pair of a (re)dressed worm at its present radius `r_mm` with the gear.
+///
+/// `design` is the worm built at its design radius `r0_mm` = d_S0/2 (its reference radius,
+/// given as it was built, so no rounding enters the ratio): the helicoid (r_b, β_b) stays that
+/// of the design over the worm's life, so the redressed worm's helix angle at r follows the
+/// same helicoid.
+/// # Formula
+/// tan β1(r) = tan β1(r0)·r/r0; d = r + r2 + x·m_n; γ = −(β1(r) + β2).
+/// # Source
+/// Helicoid of constant lead, ISO 21771:2007 (tan β ∝ r) [STANDARD]; (R3) of JP6903407B2
+/// [SEED]; docs/grinding.md "Dressed worm".
+pub fn redressed_pair(
+    design: &InvoluteGear,
+    r0_mm: f64,
+    r_mm: f64,
+    gear: &InvoluteGear,
+    flank: Flank,
+) -> Result<WormGearPair, GrindError> {
+    let beta1 = (design.beta_rad.tan() * r_mm / r0_mm).atan();
+    WormGearPair::new(
+        design,
+        gear,
+        flank,
+        r_mm + gear.reference_radius_mm() + gear.x_shift * gear.m_n_mm,
+        -(beta1 + gear.beta_rad),
+    )
+}
+
+/// Default worm root and tip radii in mm around the reference radius r1: r1 ∓ 1.25·m_n
+/// (dedendum of the ISO 53 basic rack on both sides).
+pub fn default_worm_radii_mm(r1_mm: f64, m_n_mm: f64) -> (f64, f64) {
+    (r1_mm - 1.25 * m_n_mm, r1_mm + 1.25 * m_n_mm)
+}
+
+/// The root or the tip of the worm thread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WormEnd {
+    /// The worm's root radius.
+    Root,
+    /// The worm's tip radius.
+    Tip,
+}
+
+impl fmt::Display for WormEnd {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            WormEnd::Root => "worm root",
+            WormEnd::Tip => "worm tip",
+        })
+    }
+}
+
+/// What bounds one end of the usable roll range of the gear flank.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RollBound {
+    /// The gear's root form circle d_Ff (mm).
+    RootForm(f64),
+    /// The gear's base circle (the gear is undercut: no root form circle above it).
+    BaseCircle,
+    /// The gear's tip circle d_a (mm).
+    Tip(f64),
+    /// The gear roll distance the worm reaches with its root or tip (radius in mm).
+    WormReach(WormEnd, f64),
+    /// The root form circle of a beveloid body at z = 0.
+    RootFormAtZ0,
+    /// The tip circle d_a of a beveloid body at z = 0 (mm).
+    TipAtZ0(f64),
+}
+
+impl fmt::Display for RollBound {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RollBound::RootForm(d) => write!(f, "the root form circle d_Ff = {d:.4} mm"),
+            RollBound::BaseCircle => f.write_str("the base circle (undercut)"),
+            RollBound::Tip(d) => write!(f, "the tip circle d_a = {d:.4} mm"),
+            RollBound::WormReach(end, r) => write!(f, "the reach of the {end} (r = {r:.4} mm)"),
+            RollBound::RootFormAtZ0 => f.write_str("the root form circle at z = 0"),
+            RollBound::TipAtZ0(d) => write!(f, "the tip circle d_a = {d:.4} mm at z = 0"),
+        }
+    }
+}
+
+/// Why there is no usable roll range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RollRangeError {
+    /// The gear itself is invalid.
+    #[error(transparent)]
+    Gear(#[from] GrindError),
+    /// The worm reaches below the gear's base circle: it would undercut the involute, which
+    /// the envelope simulation does not model.
+    #[error(
+        "the {end} (r = {radius_mm:.4} mm) reaches below the gear's base circle: it undercuts \
+         the involute, which the envelope simulation does not model"
+    )]
+    BelowBaseCircle {
+        /// The worm end that reaches lowest on the gear.
+        end: WormEnd,
+        /// Its radius in mm.
+        radius_mm: f64,
+    },
+    /// The worm's reach and the gear flank do not overlap.
+    #[error("the worm does not reach the gear flank between {lo} and {hi}")]
+    NoOverlap {
+        /// Lower bound of the range.
+        lo: RollBound,
+        /// Upper bound of the range.
+        hi: RollBound,
+    },
+}
+
+/// The usable roll range [lo, hi] of the gear flank in mm and what bounds each end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RollLimits {
+    /// Lowest usable roll distance (≥ 1e-6 mm).
+    pub lo_mm: f64,
+    /// Highest usable roll distance.
+    pub hi_mm: f64,
+    /// What bounds the lower end.
+    pub lo: RollBound,
+    /// What bounds the upper end.
+    pub hi: RollBound,
+    /// Cap of the default roll end (below `hi_mm` on a conical gear: the narrow end's tip).
+    pub default_hi_mm: f64,
+}
+
+impl RollLimits {
+    /// Usable roll range of the gear flank on a cylindrical chain: the gear's root form and
+    /// tip circles, and the gear roll distances the worm thread reaches between its root and
+    /// tip.
+    ///
+    /// # Formula
+    /// w1(r) = √(r² − r_b1²); (R7) w1 = a·w2 + b, exact on the cylindrical chain, so the worm
+    /// end at radius r reaches w2 = (w1(r) − b)/a; lo = max(w(d_Ff), reach of the lower worm
+    /// end), hi = min(w(d_a), reach of the upper worm end).
+    /// # Source
+    /// JP6903407B2 (R7) [SEED]; d_Ff, d_a: ISO 21771:2007 5.2, 5.4.5 [STANDARD].
+    /// # Errors
+    /// [`RollRangeError::BelowBaseCircle`], [`RollRangeError::NoOverlap`], or the gear's
+    /// error from [`InvoluteGear::flank_limits`].
+    pub fn cylindrical(
+        gear: &InvoluteGear,
+        flank: Flank,
+        pair: &WormGearPair,
+        worm_radii_mm: (f64, f64),
+    ) -> Result<RollLimits, RollRangeError> {
+        let lim = gear.flank_limits(flank)?;
+        let rb1 = pair.worm.r_b_mm;
+        let reach = |r: f64| ((r * r - rb1 * rb1).max(0.0).sqrt() - pair.path.b_mm) / pair.path.a;
+        let root = (reach(worm_radii_mm.0), WormEnd::Root, worm_radii_mm.0);
+        let tip = (reach(worm_radii_mm.1), WormEnd::Tip, worm_radii_mm.1);
+        let (low, high) = if tip.0 < root.0 {
+            (tip, root)
+        } else {
+            (root, tip)
+        };
+        if low.0.is_nan() || low.0 <= 0.0 {
+            return Err(RollRangeError::BelowBaseCircle {
+                end: low.1,
+                radius_mm: low.2,
+            });
+        }
+        let (lo, lo_bound) = if lim.w_root_form_mm >= low.0 {
+            let bound = lim
+                .root_form_diameter_mm
+                .map_or(RollBound::BaseCircle, RollBound::RootForm);
+            (lim.w_root_form_mm, bound)
+        } else {
+            (low.0, RollBound::WormReach(low.1, low.2))
+        };
+        let (hi, hi_bound) = if lim.w_tip_mm <= high.0 {
+            (lim.w_tip_mm, RollBound::Tip(lim.tip_diameter_mm))
+        } else {
+            (high.0, RollBound::WormReach(high.1, high.2))
+        };
+        if !(hi > lo && lo.is_finite()) {
+            return Err(RollRangeError::NoOverlap {
+                lo: lo_bound,
+                hi: hi_bound,
+            });
+        }
+        Ok(RollLimits {
+            lo_mm: lo.max(1e-6),
+            hi_mm: hi,
+            lo: lo_bound,
+            hi: hi_bound,
+            default_hi_mm: hi,
+        })
+    }
+
+    /// Usable roll range of a beveloid gear on a conical chain: the root form and tip circles
+    /// of the body at z = 0 bound the range; the default end stays on the flank over the
+    /// whole face width b (the tip at the narrow end).
+    ///
+    /// # Formula
+    /// r_a,min = r + m_n·(1 + x) − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone:
+    /// addendum m_n over the local profile shift x(z) = z·tan ϑ2/m_n);
+    /// default end √(r_a,min² − r_b²) with r_b of the pair's gear flank.
+    /// # Source
+    /// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece"
+    /// [RECONSTRUCTED]; addendum h_a = m_n, ISO 53 basic rack [STANDARD].
+    /// # Errors
+    /// The body's error from [`InvoluteGear::flank_limits`].
+    pub fn conical(
+        body: &InvoluteGear,
+        flank: Flank,
+        pair: &ConicalPair,
+        face_width_mm: f64,
+        gear_cone_rad: f64,
+    ) -> Result<RollLimits, GrindError> {
+        let r_tip = body.reference_radius_mm() + body.m_n_mm * (1.0 + body.x_shift)
+            - 0.5 * face_width_mm * gear_cone_rad.tan().abs();
+        let rb = pair.gear.r_b_mm;
+        let lim = body.flank_limits(flank)?;
+        Ok(RollLimits {
+            lo_mm: lim.w_root_form_mm.max(1e-6),
+            hi_mm: lim.w_tip_mm,
+            lo: RollBound::RootFormAtZ0,
+            hi: RollBound::TipAtZ0(lim.tip_diameter_mm),
+            default_hi_mm: (r_tip * r_tip - rb * rb).max(0.0).sqrt(),
+        })
+    }
+
+    /// The default roll range of the flank `f2` (mm): two modules either side of the
+    /// reference circle, not below 10 % of its roll distance, inside the usable range (the
+    /// end capped by `default_hi_mm`).
+    pub fn default_range_mm(&self, f2: &InvoluteFlank, m_n_mm: f64) -> (f64, f64) {
+        let start = (f2.w_ref_mm - 2.0 * m_n_mm)
+            .max(0.1 * f2.w_ref_mm)
+            .max(self.lo_mm);
+        let end = (f2.w_ref_mm + 2.0 * m_n_mm).min(self.default_hi_mm);
+        (start, end)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rad(d: f64) -> f64 {
+        d.to_radians()
+    }
+
+    fn close(a: f64, b: f64, tol: f64) {
+        assert!((a - b).abs() <= tol, "{a} vs {b} (tol {tol})");
+    }
+
+    #[test]
+    fn grinding_worm_takes_the_gear_flank_angles() {
+        // cos β1 = z1·m_n/(2·r1) = 1·3/(2·50) = 0.03
+        let w = grinding_worm(1, 3.0, rad(20.0), rad(22.0), 50.0, Hand::Left).unwrap();
+        close(w.beta_rad, -(0.03f64).acos(), 1e-15);
+        close(w.alpha_n_right_rad, rad(20.0), 0.0);
+        close(w.alpha_n_left_rad, rad(22.0), 0.0);
+        close(w.reference_radius_mm(), 50.0, 1e-12);
+        assert_eq!((w.teeth, w.x_shift), (1, 0.0));
+    }
+
+    #[test]
+    fn shifted_pair_moves_the_centre_distance_by_x_mn() {
+        let worm = grinding_worm(1, 3.0, rad(20.0), rad(20.0), 50.0, Hand::Right).unwrap();
+        let g0 = checked_gear(31, 3.0, rad(20.0), rad(20.0), rad(15.0), 0.0).unwrap();
+        let g1 = checked_gear(31, 3.0, rad(20.0), rad(20.0), rad(15.0), 0.3).unwrap();
+        let p0 = shifted_pair(&worm, &g0, Flank::Right).unwrap();
+        let p1 = shifted_pair(&worm, &g1, Flank::Right).unwrap();
+        // r2 = z·m_n/(2 cos β)
+        let r2 = 31.0 * 3.0 / (2.0 * rad(15.0).cos());
+        close(p0.centre_distance_mm, 50.0 + r2, 1e-9);
+        close(
+            p1.centre_distance_mm - p0.centre_distance_mm,
+            0.3 * 3.0,
+            1e-9,
+        );
+        close(p1.crossing_rad, -(worm.beta_rad + rad(15.0)), 1e-15);
+    }
+
+    #[test]
+    fn redressed_pair_follows_the_helicoid() {
+        let design = grinding_worm(1, 3.0, rad(20.0), rad(20.0), 50.0, Hand::Right).unwrap();
+        let gear = checked_gear(31, 3.0, rad(20.0), rad(20.0), rad(15.0), 0.0).unwrap();
+        // at the design radius it is the reference pair
+        let same = redressed_pair(&design, 50.0, 50.0, &gear, Flank::Right).unwrap();
+        let reference = WormGearPair::reference(&design, &gear, Flank::Right).unwrap();
+        close(same.centre_distance_mm, reference.centre_distance_mm, 1e-9);
+        close(same.crossing_rad, reference.crossing_rad, 1e-12);
+        // redressed to r = 45: lead p_z = 2π·r/tan β constant → tan β(45) = tan β(50)·45/50
+        let p = redressed_pair(&design, 50.0, 45.0, &gear, Flank::Right).unwrap();
+        let beta45 = (design.beta_rad.tan() * 0.9).atan();
+        close(p.crossing_rad, -(beta45 + gear.beta_rad), 1e-12);
+        close(
+            reference.centre_distance_mm - p.centre_distance_mm,
+            5.0,
+            1e-9,
+        );
+    }
+
+    #[test]
+    fn default_radii_are_a_dedendum_either_side() {
+        assert_eq!(default_worm_radii_mm(50.0, 2.0), (47.5, 52.5));
+    }
+
+    #[test]
+    fn cylindrical_limits_from_the_gear_circles_with_a_deep_worm() {
+        let worm = grinding_worm(1, 3.0, rad(20.0), rad(20.0), 50.0, Hand::Right).unwrap();
+        let gear = checked_gear(31, 3.0, rad(20.0), rad(20.0), rad(15.0), 0.0).unwrap();
+        let pair = shifted_pair(&worm, &gear, Flank::Right).unwrap();
+        // a worm far deeper than the gear's tooth: the gear circles bound both ends
+        let lim = RollLimits::cylindrical(&gear, Flank::Right, &pair, (44.0, 54.5)).unwrap();
+        let f2 = gear.flank(Flank::Right);
+        let w = |d: f64| (0.25 * d * d - f2.r_b_mm * f2.r_b_mm).sqrt();
+        // d_a = d + 2·m_n (x = 0)
+        let d = 2.0 * gear.reference_radius_mm();
+        close(lim.hi_mm, w(d + 6.0), 1e-9);
+        let RollBound::Tip(d_a) = lim.hi else {
+            panic!("{:?}", lim.hi)
+        };
+        close(d_a, d + 6.0, 1e-9);
+        let RollBound::RootForm(d_ff) = lim.lo else {
+            panic!("{:?}", lim.lo)
+        };
+        close(lim.lo_mm, w(d_ff), 1e-9);
+        assert!(d_ff > 2.0 * f2.r_b_mm && d_ff < d);
+        assert_eq!(lim.default_hi_mm, lim.hi_mm);
+        // default range: w_P ∓ 2·m_n inside [lo, hi]
+        let (s, e) = lim.default_range_mm(&f2, 3.0);
+        close(s, (f2.w_ref_mm - 6.0).max(lim.lo_mm), 1e-12);
+        close(e, (f2.w_ref_mm + 6.0).min(lim.hi_mm), 1e-12);
+    }
+
+    #[test]
+    fn cylindrical_limits_from_a_shallow_worm_and_errors() {
+        let worm = grinding_worm(1, 3.0, rad(20.0), rad(20.0), 50.0, Hand::Right).unwrap();
+        let gear = checked_gear(31, 3.0, rad(20.0), rad(20.0), rad(15.0), 0.0).unwrap();
+        let pair = shifted_pair(&worm, &gear, Flank::Right).unwrap();
+        // a worm with a shallow thread reaches less than the gear circles; its reach follows
+        // (R7): w2 = (√(r² − r_b1²) − b)/a, written out here
+        let (root, tip) = (48.5, 51.0);
+        let lim = RollLimits::cylindrical(&gear, Flank::Right, &pair, (root, tip)).unwrap();
+        let rb1 = pair.worm.r_b_mm;
+        let reach = |r: f64| ((r * r - rb1 * rb1).sqrt() - pair.path.b_mm) / pair.path.a;
+        let (a, b) = (reach(root), reach(tip));
+        close(lim.lo_mm, a.min(b), 1e-9);
+        close(lim.hi_mm, a.max(b), 1e-9);
+        assert!(matches!(lim.lo, RollBound::WormReach(_, _)));
+        assert!(matches!(lim.hi, RollBound::WormReach(_, _)));
+        // a worm root at the worm's axis reaches below the gear's base circle (w2 < 0)
+        let e = RollLimits::cylindrical(&gear, Flank::Right, &pair, (0.0, 80.0)).unwrap_err();
+        assert!(matches!(e, RollRangeError::BelowBaseCircle { .. }), "{e}");
+    }
+
+    #[test]
+    fn bounds_read_as_before() {
+        assert_eq!(
+            RollBound::WormReach(WormEnd::Tip, 52.5).to_string(),
+            "the reach of the worm tip (r = 52.5000 mm)"
+        );
+        assert_eq!(
+            RollBound::TipAtZ0(99.0).to_string(),
+            "the tip circle d_a = 99.0000 mm at z = 0"
+        );
+        assert_eq!(
+            RollBound::BaseCircle.to_string(),
+            "the base circle (undercut)"
+        );
+    }
+}
