@@ -19,6 +19,7 @@
 //!   ground it.
 //! - [`simulate`]: the envelope grinder on the cylindrical chain and the contact path fitted
 //!   from it.
+//! - [`report`]: the record of a grinding run (and of `equalise`) and its text tables.
 //! - [`setup`]: the set-up of a run: worm body for a gear, the pair of a shifted gear or a
 //!   redressed worm, default worm radii, the usable roll range of the gear flank.
 //! - [`solve`]: the worm for a wanted gear modification, iterated on the envelope simulation.
@@ -58,6 +59,7 @@ pub mod iso1328;
 pub mod kinematics;
 pub mod machine;
 pub mod modification;
+pub mod report;
 pub mod setup;
 pub mod simulate;
 pub mod solve;

@@ -292,7 +292,7 @@ pub(super) fn dressed_pair(
 pub(super) fn dress_worm(
     path: &std::path::Path,
     flank: Flank,
-) -> Result<(DressWorm, DressedProfile, DressedOut)> {
+) -> Result<(DressWorm, DressedProfile, DressedReport)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let cfg: GrindDressConfig =
@@ -328,7 +328,7 @@ pub(super) fn dress_worm(
     .context("dressed profile table")?;
     let n = t.roll_mm.len();
     let step = (n - 1).div_ceil(20).max(1);
-    let out = DressedOut {
+    let out = DressedReport {
         config: path.display().to_string(),
         correction: t.kind.name(),
         worm_starts: worm.z_s,

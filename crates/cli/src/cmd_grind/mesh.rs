@@ -10,7 +10,7 @@ pub(super) trait GrindMesh: AnalyticTransfer {
     /// The mesh named in error messages.
     const NAME: &'static str;
     /// The contact path for the output.
-    fn path_out(&self) -> PathOut;
+    fn path_out(&self) -> PathReport;
     /// Default worm line direction ρ_F1 (rad): the axial-section estimate of the worm flank.
     fn rho1_default_rad(&self) -> f64;
     /// Reference roll distance of the worm flank (mm), where a worm modification is centred.
@@ -54,20 +54,8 @@ impl GrindMesh for WormGearPair {
         Ok((lm.k_zv1, Some(lm)))
     }
 
-    fn path_out(&self) -> PathOut {
-        PathOut {
-            flank: self.worm.flank.name(),
-            centre_distance_mm: self.centre_distance_mm,
-            crossing_deg: rad_to_deg(self.crossing_rad),
-            c_w1: self.path.c_w1,
-            c_c1_mm: self.path.c_c1_mm,
-            c_w2: self.path.c_w2,
-            c_c2_mm: self.path.c_c2_mm,
-            dw1_dw2: self.path.a,
-            r7_sum_mm: Some(self.path.r7_sum_mm),
-            rho_kf_deg: rad_to_deg(self.rho_kf_rad()),
-            conical: None,
-        }
+    fn path_out(&self) -> PathReport {
+        PathReport::cylindrical(self)
     }
 }
 
@@ -103,28 +91,7 @@ impl GrindMesh for ConicalPair {
         Ok((k, lm))
     }
 
-    fn path_out(&self) -> PathOut {
-        let p = &self.path;
-        PathOut {
-            flank: self.worm.flank.name(),
-            centre_distance_mm: self.chain.centre_distance_mm,
-            crossing_deg: rad_to_deg(self.chain.crossing_rad),
-            c_w1: p.c_w1,
-            c_c1_mm: p.c_c1_mm,
-            c_w2: p.c_w2,
-            c_c2_mm: p.c_c2_mm,
-            dw1_dw2: p.a,
-            r7_sum_mm: None,
-            rho_kf_deg: rad_to_deg(self.rho_kf_rad()),
-            conical: Some(ConicalPathOut {
-                c_zv11: p.c_zv11,
-                c_zv21: p.c_zv21,
-                c_zv12: p.c_zv12,
-                c_zv22: p.c_zv22,
-                b_zv1: p.b_zv1,
-                b_zv2: p.b_zv2,
-                b_mm: p.b_mm,
-            }),
-        }
+    fn path_out(&self) -> PathReport {
+        PathReport::conical(self)
     }
 }

@@ -44,14 +44,18 @@ use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
 use gearcomp_grinding::envelope::{AnalyticTransfer, EnvelopeGrinder};
 use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
-use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
+use gearcomp_grinding::iso1328::{tolerances, DeviationMap, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
+use gearcomp_grinding::report::{
+    iso_rows, DressedReport, EqualiseReport, FlaggedPoint, FlankK, GrindReport, LineModReport,
+    MapReport, PathReport, SolveIteration, SolveReport, TracesReport,
+};
 use gearcomp_grinding::setup::{self, default_worm_radii_mm, RollLimits, RollRangeError};
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HeatAxis, HeatMap, HtmlReport, Series};
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
 mod args;
 mod config;
@@ -68,4 +72,3 @@ use config::*;
 use mesh::*;
 use output::*;
 use report::*;
-use run::*;

@@ -3,7 +3,7 @@
 use super::*;
 
 /// SVG heat map of a (w, z) map: w to the right, z upwards (drawn by the report crate).
-pub(super) fn heat_map_svg(title: &str, map: &MapOut, values: &[Vec<f64>]) -> String {
+pub(super) fn heat_map_svg(title: &str, map: &MapReport, values: &[Vec<f64>]) -> String {
     let w = HeatAxis::new("w", "roll distance", "mm", map.w_mm.clone());
     let z = HeatAxis::new("z", "width", "mm", map.z_mm.clone());
     HeatMap {
@@ -16,12 +16,13 @@ pub(super) fn heat_map_svg(title: &str, map: &MapOut, values: &[Vec<f64>]) -> St
     .to_svg()
 }
 
-pub(super) fn write_report(out: &Output, path: &std::path::Path) -> Result<()> {
+pub(super) fn write_report(out: &GrindReport, path: &std::path::Path) -> Result<()> {
     let mut r = HtmlReport::new(format!(
         "gearcomp grind {} — {} flank",
         out.mode, out.path.flank
     ));
-    r.heading("Set-up and results").preformatted(&table(out));
+    r.heading("Set-up and results")
+        .preformatted(&out.to_table());
     r.paragraph(
         "Deviations are transverse (f_Ft, along the base tangent), in µm, positive = material \
          left on the gear. The ground flank is the envelope of the worm over rotation and feed; \

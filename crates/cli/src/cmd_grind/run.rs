@@ -16,23 +16,19 @@ pub(super) fn poly_um(coeffs: &[f64]) -> Poly {
     Poly(coeffs.iter().map(|&c| um_to_mm(c)).collect())
 }
 
-pub(super) fn poly_to_um(p: &Poly) -> Vec<f64> {
-    p.0.iter().map(|&c| mm_to_um(c)).collect()
-}
-
 /// What `grind_and_report` takes beyond the mesh and the worm.
 #[derive(Default)]
 pub(super) struct Extras {
     pub(super) worm_radii_mm: Option<(f64, f64)>,
     /// A flank already ground with this worm (the iterated solve's last simulation).
     pub(super) pre_ground: Option<GroundFlank>,
-    pub(super) solve: Option<SolveOut>,
+    pub(super) solve: Option<SolveReport>,
 }
 
 /// The worm that grinds: a line modification from the command line, or a dressed worm.
 pub(super) enum WormUsed<'a> {
     Line(&'a LineModification),
-    Dressed(&'a DressedWorm, Box<DressedOut>),
+    Dressed(&'a DressedWorm, Box<DressedReport>),
 }
 
 /// Grinds the grid and builds the output (design = `wanted`, or the unmodified flank: the
@@ -54,9 +50,9 @@ pub(super) fn grind_and_report<M: GrindMesh>(
     worm: WormUsed<'_>,
     wanted: Option<&LineModification>,
     extras: Extras,
-) -> Result<Output> {
+) -> Result<GrindReport> {
     let (worm_mod, worm_out, dressed_out): (&dyn FlankModification, _, _) = match worm {
-        WormUsed::Line(m) => (m, Some(LineModOut::from(m)), None),
+        WormUsed::Line(m) => (m, Some(LineModReport::from(m)), None),
         WormUsed::Dressed(d, o) => (d, None, Some(*o)),
     };
     let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
@@ -82,7 +78,7 @@ pub(super) fn grind_and_report<M: GrindMesh>(
     let mut flagged = Vec::new();
     let mut design_mm = Vec::with_capacity(g.len());
     let mut ground_mm = Vec::with_capacity(g.len());
-    let mut map = MapOut {
+    let mut map = MapReport {
         w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
         z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
         ground_um: Vec::with_capacity(g.n_w),
@@ -145,7 +141,7 @@ pub(super) fn grind_and_report<M: GrindMesh>(
             .evaluate_traces(d_mm, gear.m_n_mm, a.face_width_mm, a.class, 3)
             .context("ISO 1328-1 evaluation (three traces)")
     };
-    let iso_traces = TracesOut {
+    let iso_traces = TracesReport {
         design_reference: if wanted.is_some() {
             "wanted gear modification"
         } else {
@@ -182,7 +178,7 @@ pub(super) fn grind_and_report<M: GrindMesh>(
             ));
         }
     }
-    Ok(Output {
+    Ok(GrindReport {
         mode,
         worm_cone_deg: cones.worm_deg,
         gear_cone_deg: cones.gear_deg,
@@ -192,7 +188,7 @@ pub(super) fn grind_and_report<M: GrindMesh>(
         line_map: lm,
         worm_modification: worm_out,
         dressed_worm: dressed_out,
-        wanted_gear_modification: wanted.map(LineModOut::from),
+        wanted_gear_modification: wanted.map(LineModReport::from),
         max_abs_ground_um: mm_to_um(max_g),
         max_abs_ground_minus_analytic_um: mm_to_um(max_ga),
         max_abs_deviation_um: mm_to_um(max_d),
@@ -364,11 +360,11 @@ pub(super) fn solve(a: SolveArgs) -> Result<()> {
     // the same K from the closed form, as a cross-check of the line map
     let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
     let tol_mm = (opts.rel_tol * it.wish_max_abs_mm).max(opts.abs_tol_mm);
-    let solve_out = SolveOut {
+    let solve_out = SolveReport {
         iterations: it
             .iterations
             .iter()
-            .map(|i| SolveIterationOut {
+            .map(|i| SolveIteration {
                 iteration: i.iteration,
                 max_abs_deviation_um: mm_to_um(i.max_abs_deviation_mm),
             })
@@ -382,7 +378,7 @@ pub(super) fn solve(a: SolveArgs) -> Result<()> {
         },
         tolerance_um: mm_to_um(tol_mm),
         converged: it.converged,
-        first_order_worm: LineModOut::from(&it.first_order_worm),
+        first_order_worm: LineModReport::from(&it.first_order_worm),
     };
     let out = grind_and_report(
         "solve",
@@ -473,7 +469,7 @@ pub(super) fn equalise(a: EqualiseArgs) -> Result<()> {
         ),
         Err(other) => return Err(other).context("[equalise]"),
     };
-    let out = EqualiseOut {
+    let out = EqualiseReport {
         mode: "equalise",
         gear_cone_deg: cfg.gear.cone_angle_deg,
         gear_rho_left_deg: cfg.equalise.gear_rho_left_deg,
@@ -485,16 +481,16 @@ pub(super) fn equalise(a: EqualiseArgs) -> Result<()> {
         cone_range_deg: (cfg.equalise.cone_min_deg, cfg.equalise.cone_max_deg),
         cone1_deg: rad_to_deg(e.cone1_rad),
         k_zv1: e.k_zv1,
-        equalised: flank_k_out(
+        equalised: FlankK::new(
             e.cone1_rad,
             (e.k_left, e.k_right, e.rho1_left_rad, e.rho1_right_rad),
         ),
-        at_given_cone: flank_k_out(given, at_given),
+        at_given_cone: FlankK::new(given, at_given),
     };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
-        print!("{}", equalise_table(&out));
+        print!("{}", out.to_table());
     }
     Ok(())
 }
