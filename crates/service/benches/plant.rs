@@ -1,17 +1,20 @@
 //! "A plant on one box": many simulated machines in one process, each with its own cycle
 //! thread (16 °C channels read at 10 Hz, Cz = −3.75·(c0 − c1) stepped on every complete
-//! scan) and its own record writer into one PostgreSQL server that this benchmark starts
-//! (the integration tests' helper), against a baseline of one machine measured in the
-//! same run.
+//! scan) and its own record queue, all written by the process's one shared PostgreSQL
+//! writer into a server that this benchmark starts (the integration tests' helper),
+//! against a baseline of one machine and of the cycles alone measured in the same run.
 //!
 //! Measured per configuration: the sample rate achieved, the sample → offset latency (the
 //! last sample of a scan leaves the source → the changed offset is seen by a task waiting
 //! on the machine's output cell, as the OPC UA / Modbus / MQTT output tasks wait), p50 and
 //! p99, and the record's write rate (committed samples per second); after the source stops,
-//! every sample sent must be committed (nothing acknowledged is lost).
+//! every sample sent must be committed (nothing acknowledged is lost). The process's
+//! resident memory (VmRSS) is read at the end of each measurement.
 //!
 //! `cargo bench -p gearcomp-service --bench plant` (machines: `PLANT_MACHINES`, default
-//! 500; seconds measured: `PLANT_SECONDS`, default 10). A plain binary (no criterion):
+//! 500; seconds measured: `PLANT_SECONDS`, default 10; `PLANT_RECORD_QUEUE` overrides the
+//! record queue's capacity, e.g. 65536 to see what the earlier fixed queue held). A plain
+//! binary (no criterion):
 //! one long run per configuration is the measurement.
 #![allow(missing_docs, clippy::unwrap_used, clippy::expect_used)]
 
@@ -59,9 +62,13 @@ mod plant {
     /// Where a machine's records go.
     #[derive(Debug, Clone)]
     pub enum Sink {
-        /// PostgreSQL at this URL, one writer (and connection) per machine, commits every
-        /// `commit_s`.
-        Postgres { url: String, commit_s: f64 },
+        /// PostgreSQL at this URL, the process's shared writer, commits every `commit_s`;
+        /// record queues of `queue` records (the store's own size when `None`).
+        Postgres {
+            url: String,
+            commit_s: f64,
+            queue: Option<usize>,
+        },
         /// Nowhere: a thread receives and counts them (the cycle's cost alone).
         Discard,
     }
@@ -70,18 +77,22 @@ mod plant {
         let cfg = EngineConfig::from_toml_str(&engine_toml()).unwrap();
         let engine = Engine::new(&cfg).unwrap();
         let stats = Arc::new(StoreStats::default());
-        let (rec_tx, rec_rx) = sync_channel(1 << 16);
-        let writer = match sink {
-            Sink::Postgres { url, commit_s } => {
+        let (rec_tx, writer) = match sink {
+            Sink::Postgres {
+                url,
+                commit_s,
+                queue,
+            } => {
                 let mut sc = ServiceConfig::default();
                 sc.machine.name = name;
                 sc.storage.backend = gearcomp_service::config::StorageBackend::Postgres;
                 sc.storage.url = Some(url.to_string());
                 let store = storage::open_store(&sc).unwrap();
+                let (rec_tx, rec_rx) = sync_channel(queue.unwrap_or(store.record_queue()));
                 store
                     .register_names(engine.channel_names(), engine.axis_names(), &[])
                     .unwrap();
-                store
+                let writer = store
                     .spawn_writer(
                         rec_rx,
                         WriterParams {
@@ -90,18 +101,21 @@ mod plant {
                         },
                         stats.clone(),
                     )
-                    .unwrap()
+                    .unwrap();
+                (rec_tx, writer)
             }
             Sink::Discard => {
+                let (rec_tx, rec_rx) = sync_channel(1 << 16);
                 let stats = stats.clone();
-                std::thread::spawn(move || {
+                let writer = std::thread::spawn(move || {
                     for r in rec_rx {
                         if matches!(r, Record::Sample { .. }) {
                             stats.committed_samples.fetch_add(1, Ordering::Release);
                         }
                     }
                     Ok(())
-                })
+                });
+                (rec_tx, writer)
             }
         };
         let (off_tx, offsets) = tokio::sync::watch::channel(OffsetOut::default());
@@ -141,6 +155,19 @@ mod plant {
         pub committed_per_s: f64,
         pub drained_s: f64,
         pub lost: u64,
+        pub rss_mb: f64,
+    }
+
+    /// The process's resident memory, MB (VmRSS of /proc/self/status).
+    fn rss_mb() -> f64 {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("VmRSS:"))
+                    .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+            })
+            .map_or(f64::NAN, |kb| kb / 1024.0)
     }
 
     /// Runs `n` machines for `secs` s (after 2 s of warm-up) into the server at `url`.
@@ -231,6 +258,7 @@ mod plant {
         let sent_per_s = (sent - sent_at_measure) as f64 / window;
         let committed_per_s = (committed(&machines) - committed_at_measure) as f64 / window;
         measuring.store(false, Ordering::Relaxed);
+        let rss_mb = rss_mb();
 
         // Drain: every sample sent must be committed.
         let t_drain = Instant::now();
@@ -255,6 +283,7 @@ mod plant {
             committed_per_s,
             drained_s,
             lost,
+            rss_mb,
         }
     }
 }
@@ -273,7 +302,7 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(10.0);
-    // One writer connection and one read connection per machine.
+    // One read connection per machine and the shared writer's.
     let server = match postgres_common::PgServer::try_start_settings(&[
         format!("max_connections={}", 2 * n + 40),
         "shared_buffers=128MB".into(),
@@ -287,13 +316,17 @@ fn main() {
     let url = server.url();
     println!(
         "plant: {} channels at {} Hz per machine, {secs} s measured after 2 s warm-up; \
-         PostgreSQL on loopback, one writer per machine",
+         PostgreSQL on loopback, one shared writer per process",
         plant::CHANNELS,
         plant::RATE_HZ
     );
+    let queue: Option<usize> = std::env::var("PLANT_RECORD_QUEUE")
+        .ok()
+        .and_then(|v| v.parse().ok());
     let pg = |commit_s: f64| plant::Sink::Postgres {
         url: url.clone(),
         commit_s,
+        queue,
     };
     let runs = [
         ("baseline-1-machine-pg", pg(0.25), 1),
@@ -306,7 +339,7 @@ fn main() {
         println!(
             "plant/{label:<22} {:>4} machines: {:>6.0} samples/s sent (target {:>6.0}), \
              sample→offset p50 {:.3} ms p99 {:.3} ms ({} scans), record {:>6.0} samples/s \
-             committed, drained in {:.2} s, {} lost",
+             committed, drained in {:.2} s, {} lost, RSS {:.0} MB",
             f.machines,
             f.sent_per_s,
             f.machines as f64 * plant::CHANNELS as f64 * plant::RATE_HZ,
@@ -315,7 +348,8 @@ fn main() {
             f.scans,
             f.committed_per_s,
             f.drained_s,
-            f.lost
+            f.lost,
+            f.rss_mb
         );
     }
 }

@@ -381,7 +381,17 @@ pub trait Store: Send + Sync {
         params: WriterParams,
         stats: Arc<StoreStats>,
     ) -> Result<JoinHandle<Result<()>>>;
+    /// Capacity of the bounded record queue that feeds [`Store::spawn_writer`] (a full
+    /// queue holds the cycle back rather than dropping a record); it is allocated up
+    /// front, so it is sized to what the backend's writer needs.
+    fn record_queue(&self) -> usize {
+        RECORD_QUEUE
+    }
 }
+
+/// Capacity of the record queue of a writer that drains it itself (SQLite): the records
+/// of one commit interval at the highest rate the service is tested at.
+pub const RECORD_QUEUE: usize = 1 << 16;
 
 /// Opens the store a configuration names (creating the schema if needed).
 pub fn open_store(cfg: &ServiceConfig) -> Result<Arc<dyn Store>> {

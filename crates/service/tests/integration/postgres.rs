@@ -627,3 +627,165 @@ fn check_no_gap(server: &PgServer, store: Arc<dyn Store>, committed: u64) {
     assert!(cleared > a.time_s);
     assert!(raw[0].time_s < a.time_s && a.time_s < raw.last().unwrap().time_s);
 }
+
+/// `(machine name, sample id, raw)` of every stored sample of the named machines.
+fn stored_samples(server: &PgServer, machine: &str) -> Vec<(i64, f64)> {
+    server
+        .client()
+        .query(
+            "SELECT s.id, s.raw FROM samples s JOIN machines m ON m.id = s.machine_id \
+             WHERE m.name = $1 ORDER BY s.id",
+            &[&machine],
+        )
+        .unwrap()
+        .iter()
+        .map(|r| (r.get(0), r.get(1)))
+        .collect()
+}
+
+#[test]
+fn machines_of_one_process_share_one_writer_and_each_keeps_exactly_once_and_its_resume_state() {
+    let mut server = PgServer::start();
+    let names_of = ["share-a", "share-b", "share-c"];
+    let params = || WriterParams {
+        commit_interval: Duration::from_millis(100),
+        clock: Clock::new(0.0, 1.0),
+    };
+    let open = |name: &str| {
+        let mut cfg = pg_cfg(&server, name);
+        cfg.storage.reconnect = gearcomp_service::config::Backoff {
+            min_s: 0.05,
+            max_s: 0.2,
+        };
+        let s = open_store(&cfg).unwrap();
+        s.register_names(&names(&["a_c"]), &names(&["X"]), &[])
+            .unwrap();
+        s
+    };
+    let stores: Vec<Arc<dyn Store>> = names_of.iter().map(|n| open(n)).collect();
+    let stats: Vec<Arc<StoreStats>> = (0..3).map(|_| Arc::new(StoreStats::default())).collect();
+    let mut txs = Vec::new();
+    let mut handles = Vec::new();
+    for (s, st) in stores.iter().zip(&stats) {
+        let (tx, rx) = sync_channel(s.record_queue());
+        handles.push(s.spawn_writer(rx, params(), st.clone()).unwrap());
+        txs.push(tx);
+    }
+    // One session holds the three machines' writer locks (one writer per machine would
+    // hold them in three).
+    let held: (i64, i64) = {
+        let r = server
+            .client()
+            .query_one(
+                "SELECT COUNT(DISTINCT l.pid), COUNT(*) FROM pg_locks l JOIN machines m \
+                 ON l.objid::int = m.id WHERE l.locktype = 'advisory' AND l.granted \
+                 AND l.classid::int = 1734569837 AND m.name LIKE 'share-%'",
+                &[],
+            )
+            .unwrap();
+        (r.get(0), r.get(1))
+    };
+    assert_eq!(held, (1, 3));
+
+    // Each machine sends its own numbered samples (raw = its own count) and, with every
+    // scan, an offset and a resume state; machine c sends 3 times as many.
+    let feed = |txs: &[SyncSender<Record>], from: &mut [u64; 3], scans: u64| {
+        for k in 0..scans {
+            for (m, tx) in txs.iter().enumerate() {
+                let per = if m == 2 { 3 } else { 1 };
+                for _ in 0..per {
+                    from[m] += 1;
+                    tx.send(Record::Sample {
+                        time_s: from[m] as f64,
+                        channel: 0,
+                        raw: from[m] as f64,
+                    })
+                    .unwrap();
+                }
+                tx.send(Record::Offset {
+                    time_s: from[m] as f64,
+                    axis: 0,
+                    offset_um: m as f64 + k as f64 * 1e-3,
+                    target_um: 0.0,
+                    law_um: 0.0,
+                    status: "ok",
+                })
+                .unwrap();
+                tx.send(Record::Resume {
+                    time_s: from[m] as f64,
+                    state: format!("{}:{}", names_of[m], from[m]),
+                })
+                .unwrap();
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    };
+    let mut sent = [0u64; 3];
+    feed(&txs, &mut sent, 1500);
+    // The server goes away mid-run and comes back: commits in doubt are settled per
+    // machine, nothing is lost or written twice.
+    server.stop();
+    feed(&txs, &mut sent, 1500);
+    std::thread::sleep(Duration::from_millis(300));
+    server.restart();
+    feed(&txs, &mut sent, 1500);
+    drop(txs);
+    for h in handles {
+        h.join().unwrap().unwrap();
+    }
+    let mut c = server.client();
+    for (m, name) in names_of.iter().enumerate() {
+        let rows = stored_samples(&server, name);
+        // Ids 1…N with raw = id: every sample once, in order, none from another machine.
+        assert_eq!(rows.len() as u64, sent[m], "{name}");
+        for (i, (id, raw)) in rows.iter().enumerate() {
+            assert_eq!((*id, *raw), (i as i64 + 1, (i + 1) as f64), "{name}");
+        }
+        assert_eq!(stats[m].committed_samples.load(Ordering::Acquire), sent[m]);
+        assert_eq!(stats[m].last_sample_id.load(Ordering::Acquire), sent[m]);
+        // Its own resume state, the newest, committed with its last offset row.
+        assert_eq!(
+            stores[m].resume_state().unwrap(),
+            Some(format!("{name}:{}", sent[m]))
+        );
+        let same: bool = c
+            .query_one(
+                "SELECT r.xmin::text = (SELECT o.xmin::text FROM offsets o \
+                 WHERE o.machine_id = r.machine_id ORDER BY o.id DESC LIMIT 1) \
+                 FROM resume_state r JOIN machines m ON m.id = r.machine_id WHERE m.name = $1",
+                &[name],
+            )
+            .unwrap()
+            .get(0);
+        assert!(same, "{name}");
+        // Its own outage alarm, raised and cleared.
+        let alarms = stores[m].alarms(false, 10).unwrap();
+        assert!(
+            alarms
+                .iter()
+                .any(|a| a.key == "storage.connection" && a.cleared_s.is_some()),
+            "{name}: {alarms:?}"
+        );
+    }
+    // The machines' rows went in together: transactions holding samples of all three.
+    let shared: i64 = c
+        .query_one(
+            "SELECT COUNT(*) FROM (SELECT s.xmin::text FROM samples s JOIN machines m \
+             ON m.id = s.machine_id WHERE m.name LIKE 'share-%' GROUP BY 1 \
+             HAVING COUNT(DISTINCT s.machine_id) = 3) t",
+            &[],
+        )
+        .unwrap()
+        .get(0);
+    assert!(shared >= 1, "{shared}");
+    // Every machine has left: the shared writer's session and locks are gone.
+    let locks: i64 = c
+        .query_one(
+            "SELECT COUNT(*) FROM pg_locks WHERE locktype = 'advisory' \
+             AND classid::int = 1734569837",
+            &[],
+        )
+        .unwrap()
+        .get(0);
+    assert_eq!(locks, 0);
+}

@@ -38,7 +38,7 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -63,11 +63,13 @@ use crate::error::{invalid, Result, ServiceError};
 use spill::Spill;
 
 mod connect;
+mod hub;
 mod schema;
 mod writer;
 
 use connect::*;
 pub use connect::{connection_config, Connection};
+pub use hub::{COLLECT_EVERY, INBOX_RECORDS};
 use schema::*;
 pub use schema::{migrate, SCHEMA_VERSION};
 pub use writer::SHUTDOWN_RETRY;
@@ -80,6 +82,9 @@ struct Target {
     describe: String,
     machine: String,
     machine_id: i32,
+    /// Which shared writer the machine joins: the settings its session depends on (kept
+    /// in memory only; it may hold the password's variable name, never shown).
+    hub_key: String,
 }
 
 impl Target {
@@ -118,12 +123,20 @@ impl PgStore {
         let machine_id: i32 = client
             .query_one("SELECT id FROM machines WHERE name = $1", &[&name])?
             .try_get(0)?;
+        let hub_key = format!(
+            "{:?}\n{:?}\n{}\n{:?}",
+            cfg.storage.url,
+            cfg.storage.password_env,
+            conn.mode.name(),
+            cfg.storage.ca_file
+        );
         Ok(Self {
             target: Target {
                 conn,
                 describe: format!("{describe} (machine {name})"),
                 machine: name,
                 machine_id,
+                hub_key,
             },
             buffer_records: cfg.storage.buffer_records,
             reconnect: cfg.storage.reconnect,
@@ -504,15 +517,12 @@ impl Store for PgStore {
         let (_, last_id) = self.sample_totals()?;
         let mut w = Writer {
             target: self.target.clone(),
-            client: None,
             pending: VecDeque::new(),
             next_id: last_id + 1,
             attempted: None,
             last_batch: 0,
             bound: self.buffer_records.max(1) as usize,
             backoff: self.reconnect,
-            failures: 0,
-            retry_at: Instant::now(),
             last_error: String::new(),
             down_alarm: false,
             full_alarm: false,
@@ -527,8 +537,10 @@ impl Store for PgStore {
             params,
             stats,
         };
-        // Take the writer's lock now so a second service for this machine fails at start.
-        w.connect_locked(Duration::from_secs(5))?;
+        // Take the writer's lock now so a second service for this machine fails at start
+        // (waiting a moment for a killed predecessor's session to end).
+        let (mut c, last) = lock_machine(&self.target, Duration::from_secs(5))?;
+        w.connected(last);
         // A spill left by a process that ended during an outage goes in before anything new.
         let left = w.spill.resume(w.last_batch)?;
         if left > 0 {
@@ -546,16 +558,25 @@ impl Store for PgStore {
             ));
         }
         w.publish();
-        std::thread::Builder::new()
-            .name("gearcomp-store".into())
-            .spawn(move || w.run(rx))
-            .map_err(|source| ServiceError::Io {
-                action: "start",
-                path: "the store thread".into(),
-                source,
-            })
+        // The lock moves to the process's shared writer, which re-reads `last_batch`.
+        c.execute(
+            "SELECT pg_advisory_unlock($1, $2)",
+            &[&LOCK_CLASS, &self.target.machine_id],
+        )?;
+        drop(c);
+        hub::join(&self.target.hub_key, w, rx)
+    }
+
+    fn record_queue(&self) -> usize {
+        // The shared writer's collector empties the queue every `COLLECT_EVERY` into an
+        // inbox that grows on demand: the queue only bridges that interval.
+        RECORD_HANDOFF
     }
 }
+
+/// Capacity of a machine's record queue with PostgreSQL: 4 096 records bridge the
+/// collector's 2 ms interval up to 2 million records/s.
+pub const RECORD_HANDOFF: usize = 1 << 12;
 
 #[cfg(test)]
 mod tests {

@@ -1,6 +1,8 @@
-//! The writer thread of one machine: batched commits (binary `COPY`), exactly once across
-//! unknown commit outcomes, reconnection with back-off, the bounded buffer and the spill
-//! file (see the module doc of `storage::postgres`).
+//! The record writer of one machine: its buffer, batch numbers (exactly once across
+//! unknown commit outcomes), alarms, the bounded buffer and the spill file (see the module
+//! doc of `storage::postgres`). The connection, the commits (binary `COPY`) and the
+//! reconnection with back-off belong to the process's shared writer ([`super::hub`]), which
+//! drives one `Writer` per machine.
 
 use super::*;
 
@@ -13,17 +15,16 @@ pub const SHUTDOWN_RETRY: Duration = Duration::from_secs(10);
 /// A chunk whose `COMMIT` was sent but whose outcome is not known yet.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Attempt {
-    batch: i64,
-    records: usize,
+    pub(super) batch: i64,
+    pub(super) records: usize,
     samples: u64,
     /// The chunk is spilled rows up to this `seq` (deleted from the file once committed).
     spill_upto: Option<i64>,
 }
 
-/// The writer thread's state: the connection (if any), the records waiting, the counters.
+/// One machine's writer state: the records waiting, the batch numbers, the counters.
 pub(super) struct Writer {
     pub(super) target: Target,
-    pub(super) client: Option<Client>,
     pub(super) pending: VecDeque<Record>,
     /// Id of the next sample (ids are 1, 2, … per machine).
     pub(super) next_id: u64,
@@ -32,8 +33,6 @@ pub(super) struct Writer {
     pub(super) last_batch: i64,
     pub(super) bound: usize,
     pub(super) backoff: Backoff,
-    pub(super) failures: u32,
-    pub(super) retry_at: Instant,
     pub(super) last_error: String,
     pub(super) down_alarm: bool,
     pub(super) full_alarm: bool,
@@ -55,43 +54,52 @@ pub(super) struct Writer {
     pub(super) stats: Arc<StoreStats>,
 }
 
-impl Writer {
-    /// Connects and takes the machine's writer lock, retrying for up to `patience` (a
-    /// killed predecessor's session may take a moment to end).
-    pub(super) fn connect_locked(&mut self, patience: Duration) -> Result<()> {
-        let t0 = Instant::now();
-        loop {
-            let mut c = self.target.connect()?;
-            let got: bool = c
+/// Connects and takes `target`'s writer lock (a session advisory lock on the machine id),
+/// retrying for up to `patience` (a killed predecessor's session may take a moment to
+/// end); returns the session holding it and the machine's `last_batch`.
+pub(super) fn lock_machine(target: &Target, patience: Duration) -> Result<(Client, i64)> {
+    let t0 = Instant::now();
+    loop {
+        let mut c = target.connect()?;
+        let got: bool = c
+            .query_one(
+                "SELECT pg_try_advisory_lock($1, $2)",
+                &[&LOCK_CLASS, &target.machine_id],
+            )?
+            .try_get(0)?;
+        if got {
+            let last: i64 = c
                 .query_one(
-                    "SELECT pg_try_advisory_lock($1, $2)",
-                    &[&LOCK_CLASS, &self.target.machine_id],
+                    "SELECT last_batch FROM machines WHERE id = $1",
+                    &[&target.machine_id],
                 )?
                 .try_get(0)?;
-            if got {
-                let last: i64 = c
-                    .query_one(
-                        "SELECT last_batch FROM machines WHERE id = $1",
-                        &[&self.target.machine_id],
-                    )?
-                    .try_get(0)?;
-                self.settle(last);
-                self.last_batch = last;
-                self.client = Some(c);
-                return Ok(());
-            }
-            if t0.elapsed() >= patience {
-                return Err(invalid(
-                    "machine.name",
-                    &self.target.machine,
-                    format!(
-                        "a machine no other running gearcomp serve writes to {}",
-                        self.target.describe
-                    ),
-                ));
-            }
-            std::thread::sleep(Duration::from_millis(100));
+            return Ok((c, last));
         }
+        if t0.elapsed() >= patience {
+            return Err(busy(target));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The refusal of a second writer for a machine that has one running.
+pub(super) fn busy(target: &Target) -> ServiceError {
+    invalid(
+        "machine.name",
+        &target.machine,
+        format!(
+            "a machine no other running gearcomp serve writes to {}",
+            target.describe
+        ),
+    )
+}
+
+impl Writer {
+    /// Takes the database's `last_batch` after (re)connecting: settles a chunk in doubt.
+    pub(super) fn connected(&mut self, last_batch: i64) {
+        self.settle(last_batch);
+        self.last_batch = last_batch;
     }
 
     /// Resolves a chunk in doubt: the database's `last_batch` tells whether it went in.
@@ -337,12 +345,9 @@ impl Writer {
         }
     }
 
-    fn fail(&mut self, e: &ServiceError) {
-        self.client = None;
-        self.failures += 1;
+    /// The store became unreachable (the shared writer's connection failed): alarm once.
+    pub(super) fn fail(&mut self, e: &ServiceError) {
         self.last_error = e.to_string();
-        let wait = self.backoff.wait_s(self.failures);
-        self.retry_at = Instant::now() + Duration::from_secs_f64(wait);
         self.stats.unreachable.store(true, Ordering::Release);
         if !self.down_alarm {
             self.down_alarm = true;
@@ -362,79 +367,56 @@ impl Writer {
         self.publish();
     }
 
-    /// Writes what is waiting, chunk by chunk; returns false if the store is unreachable
-    /// (the records stay, in order).
-    fn flush(&mut self) -> bool {
-        while !self.write_pending() {
-            // The alarms that closing an outage adds are written in the same flush.
-        }
-        self.publish();
+    /// True when nothing waits for the database (memory and spill written).
+    pub(super) fn drained(&self) -> bool {
         self.pending.is_empty() && !self.spilling
     }
 
-    /// Writes every waiting chunk. Returns false when the alarms closing an outage were
-    /// added (call again to write them), true otherwise, also when the store is
-    /// unreachable (the records stay, in order).
-    fn write_pending(&mut self) -> bool {
-        loop {
-            if self.pending.is_empty() && self.spilling {
-                self.next_from_spill();
-            }
-            if self.pending.is_empty() {
-                break;
-            }
-            if self.client.is_none() {
-                if Instant::now() < self.retry_at {
-                    return true;
-                }
-                if let Err(e) = self.connect_locked(Duration::ZERO) {
-                    self.fail(&e);
-                    return true;
-                }
-            }
-            let n = self.pending.len().min(CHUNK_RECORDS);
-            let samples = self
-                .pending
-                .range(..n)
-                .filter(|r| matches!(r, Record::Sample { .. }))
-                .count() as u64;
-            let Some(client) = self.client.as_mut() else {
-                return true;
-            };
-            // The writer lock makes this thread the only one advancing `last_batch`.
-            let batch = self.last_batch + 1;
-            let a = Attempt {
-                batch,
-                records: n,
-                samples,
-                spill_upto: self.loaded,
-            };
-            if let Some(upto) = self.loaded {
-                // Recorded before sending, so a crash in between is settled at next start.
-                if let Err(e) = self.spill.mark_in_flight(batch, upto) {
-                    eprintln!("gearcomp serve: {e}");
-                }
-            }
-            self.attempted = Some(a);
-            match write_chunk(
-                client,
-                self.target.machine_id,
-                self.pending.range(..n),
-                self.next_id,
-                batch,
-            ) {
-                Ok(()) => {
-                    self.attempted = None;
-                    self.last_batch = batch;
-                    self.committed(a);
-                    self.failures = 0;
-                }
-                Err(e) => {
-                    self.fail(&e);
-                    return true;
-                }
+    /// The next chunk to write (loading spilled records first when memory is written), as
+    /// batch `last_batch + 1`; `None` when nothing waits. The chunk is `pending[..records]`.
+    pub(super) fn prepare(&mut self) -> Option<Attempt> {
+        if self.pending.is_empty() && self.spilling {
+            self.next_from_spill();
+        }
+        if self.pending.is_empty() {
+            return None;
+        }
+        let n = self.pending.len().min(CHUNK_RECORDS);
+        let samples = self
+            .pending
+            .range(..n)
+            .filter(|r| matches!(r, Record::Sample { .. }))
+            .count() as u64;
+        // The writer lock makes this machine's member of the shared writer the only one
+        // advancing its `last_batch`.
+        let batch = self.last_batch + 1;
+        let a = Attempt {
+            batch,
+            records: n,
+            samples,
+            spill_upto: self.loaded,
+        };
+        if let Some(upto) = self.loaded {
+            // Recorded before sending, so a crash in between is settled at next start.
+            if let Err(e) = self.spill.mark_in_flight(batch, upto) {
+                eprintln!("gearcomp serve: {e}");
             }
         }
+        self.attempted = Some(a);
+        Some(a)
+    }
+
+    /// The chunk of `a` is committed.
+    pub(super) fn done(&mut self, a: Attempt) {
+        self.attempted = None;
+        self.last_batch = a.batch;
+        self.committed(a);
+    }
+
+    /// After everything waiting was written: clears the outage alarms (the records they
+    /// add are written by the next round). Returns true when it added records.
+    pub(super) fn after_write(&mut self) -> bool {
+        let before = self.pending.len();
         self.after_drain();
         if self.down_alarm {
             self.down_alarm = false;
@@ -448,63 +430,33 @@ impl Writer {
                 key: "storage.connection".into(),
             });
         }
-        self.pending.is_empty()
+        self.publish();
+        self.pending.len() > before
     }
 
-    /// The loop: take records as they come, write them at the latest `commit_interval`
-    /// after the oldest unwritten one arrived (or at the next reconnect attempt).
-    pub(super) fn run(mut self, rx: Receiver<Record>) -> Result<()> {
-        let mut oldest: Option<Instant> = None;
-        loop {
-            let db_due = match (oldest, self.client.is_some()) {
-                (None, _) => None,
-                (Some(t), true) => Some(t + self.params.commit_interval),
-                (Some(t), false) => Some(self.retry_at.max(t + self.params.commit_interval)),
-            };
-            // The spill file commits at the same cadence, whether or not the server is up.
-            let spill_due = self
-                .spill
-                .staged_since
-                .map(|t| t + self.params.commit_interval);
-            let due = match (db_due, spill_due) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            };
-            let got = match due {
-                None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
-                Some(d) => rx.recv_timeout(d.saturating_duration_since(Instant::now())),
-            };
-            match got {
-                Ok(r) => {
-                    self.push(r);
-                    oldest.get_or_insert_with(Instant::now);
-                    if due.is_none_or(|d| Instant::now() < d) {
-                        continue;
-                    }
-                }
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => break,
-            }
+    /// Takes the records the machine sent since the last call, in order.
+    pub(super) fn take(&mut self, records: VecDeque<Record>) {
+        for r in records {
+            self.push(r);
+        }
+    }
+
+    /// Commits the staged spill records when their commit interval is up.
+    pub(super) fn spill_due(&mut self, now: Instant) {
+        if self
+            .spill
+            .staged_since
+            .is_some_and(|t| now >= t + self.params.commit_interval)
+        {
             self.commit_spill();
-            self.flush();
-            if self.pending.is_empty() && !self.spilling {
-                oldest = None;
-            } else {
-                // Unwritten records (or the alarms the flush itself added) stay due.
-                oldest.get_or_insert_with(Instant::now);
-            }
             self.publish();
         }
-        // Every sender is gone: write what is left, retrying for a bounded time.
-        let until = Instant::now() + SHUTDOWN_RETRY;
-        while !self.flush() && Instant::now() < until {
-            let wait = self
-                .retry_at
-                .min(until)
-                .saturating_duration_since(Instant::now());
-            std::thread::sleep(wait.max(Duration::from_millis(10)));
-        }
-        if self.pending.is_empty() && !self.spilling {
+    }
+
+    /// Every sender is gone and the shared writer gave up writing what is left (or it
+    /// was all written): keeps the rest in the spill file for the next start.
+    pub(super) fn finish(mut self) -> Result<()> {
+        if self.drained() {
             return Ok(());
         }
         self.commit_spill();
@@ -551,78 +503,100 @@ impl Writer {
     }
 }
 
-/// Writes one chunk in one transaction: events (alarms, audit, models) in order, the
-/// series with binary COPY, then `last_batch`.
-pub(super) fn write_chunk<'a>(
-    client: &mut Client,
-    mid: i32,
-    chunk: impl Iterator<Item = &'a Record> + Clone,
-    first_id: u64,
-    batch: i64,
-) -> Result<()> {
+/// One machine's chunk of a shared transaction.
+#[derive(Clone)]
+pub(super) struct Part<'a> {
+    /// The machine's key.
+    pub mid: i32,
+    /// Its records, in arrival order.
+    pub chunk: std::collections::vec_deque::Iter<'a, Record>,
+    /// Id of its first sample.
+    pub first_id: u64,
+    /// Its batch number (`machines.last_batch` after the commit).
+    pub batch: i64,
+}
+
+/// Writes the chunks of several machines in one transaction: each machine's events
+/// (alarms, audit, models) in order, the newest resume state of each, the series of all
+/// with one binary COPY per table, then every machine's `last_batch`.
+pub(super) fn write_chunks(client: &mut Client, parts: &[Part<'_>]) -> Result<()> {
     let mut tx = client.transaction()?;
     let (mut n_s, mut n_a, mut n_o, mut n_t) = (0usize, 0usize, 0usize, 0usize);
-    for r in chunk.clone() {
-        match r {
-            Record::Sample { .. } => n_s += 1,
-            Record::Average { .. } => n_a += 1,
-            Record::Offset { .. } => n_o += 1,
-            Record::Target { .. } => n_t += 1,
-            Record::AlarmRaised {
-                time_s,
-                key,
-                message,
-            } => {
-                tx.execute(
-                    "INSERT INTO alarms (machine_id, time_s, key, message) VALUES ($1, $2, $3, $4)",
-                    &[&mid, time_s, key, message],
-                )?;
-            }
-            Record::AlarmCleared { time_s, key } => {
-                tx.execute(
-                    "UPDATE alarms SET cleared_s = $1 \
-                     WHERE machine_id = $2 AND key = $3 AND cleared_s IS NULL",
-                    &[time_s, &mid, key],
-                )?;
-            }
-            Record::AlarmAcknowledged { id, by } => {
-                tx.execute(
-                    "UPDATE alarms SET acknowledged_by = $1, acknowledged_unix_s = $2 \
-                     WHERE id = $3 AND machine_id = $4",
-                    &[by, &unix_now_s(), id, &mid],
-                )?;
-            }
-            Record::Audit {
-                token_id,
-                role,
-                action,
-                detail,
-            } => {
-                tx.execute(
-                    "INSERT INTO audit (machine_id, unix_s, token_id, role, action, detail) \
-                     VALUES ($1, $2, $3, $4, $5, $6)",
-                    &[&mid, &unix_now_s(), token_id, role, action, detail],
-                )?;
-            }
-            Record::Model {
-                source,
-                config_toml,
-            } => {
-                tx.execute(
-                    "INSERT INTO models (machine_id, unix_s, source, config_toml) \
-                     VALUES ($1, $2, $3, $4)",
-                    &[&mid, &unix_now_s(), source, config_toml],
-                )?;
-            }
-            Record::Resume { time_s, state } => {
-                tx.execute(
-                    "INSERT INTO resume_state (machine_id, time_s, state) VALUES ($1, $2, $3) \
-                     ON CONFLICT (machine_id) DO UPDATE SET time_s = EXCLUDED.time_s, \
-                     state = EXCLUDED.state",
-                    &[&mid, time_s, state],
-                )?;
+    // Only the newest resume state of a machine is kept: one upsert per machine.
+    let (mut r_mid, mut r_time, mut r_state) = (Vec::new(), Vec::new(), Vec::new());
+    for p in parts {
+        let mid = p.mid;
+        let mut resume: Option<(f64, &str)> = None;
+        for r in p.chunk.clone() {
+            match r {
+                Record::Sample { .. } => n_s += 1,
+                Record::Average { .. } => n_a += 1,
+                Record::Offset { .. } => n_o += 1,
+                Record::Target { .. } => n_t += 1,
+                Record::AlarmRaised {
+                    time_s,
+                    key,
+                    message,
+                } => {
+                    tx.execute(
+                        "INSERT INTO alarms (machine_id, time_s, key, message) \
+                         VALUES ($1, $2, $3, $4)",
+                        &[&mid, time_s, key, message],
+                    )?;
+                }
+                Record::AlarmCleared { time_s, key } => {
+                    tx.execute(
+                        "UPDATE alarms SET cleared_s = $1 \
+                         WHERE machine_id = $2 AND key = $3 AND cleared_s IS NULL",
+                        &[time_s, &mid, key],
+                    )?;
+                }
+                Record::AlarmAcknowledged { id, by } => {
+                    tx.execute(
+                        "UPDATE alarms SET acknowledged_by = $1, acknowledged_unix_s = $2 \
+                         WHERE id = $3 AND machine_id = $4",
+                        &[by, &unix_now_s(), id, &mid],
+                    )?;
+                }
+                Record::Audit {
+                    token_id,
+                    role,
+                    action,
+                    detail,
+                } => {
+                    tx.execute(
+                        "INSERT INTO audit (machine_id, unix_s, token_id, role, action, detail) \
+                         VALUES ($1, $2, $3, $4, $5, $6)",
+                        &[&mid, &unix_now_s(), token_id, role, action, detail],
+                    )?;
+                }
+                Record::Model {
+                    source,
+                    config_toml,
+                } => {
+                    tx.execute(
+                        "INSERT INTO models (machine_id, unix_s, source, config_toml) \
+                         VALUES ($1, $2, $3, $4)",
+                        &[&mid, &unix_now_s(), source, config_toml],
+                    )?;
+                }
+                Record::Resume { time_s, state } => resume = Some((*time_s, state)),
             }
         }
+        if let Some((t, state)) = resume {
+            r_mid.push(mid);
+            r_time.push(t);
+            r_state.push(state);
+        }
+    }
+    if !r_mid.is_empty() {
+        tx.execute(
+            "INSERT INTO resume_state (machine_id, time_s, state) \
+             SELECT * FROM unnest($1::int4[], $2::float8[], $3::text[]) \
+             ON CONFLICT (machine_id) DO UPDATE SET time_s = EXCLUDED.time_s, \
+             state = EXCLUDED.state",
+            &[&r_mid, &r_time, &r_state],
+        )?;
     }
     const F8: Type = Type::FLOAT8;
     const I4: Type = Type::INT4;
@@ -631,18 +605,20 @@ pub(super) fn write_chunk<'a>(
             "COPY samples (machine_id, id, time_s, channel, raw) FROM STDIN (FORMAT binary)",
         )?;
         let mut w = BinaryCopyInWriter::new(sink, &[I4, Type::INT8, F8, I4, F8]);
-        let mut id = first_id as i64;
-        for r in chunk.clone() {
-            if let Record::Sample {
-                time_s,
-                channel,
-                raw,
-            } = r
-            {
-                let ch = i32::from(*channel);
-                let raw = finite(*raw);
-                w.write(&[&mid, &id, time_s, &ch, &raw])?;
-                id += 1;
+        for p in parts {
+            let mut id = p.first_id as i64;
+            for r in p.chunk.clone() {
+                if let Record::Sample {
+                    time_s,
+                    channel,
+                    raw,
+                } = r
+                {
+                    let ch = i32::from(*channel);
+                    let raw = finite(*raw);
+                    w.write(&[&p.mid, &id, time_s, &ch, &raw])?;
+                    id += 1;
+                }
             }
         }
         w.finish()?;
@@ -652,15 +628,17 @@ pub(super) fn write_chunk<'a>(
             "COPY averages (machine_id, time_s, channel, value) FROM STDIN (FORMAT binary)",
         )?;
         let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8]);
-        for r in chunk.clone() {
-            if let Record::Average {
-                time_s,
-                channel,
-                value,
-            } = r
-            {
-                let ch = i32::from(*channel);
-                w.write(&[&mid, time_s, &ch, &finite(*value)])?;
+        for p in parts {
+            for r in p.chunk.clone() {
+                if let Record::Average {
+                    time_s,
+                    channel,
+                    value,
+                } = r
+                {
+                    let ch = i32::from(*channel);
+                    w.write(&[&p.mid, time_s, &ch, &finite(*value)])?;
+                }
             }
         }
         w.finish()?;
@@ -671,27 +649,29 @@ pub(super) fn write_chunk<'a>(
              FROM STDIN (FORMAT binary)",
         )?;
         let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8, F8, F8, Type::TEXT]);
-        for r in chunk.clone() {
-            if let Record::Offset {
-                time_s,
-                axis,
-                offset_um,
-                target_um,
-                law_um,
-                status,
-            } = r
-            {
-                let ax = i32::from(*axis);
-                let vals: [&(dyn ToSql + Sync); 7] = [
-                    &mid,
+        for p in parts {
+            for r in p.chunk.clone() {
+                if let Record::Offset {
                     time_s,
-                    &ax,
-                    &finite(*offset_um),
-                    &finite(*target_um),
-                    &finite(*law_um),
+                    axis,
+                    offset_um,
+                    target_um,
+                    law_um,
                     status,
-                ];
-                w.write(&vals)?;
+                } = r
+                {
+                    let ax = i32::from(*axis);
+                    let vals: [&(dyn ToSql + Sync); 7] = [
+                        &p.mid,
+                        time_s,
+                        &ax,
+                        &finite(*offset_um),
+                        &finite(*target_um),
+                        &finite(*law_um),
+                        status,
+                    ];
+                    w.write(&vals)?;
+                }
             }
         }
         w.finish()?;
@@ -701,22 +681,27 @@ pub(super) fn write_chunk<'a>(
             "COPY target_values (machine_id, time_s, target, value) FROM STDIN (FORMAT binary)",
         )?;
         let mut w = BinaryCopyInWriter::new(sink, &[I4, F8, I4, F8]);
-        for r in chunk {
-            if let Record::Target {
-                time_s,
-                target,
-                value,
-            } = r
-            {
-                let t = i32::from(*target);
-                w.write(&[&mid, time_s, &t, &finite(*value)])?;
+        for p in parts {
+            for r in p.chunk.clone() {
+                if let Record::Target {
+                    time_s,
+                    target,
+                    value,
+                } = r
+                {
+                    let t = i32::from(*target);
+                    w.write(&[&p.mid, time_s, &t, &finite(*value)])?;
+                }
             }
         }
         w.finish()?;
     }
+    let mids: Vec<i32> = parts.iter().map(|p| p.mid).collect();
+    let batches: Vec<i64> = parts.iter().map(|p| p.batch).collect();
     tx.execute(
-        "UPDATE machines SET last_batch = $1 WHERE id = $2",
-        &[&batch, &mid],
+        "UPDATE machines m SET last_batch = v.batch \
+         FROM unnest($1::int4[], $2::int8[]) AS v(id, batch) WHERE m.id = v.id",
+        &[&mids, &batches],
     )?;
     tx.commit()?;
     Ok(())
