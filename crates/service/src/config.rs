@@ -331,6 +331,30 @@ pub struct HttpTls {
     pub cert_file: PathBuf,
     /// Private key (PEM: PKCS#8, PKCS#1 or SEC1).
     pub key_file: PathBuf,
+    /// Client-certificate login: the plant CA (PEM) whose certificates the server accepts
+    /// from clients. A client certificate of another CA fails the TLS handshake.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub client_ca_file: Option<PathBuf>,
+    /// The roles of client certificates, by the certificate's subject CN or one of its
+    /// DNS subject alternative names (needs `client_ca_file`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub client_roles: Vec<ClientRole>,
+    /// Every client must present a certificate of `client_ca_file` named in
+    /// `client_roles`; tokens are refused. Otherwise a certificate is optional and a
+    /// request with a token is judged by the token.
+    #[serde(default)]
+    pub certificates_only: bool,
+}
+
+/// The role of a client certificate (`[http.tls] client_roles`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClientRole {
+    /// The certificate's subject common name (CN) or one of its DNS subject alternative
+    /// names, compared exactly (ASCII case-insensitive).
+    pub name: String,
+    /// What a client with that certificate may do.
+    pub role: Role,
 }
 
 fn default_max_connections() -> u32 {
@@ -584,6 +608,14 @@ pub struct MqttInput {
 pub struct MqttTls {
     /// The plant CA's certificate(s) (PEM), relative to the configuration file.
     pub ca_file: PathBuf,
+    /// Client-certificate login (mutual TLS): this service's certificate chain, leaf first
+    /// (PEM), issued by a CA the broker trusts. Only with `key_file`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cert_file: Option<PathBuf>,
+    /// The private key of `cert_file` (PEM: PKCS#8, PKCS#1 or SEC1); read at start, never
+    /// logged. Only with `cert_file`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key_file: Option<PathBuf>,
 }
 
 #[cfg(feature = "mqtt")]
@@ -953,7 +985,10 @@ impl ServiceConfig {
             }
         }
         if let Some(t) = &mut cfg.http.tls {
-            for f in [&mut t.cert_file, &mut t.key_file] {
+            for f in [&mut t.cert_file, &mut t.key_file]
+                .into_iter()
+                .chain(t.client_ca_file.as_mut())
+            {
                 if f.is_relative() {
                     *f = dir.join(&*f);
                 }
@@ -964,8 +999,15 @@ impl ServiceConfig {
             if let Some(f) = m.password_file.as_mut().filter(|f| f.is_relative()) {
                 *f = dir.join(&*f);
             }
-            if let Some(t) = m.tls.as_mut().filter(|t| t.ca_file.is_relative()) {
-                t.ca_file = dir.join(&t.ca_file);
+            if let Some(t) = m.tls.as_mut() {
+                for f in std::iter::once(&mut t.ca_file)
+                    .chain(t.cert_file.as_mut())
+                    .chain(t.key_file.as_mut())
+                {
+                    if f.is_relative() {
+                        *f = dir.join(&*f);
+                    }
+                }
             }
         }
         #[cfg(feature = "opcua")]
@@ -1208,6 +1250,34 @@ impl ServiceConfig {
                  HTTPS, or http.allow_plaintext = true to send tokens in clear on a protected \
                  network",
             ));
+        }
+        if let Some(t) = &h.tls {
+            if t.client_ca_file.is_none() && (t.certificates_only || !t.client_roles.is_empty()) {
+                return Err(invalid(
+                    "http.tls.client_ca_file",
+                    "missing",
+                    "the plant CA (PEM) that issues client certificates, with \
+                     http.tls.client_roles or http.tls.certificates_only",
+                ));
+            }
+            if t.client_ca_file.is_some() && t.client_roles.is_empty() {
+                return Err(invalid(
+                    "http.tls.client_roles",
+                    "empty",
+                    "at least one { name = \"<certificate CN or DNS name>\", role = \
+                     \"operator\" | \"read_only\" } with http.tls.client_ca_file",
+                ));
+            }
+            for (i, r) in t.client_roles.iter().enumerate() {
+                let n = r.name.trim();
+                if n.is_empty() || n.len() > 255 || n != r.name {
+                    return Err(invalid(
+                        format!("http.tls.client_roles[{i}].name"),
+                        format!("{:?}", r.name),
+                        "a certificate CN or DNS name, 1…255 characters, no surrounding spaces",
+                    ));
+                }
+            }
         }
         check_range(
             "http.max_connections",

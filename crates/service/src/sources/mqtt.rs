@@ -244,12 +244,118 @@ pub fn tls_config(
         ));
     }
     let provider = std::sync::Arc::new(rustls::crypto::ring::default_provider());
-    let cfg = rustls::ClientConfig::builder_with_provider(provider)
+    let builder = rustls::ClientConfig::builder_with_provider(provider)
         .with_safe_default_protocol_versions()
         .map_err(|e| invalid("input.tls", e, "TLS 1.2 or 1.3 with the ring provider"))?
-        .with_root_certificates(roots)
-        .with_no_client_auth();
+        .with_root_certificates(roots);
+    let cfg = match (&t.cert_file, &t.key_file) {
+        (None, None) => builder.with_no_client_auth(),
+        (Some(cert_file), Some(key_file)) => {
+            let (chain, key) = client_identity(cert_file, key_file)?;
+            builder.with_client_auth_cert(chain, key).map_err(|e| {
+                // The message names the file, never the key's content.
+                invalid(
+                    "input.tls.key_file",
+                    format!("{} ({e})", key_file.display()),
+                    "the private key of the certificate in input.tls.cert_file",
+                )
+            })?
+        }
+        (Some(_), None) => {
+            return Err(invalid(
+                "input.tls.key_file",
+                "missing",
+                "the client certificate's private key (PEM) with input.tls.cert_file",
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(invalid(
+                "input.tls.cert_file",
+                "missing",
+                "the client certificate (PEM) with input.tls.key_file",
+            ))
+        }
+    };
     Ok(std::sync::Arc::new(cfg))
+}
+
+/// The client certificate chain and key of `input.tls.cert_file` / `key_file`; errors
+/// name the key and the file (never the key's content).
+fn client_identity(
+    cert_file: &std::path::Path,
+    key_file: &std::path::Path,
+) -> crate::error::Result<(
+    Vec<rustls::pki_types::CertificateDer<'static>>,
+    rustls::pki_types::PrivateKeyDer<'static>,
+)> {
+    use crate::error::invalid;
+    use rustls::pki_types::pem::PemObject;
+    use rustls::pki_types::{CertificateDer, PrivateKeyDer};
+    let chain: Vec<CertificateDer<'static>> = CertificateDer::pem_file_iter(cert_file)
+        .and_then(|it| it.collect::<std::result::Result<Vec<_>, _>>())
+        .map_err(|e| {
+            invalid(
+                "input.tls.cert_file",
+                format!("{} ({e})", cert_file.display()),
+                "a readable PEM file with this service's client certificate chain",
+            )
+        })?;
+    if chain.is_empty() {
+        return Err(invalid(
+            "input.tls.cert_file",
+            cert_file.display(),
+            "a PEM file with at least one CERTIFICATE block",
+        ));
+    }
+    let key = PrivateKeyDer::from_pem_file(key_file).map_err(|e| {
+        invalid(
+            "input.tls.key_file",
+            format!("{} ({e})", key_file.display()),
+            "a readable PEM file with the private key (PKCS#8, PKCS#1 or SEC1)",
+        )
+    })?;
+    Ok((chain, key))
+}
+
+/// What a failed connection means, for the connection alarm: the broker's own error, and
+/// for a TLS alert about the client certificate (the broker refused ours, or wanted one
+/// and got none) the cause in the plant's terms.
+pub fn connection_cause(error: &str, tls: Option<&crate::config::MqttTls>) -> String {
+    let Some(t) = tls else {
+        return error.to_string();
+    };
+    let e = error.to_lowercase();
+    let client_cert_alert = [
+        "certificaterequired",
+        "certificate_required",
+        "unknownca",
+        "unknown_ca",
+        "badcertificate",
+        "bad_certificate",
+        "certificateunknown",
+        "certificate_unknown",
+        "certificateexpired",
+        "certificaterevoked",
+        "accessdenied",
+        "decrypterror",
+    ]
+    .iter()
+    .any(|a| e.contains("alert") && e.contains(a));
+    if !client_cert_alert {
+        return error.to_string();
+    }
+    match &t.cert_file {
+        None => format!(
+            "{error}: the broker requires a client certificate and none is configured \
+             (set input.tls.cert_file and input.tls.key_file)"
+        ),
+        Some(f) => format!(
+            "{error}: the broker refused the client certificate in input.tls.cert_file = {} \
+             (not issued by a CA the broker trusts, expired, or not for client \
+             authentication)",
+            f.display()
+        ),
+    }
 }
 
 /// Runs until the task is aborted.
@@ -573,8 +679,10 @@ pub async fn run(p: MqttParts) {
                     InputMsg::RaiseAlarm {
                         key: conn_key.clone(),
                         message: format!(
-                            "MQTT broker {}:{}: {e}; retrying with back-off ({wait_s} s)",
-                            cfg.host, cfg.port
+                            "MQTT broker {}:{}: {}; retrying with back-off ({wait_s} s)",
+                            cfg.host,
+                            cfg.port,
+                            connection_cause(&e.to_string(), cfg.tls.as_ref())
                         ),
                     },
                 );
@@ -821,6 +929,79 @@ mod tests {
         assert!(parse_reading(b"not json").unwrap_err().contains("not JSON"));
         assert!(parse_reading(b"[1]").is_err());
         assert!(parse_reading(b"1e999").is_err());
+    }
+
+    /// The client certificate's keys: one without the other, an unreadable file or a key
+    /// of another certificate stop the start naming the key and the file, never the key's
+    /// text.
+    #[test]
+    fn client_certificate_keys_are_checked_and_the_key_never_shown() {
+        use rcgen::{CertificateParams, DnType, KeyPair};
+        let dir = tempfile::tempdir().unwrap();
+        let key = KeyPair::generate().unwrap();
+        let mut p = CertificateParams::new(Vec::<String>::new()).unwrap();
+        p.distinguished_name.push(DnType::CommonName, "gearcomp-x");
+        let cert = p.self_signed(&key).unwrap();
+        let other_key = KeyPair::generate().unwrap().serialize_pem();
+        let f = |n: &str, text: &str| {
+            let path = dir.path().join(n);
+            std::fs::write(&path, text).unwrap();
+            path
+        };
+        let ca = f("ca.pem", &cert.pem());
+        let crt = f("c.crt", &cert.pem());
+        let k = f("c.key", &key.serialize_pem());
+        let wrong = f("o.key", &other_key);
+        let t = |cert_file: Option<&std::path::Path>, key_file: Option<&std::path::Path>| {
+            crate::config::MqttTls {
+                ca_file: ca.clone(),
+                cert_file: cert_file.map(Into::into),
+                key_file: key_file.map(Into::into),
+            }
+        };
+        tls_config(&t(Some(&crt), Some(&k))).unwrap();
+        tls_config(&t(None, None)).unwrap();
+        let e = tls_config(&t(Some(&crt), None)).unwrap_err().to_string();
+        assert!(e.contains("input.tls.key_file"), "{e}");
+        let e = tls_config(&t(None, Some(&k))).unwrap_err().to_string();
+        assert!(e.contains("input.tls.cert_file"), "{e}");
+        let e = tls_config(&t(Some(&crt), Some(&dir.path().join("missing.key"))))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("input.tls.key_file") && e.contains("missing.key"),
+            "{e}"
+        );
+        let e = tls_config(&t(Some(&crt), Some(&wrong)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("input.tls.key_file") && e.contains("o.key"),
+            "{e}"
+        );
+        for line in other_key.lines().chain(key.serialize_pem().lines()) {
+            assert!(line.starts_with("-----") || !e.contains(line), "{e}");
+        }
+        // A connection error that is no certificate alert is passed on unchanged; one
+        // that is names the cause.
+        assert_eq!(
+            connection_cause("Connection refused", Some(&t(None, None))),
+            "Connection refused"
+        );
+        assert!(connection_cause(
+            "IO: received fatal alert: CertificateRequired",
+            Some(&t(None, None))
+        )
+        .contains("requires a client certificate"));
+        assert!(connection_cause(
+            "IO: received fatal alert: UnknownCA",
+            Some(&t(Some(&crt), Some(&k)))
+        )
+        .contains("refused the client certificate"));
+        assert_eq!(
+            connection_cause("IO: received fatal alert: UnknownCA", None),
+            "IO: received fatal alert: UnknownCA"
+        );
     }
 
     proptest! {

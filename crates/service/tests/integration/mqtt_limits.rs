@@ -431,10 +431,20 @@ async fn a_session_that_drops_at_once_does_not_reset_the_back_off() {
     run.stop().await.unwrap();
 }
 
-/// A CA and a broker certificate it signed for 127.0.0.1: (CA PEM, cert PEM, key PEM).
-fn broker_pki() -> (String, String, String) {
+/// A plant CA with the certificates it signed: the broker's for 127.0.0.1 and a client
+/// certificate (CN `gearcomp-t1`, client authentication) for the service.
+struct Pki {
+    ca: String,
+    cert: String,
+    key: String,
+    client_cert: String,
+    client_key: String,
+}
+
+fn broker_pki() -> Pki {
     use rcgen::{
-        BasicConstraints, CertificateParams, DnType, IsCa, Issuer, KeyPair, KeyUsagePurpose,
+        BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer,
+        KeyPair, KeyUsagePurpose,
     };
     let ca_key = KeyPair::generate().unwrap();
     let mut p = CertificateParams::new(Vec::<String>::new()).unwrap();
@@ -448,13 +458,27 @@ fn broker_pki() -> (String, String, String) {
     let mut p = CertificateParams::new(vec!["127.0.0.1".to_string()]).unwrap();
     p.distinguished_name.push(DnType::CommonName, "127.0.0.1");
     let cert = p.signed_by(&key, &issuer).unwrap();
-    (ca.pem(), cert.pem(), key.serialize_pem())
+    let client_key = KeyPair::generate().unwrap();
+    let mut p = CertificateParams::new(Vec::<String>::new()).unwrap();
+    p.distinguished_name.push(DnType::CommonName, "gearcomp-t1");
+    p.extended_key_usages = vec![ExtendedKeyUsagePurpose::ClientAuth];
+    let client_cert = p.signed_by(&client_key, &issuer).unwrap();
+    Pki {
+        ca: ca.pem(),
+        cert: cert.pem(),
+        key: key.serialize_pem(),
+        client_cert: client_cert.pem(),
+        client_key: client_key.serialize_pem(),
+    }
 }
 
-/// A TLS-only broker (rumqttd with rustls) requiring a login.
-fn start_tls_broker(port: u16, dir: &std::path::Path, cert: &str, key: &str, login: (&str, &str)) {
-    std::fs::write(dir.join("broker.crt"), cert).unwrap();
-    std::fs::write(dir.join("broker.key"), key).unwrap();
+/// A TLS-only broker (rumqttd with rustls) requiring a login and a client certificate
+/// issued by the plant CA (rumqttd's `verify-client-cert`: `capath` is the CA it trusts
+/// for clients).
+fn start_tls_broker(port: u16, dir: &std::path::Path, pki: &Pki, login: (&str, &str)) {
+    std::fs::write(dir.join("broker.crt"), &pki.cert).unwrap();
+    std::fs::write(dir.join("broker.key"), &pki.key).unwrap();
+    std::fs::write(dir.join("client-ca.pem"), &pki.ca).unwrap();
     let cfg = format!(
         r#"
 id = 0
@@ -468,6 +492,7 @@ name = "v4-tls"
 listen = "127.0.0.1:{port}"
 next_connection_delay_ms = 1
 [v4.1.tls]
+capath = "{}"
 certpath = "{}"
 keypath = "{}"
 [v4.1.connections]
@@ -478,6 +503,7 @@ dynamic_filters = true
 [v4.1.connections.auth]
 {} = "{}"
 "#,
+        dir.join("client-ca.pem").display(),
         dir.join("broker.crt").display(),
         dir.join("broker.key").display(),
         login.0,
@@ -495,29 +521,63 @@ dynamic_filters = true
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn tls_broker_with_login_and_a_wrong_ca_refused() {
+/// Waits for the `mqtt.connection` alarm of a service that must not get a session and
+/// returns its message; asserts that nothing was received.
+async fn refused_with(api: &Api, ro: &str) -> String {
+    let all = api
+        .wait_for("/api/alarms", ro, 15.0, |v| {
+            !alarms_with(v, "mqtt.connection").is_empty()
+        })
+        .await;
+    let (_, st) = api.get("/api/status", Some(ro)).await;
+    assert_eq!(st["samples_received"], 0, "{st}");
+    alarms_with(&all, "mqtt.connection")[0]["message"]
+        .as_str()
+        .unwrap()
+        .to_string()
+}
+
+/// A service configuration directory: the engine, the password file, the plant CA the
+/// service trusts for the broker, and (optionally) its client certificate and key.
+fn tls_dir(ca: &str, client: Option<(&str, &str)>) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("engine.toml"), engine_ab(5.0)).unwrap();
-    let (ca, cert, key) = broker_pki();
-    std::fs::write(dir.path().join("plant-ca.pem"), &ca).unwrap();
+    std::fs::write(dir.path().join("plant-ca.pem"), ca).unwrap();
     std::fs::write(dir.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
+    if let Some((cert, key)) = client {
+        std::fs::write(dir.path().join("gearcomp.crt"), cert).unwrap();
+        std::fs::write(dir.path().join("gearcomp.key"), key).unwrap();
+    }
+    dir
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tls_broker_with_login_and_client_certificate_wrong_ca_or_certificate_refused() {
+    let pki = broker_pki();
+    let dir = tls_dir(&pki.ca, Some((&pki.client_cert, &pki.client_key)));
     let port = free_port();
     let login = ("gearcomp", "s3cret over TLS");
-    start_tls_broker(port, dir.path(), &cert, &key, login);
+    start_tls_broker(port, dir.path(), &pki, login);
 
-    // The gateway over TLS too (same CA).
+    // The gateway over TLS too (same CA, a client certificate of the plant CA).
     let mut roots = rustls::RootCertStore::empty();
-    for c in rustls::pki_types::pem::PemObject::pem_slice_iter(ca.as_bytes()) {
+    for c in rustls::pki_types::pem::PemObject::pem_slice_iter(pki.ca.as_bytes()) {
         roots.add(c.unwrap()).unwrap();
     }
+    let gw_chain: Vec<rustls::pki_types::CertificateDer<'static>> =
+        rustls::pki_types::pem::PemObject::pem_slice_iter(pki.client_cert.as_bytes())
+            .map(|c| c.unwrap())
+            .collect();
+    let gw_key: rustls::pki_types::PrivateKeyDer<'static> =
+        rustls::pki_types::pem::PemObject::from_pem_slice(pki.client_key.as_bytes()).unwrap();
     let ccfg = rustls::ClientConfig::builder_with_provider(std::sync::Arc::new(
         rustls::crypto::ring::default_provider(),
     ))
     .with_safe_default_protocol_versions()
     .unwrap()
     .with_root_certificates(roots)
-    .with_no_client_auth();
+    .with_client_auth_cert(gw_chain, gw_key)
+    .unwrap();
     let mut opts = MqttOptions::new("gw-tls", "127.0.0.1", port);
     opts.set_keep_alive(Duration::from_secs(5));
     opts.set_credentials(login.0, login.1);
@@ -533,63 +593,84 @@ async fn tls_broker_with_login_and_a_wrong_ca_refused() {
         }
     });
 
-    let tls = "username = \"gearcomp\"\npassword_file = \"mqtt.pw\"\ntls = { ca_file = \"plant-ca.pem\" }\n";
-    let run = start_with(dir.path(), &machine_toml("t1", port, tls)).await;
+    let login_keys = "username = \"gearcomp\"\npassword_file = \"mqtt.pw\"\n";
+    let mtls = format!(
+        "{login_keys}tls = {{ ca_file = \"plant-ca.pem\", cert_file = \"gearcomp.crt\", \
+         key_file = \"gearcomp.key\" }}\n"
+    );
+    // The right certificate and password: readings flow, no connection alarm.
+    let run = start_with(dir.path(), &machine_toml("t1", port, &mtls)).await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
     feed_until(&api, &ro, &gw, "t1", 24.0, 20.0, -15.0).await;
     let (_, all) = api.get("/api/alarms", Some(&ro)).await;
     assert!(alarms_with(&all, "mqtt.connection").is_empty(), "{all}");
 
+    // The key's text never appears in an alarm (its base64 body, any line of it).
+    let key_lines: Vec<&str> = pki
+        .client_key
+        .lines()
+        .filter(|l| !l.starts_with("-----"))
+        .collect();
+    let leaks = |msg: &str| {
+        msg.contains("s3cret")
+            || msg.contains("PRIVATE KEY")
+            || key_lines.iter().any(|l| msg.contains(l))
+    };
+
     // A broker certificate from another CA: refused (the connection alarm names the
     // certificate problem), nothing received, never a fallback to plain TCP.
-    let dir2 = tempfile::tempdir().unwrap();
-    std::fs::write(dir2.path().join("engine.toml"), engine_ab(5.0)).unwrap();
-    let (other_ca, _, _) = broker_pki();
-    std::fs::write(dir2.path().join("plant-ca.pem"), other_ca).unwrap();
-    std::fs::write(dir2.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
-    let bad = start_with(dir2.path(), &machine_toml("t2", port, tls)).await;
-    let ro2 = bad.generated.clone().unwrap().read_only;
-    let api2 = Api::new(&bad);
-    let all = api2
-        .wait_for("/api/alarms", &ro2, 15.0, |v| {
-            !alarms_with(v, "mqtt.connection").is_empty()
-        })
-        .await;
-    let msg = alarms_with(&all, "mqtt.connection")[0]["message"]
-        .as_str()
-        .unwrap()
-        .to_lowercase();
+    let other = broker_pki();
+    let dir2 = tls_dir(&other.ca, Some((&pki.client_cert, &pki.client_key)));
+    let bad = start_with(dir2.path(), &machine_toml("t2", port, &mtls)).await;
+    let msg = refused_with(&Api::new(&bad), &bad.generated.clone().unwrap().read_only).await;
+    eprintln!("broker certificate of another CA: {msg}");
+    let lower = msg.to_lowercase();
     assert!(
-        msg.contains("certificate") || msg.contains("issuer"),
+        lower.contains("certificate") || lower.contains("issuer"),
         "{msg}"
     );
-    assert!(!msg.contains("s3cret"), "{msg}");
-    let (_, st) = api2.get("/api/status", Some(&ro2)).await;
-    assert_eq!(st["samples_received"], 0, "{st}");
+    assert!(!leaks(&msg), "{msg}");
     bad.stop().await.unwrap();
 
-    // Without TLS against the TLS port: no session either.
-    let dir3 = tempfile::tempdir().unwrap();
-    std::fs::write(dir3.path().join("engine.toml"), engine_ab(5.0)).unwrap();
-    std::fs::write(dir3.path().join("mqtt.pw"), "s3cret over TLS\n").unwrap();
-    let plain = start_with(
-        dir3.path(),
-        &machine_toml(
-            "t3",
-            port,
-            "username = \"gearcomp\"\npassword_file = \"mqtt.pw\"\n",
-        ),
+    // No client certificate: the broker refuses the handshake; the alarm says the broker
+    // requires one and which keys to set.
+    let dir4 = tls_dir(&pki.ca, None);
+    let tls_only = format!("{login_keys}tls = {{ ca_file = \"plant-ca.pem\" }}\n");
+    let none = start_with(dir4.path(), &machine_toml("t4", port, &tls_only)).await;
+    let msg = refused_with(&Api::new(&none), &none.generated.clone().unwrap().read_only).await;
+    eprintln!("no client certificate: {msg}");
+    assert!(
+        msg.contains("requires a client certificate") && msg.contains("input.tls.cert_file"),
+        "{msg}"
+    );
+    none.stop().await.unwrap();
+
+    // A client certificate from another CA (with the right password): refused, the alarm
+    // names the certificate file and the cause.
+    let dir5 = tls_dir(&pki.ca, Some((&other.client_cert, &other.client_key)));
+    let foreign = start_with(dir5.path(), &machine_toml("t5", port, &mtls)).await;
+    let msg = refused_with(
+        &Api::new(&foreign),
+        &foreign.generated.clone().unwrap().read_only,
     )
     .await;
-    let ro3 = plain.generated.clone().unwrap().read_only;
-    let api3 = Api::new(&plain);
-    api3.wait_for("/api/alarms", &ro3, 15.0, |v| {
-        !alarms_with(v, "mqtt.connection").is_empty()
-    })
+    eprintln!("client certificate of another CA: {msg}");
+    assert!(
+        msg.contains("refused the client certificate") && msg.contains("gearcomp.crt"),
+        "{msg}"
+    );
+    assert!(!leaks(&msg), "{msg}");
+    foreign.stop().await.unwrap();
+
+    // Without TLS against the TLS port: no session either.
+    let dir3 = tls_dir(&pki.ca, None);
+    let plain = start_with(dir3.path(), &machine_toml("t3", port, login_keys)).await;
+    refused_with(
+        &Api::new(&plain),
+        &plain.generated.clone().unwrap().read_only,
+    )
     .await;
-    let (_, st) = api3.get("/api/status", Some(&ro3)).await;
-    assert_eq!(st["samples_received"], 0, "{st}");
     plain.stop().await.unwrap();
     run.stop().await.unwrap();
 }
