@@ -291,6 +291,172 @@ fn ct_eq(a: &[u8], b: &[u8]) -> bool {
     a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
+/// The names a client certificate carries, read from its DER (X.509, RFC 5280 §4.1.2.6
+/// subject and §4.2.1.6 subject alternative name): every subject common name (CN,
+/// OID 2.5.4.3) and every DNS name of the subjectAltName extension (OID 2.5.29.17).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CertNames {
+    /// Subject common names (UTF8String, PrintableString, IA5String or BMPString).
+    pub common_names: Vec<String>,
+    /// dNSName entries of the subject alternative names.
+    pub dns_names: Vec<String>,
+}
+
+impl CertNames {
+    /// The name shown in the audit log: the first CN, else the first DNS name.
+    pub fn shown(&self) -> String {
+        self.common_names
+            .first()
+            .or(self.dns_names.first())
+            .cloned()
+            .unwrap_or_else(|| "(no CN or DNS name)".into())
+    }
+
+    /// The role of this certificate under `http.tls.client_roles`: the highest role of
+    /// the entries naming its CN or one of its DNS names (ASCII case-insensitive), with the
+    /// name that matched.
+    pub fn role(&self, roles: &[crate::config::ClientRole]) -> Option<(String, Role)> {
+        let mut best: Option<(String, Role)> = None;
+        for r in roles {
+            let hit = self
+                .common_names
+                .iter()
+                .chain(&self.dns_names)
+                .any(|n| n.eq_ignore_ascii_case(&r.name));
+            if hit && best.as_ref().is_none_or(|(_, b)| r.role > *b) {
+                best = Some((r.name.clone(), r.role));
+            }
+        }
+        best
+    }
+}
+
+/// One DER element: (tag, contents, what follows). Low tag numbers only (every tag read
+/// here is one); definite lengths up to 4 bytes.
+fn der_tlv(input: &[u8]) -> Option<(u8, &[u8], &[u8])> {
+    let (&tag, rest) = input.split_first()?;
+    if tag & 0x1f == 0x1f {
+        return None;
+    }
+    let (&first, mut rest) = rest.split_first()?;
+    let len = if first < 0x80 {
+        usize::from(first)
+    } else {
+        let n = usize::from(first & 0x7f);
+        if n == 0 || n > 4 || rest.len() < n {
+            return None;
+        }
+        let len = rest[..n]
+            .iter()
+            .fold(0usize, |a, b| (a << 8) | usize::from(*b));
+        rest = &rest[n..];
+        len
+    };
+    if rest.len() < len {
+        return None;
+    }
+    Some((tag, &rest[..len], &rest[len..]))
+}
+
+/// The elements of a constructed value's contents.
+fn der_items(mut input: &[u8]) -> impl Iterator<Item = (u8, &[u8])> {
+    std::iter::from_fn(move || {
+        let (tag, body, rest) = der_tlv(input)?;
+        input = rest;
+        Some((tag, body))
+    })
+}
+
+/// A directory string as text (UTF8String, PrintableString, IA5String; BMPString as
+/// UTF-16BE); None for other string types or invalid text.
+fn der_text(tag: u8, body: &[u8]) -> Option<String> {
+    match tag {
+        0x0c | 0x13 | 0x16 => std::str::from_utf8(body).ok().map(str::to_string),
+        0x1e if body.len() % 2 == 0 => {
+            let units: Vec<u16> = body
+                .chunks_exact(2)
+                .map(|c| u16::from_be_bytes([c[0], c[1]]))
+                .collect();
+            String::from_utf16(&units).ok()
+        }
+        _ => None,
+    }
+}
+
+/// The subject CNs and DNS subject alternative names of an X.509 certificate (DER), or
+/// None when it is not a certificate this reader can walk. The certificate has already
+/// been verified against the plant CA by rustls; this only reads the names.
+pub fn certificate_names(der: &[u8]) -> Option<CertNames> {
+    const CN: &[u8] = &[0x55, 0x04, 0x03];
+    const SAN: &[u8] = &[0x55, 0x1d, 0x11];
+    let (0x30, cert, _) = der_tlv(der)? else {
+        return None;
+    };
+    let (0x30, tbs, _) = der_tlv(cert)? else {
+        return None;
+    };
+    let mut fields = der_items(tbs).peekable();
+    // version [0] EXPLICIT (absent in v1), serialNumber, signature, issuer, validity.
+    if fields.peek().is_some_and(|(t, _)| *t == 0xa0) {
+        fields.next();
+    }
+    let mut fields = fields.skip(4);
+    let (0x30, subject) = fields.next()? else {
+        return None;
+    };
+    let mut names = CertNames::default();
+    for (set_tag, rdn) in der_items(subject) {
+        if set_tag != 0x31 {
+            return None;
+        }
+        for (_, atv) in der_items(rdn) {
+            let mut it = der_items(atv);
+            if let (Some((0x06, oid)), Some((tag, value))) = (it.next(), it.next()) {
+                if oid == CN {
+                    // A CN in a string type not read here (TeletexString, …) matches nothing.
+                    if let Some(t) = der_text(tag, value) {
+                        names.common_names.push(t);
+                    }
+                }
+            }
+        }
+    }
+    // subjectPublicKeyInfo, then the optional unique ids [1], [2] and extensions [3].
+    for (tag, body) in fields.skip(1) {
+        if tag != 0xa3 {
+            continue;
+        }
+        let (0x30, exts, _) = der_tlv(body)? else {
+            return None;
+        };
+        for (_, ext) in der_items(exts) {
+            let mut it = der_items(ext);
+            let Some((0x06, oid)) = it.next() else {
+                continue;
+            };
+            if oid != SAN {
+                continue;
+            }
+            // critical BOOLEAN (optional), then the OCTET STRING holding GeneralNames.
+            let Some((0x04, value)) = it.find(|(t, _)| *t == 0x04) else {
+                return None;
+            };
+            let (0x30, general, _) = der_tlv(value)? else {
+                return None;
+            };
+            for (tag, name) in der_items(general) {
+                // dNSName [2] IMPLICIT IA5String.
+                if tag == 0x82 {
+                    names
+                        .dns_names
+                        .push(std::str::from_utf8(name).ok()?.to_string());
+                }
+            }
+        }
+    }
+    Some(names)
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -381,5 +547,128 @@ mod tests {
             e.contains("--revoke-token") && e.contains(&Tokens::token_id(&g.operator)),
             "{e}"
         );
+    }
+
+    /// A certificate from rcgen (an independent X.509 writer) with the given subject
+    /// attributes and subject alternative names (an address becomes an IP SAN).
+    fn cert_der(cns: &[rcgen::DnValue], sans: &[String]) -> Vec<u8> {
+        let key = rcgen::KeyPair::generate().unwrap();
+        let mut p = rcgen::CertificateParams::new(sans.to_vec()).unwrap();
+        p.distinguished_name
+            .push(rcgen::DnType::OrganizationName, "gear works");
+        for cn in cns {
+            p.distinguished_name
+                .push(rcgen::DnType::CommonName, cn.clone());
+        }
+        p.self_signed(&key).unwrap().der().to_vec()
+    }
+
+    #[test]
+    fn certificate_names_read_what_rcgen_wrote() {
+        let der = cert_der(
+            &[rcgen::DnValue::Utf8String("hmi-cell-3 Prüfplatz".into())],
+            &[
+                "hmi3.plant.local".into(),
+                "10.0.0.3".into(),
+                "op-panel".into(),
+            ],
+        );
+        let n = certificate_names(&der).unwrap();
+        assert_eq!(n.common_names, ["hmi-cell-3 Prüfplatz"]);
+        // The IP address SAN is no DNS name.
+        assert_eq!(n.dns_names, ["hmi3.plant.local", "op-panel"]);
+        // PrintableString and BMPString common names; no SAN extension at all.
+        let der = cert_der(
+            &[rcgen::DnValue::PrintableString(
+                rcgen::string::PrintableString::try_from("viewer 7").unwrap(),
+            )],
+            &[],
+        );
+        assert_eq!(
+            certificate_names(&der).unwrap(),
+            CertNames {
+                common_names: vec!["viewer 7".into()],
+                dns_names: vec![]
+            }
+        );
+        let der = cert_der(
+            &[rcgen::DnValue::BmpString(
+                rcgen::string::BmpString::try_from("Schleifmaschine Ω").unwrap(),
+            )],
+            &[],
+        );
+        assert_eq!(
+            certificate_names(&der).unwrap().common_names,
+            ["Schleifmaschine Ω"]
+        );
+    }
+
+    #[test]
+    fn certificate_role_is_the_highest_role_naming_it() {
+        use crate::config::ClientRole;
+        let n = CertNames {
+            common_names: vec!["HMI-Cell-3".into()],
+            dns_names: vec!["hmi3.plant.local".into()],
+        };
+        let roles = [
+            ClientRole {
+                name: "hmi-cell-3".into(),
+                role: Role::ReadOnly,
+            },
+            ClientRole {
+                name: "HMI3.plant.local".into(),
+                role: Role::Operator,
+            },
+            ClientRole {
+                name: "other".into(),
+                role: Role::Operator,
+            },
+        ];
+        assert_eq!(
+            n.role(&roles),
+            Some(("HMI3.plant.local".to_string(), Role::Operator))
+        );
+        assert_eq!(
+            n.role(&roles[..1]),
+            Some(("hmi-cell-3".into(), Role::ReadOnly))
+        );
+        assert_eq!(n.role(&roles[2..]), None);
+        // A name is compared whole, never as a prefix or suffix.
+        let short = [ClientRole {
+            name: "hmi".into(),
+            role: Role::Operator,
+        }];
+        assert_eq!(n.role(&short), None);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 24,
+            failure_persistence: None,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+
+        /// Random CNs (any Unicode text) and DNS names written by rcgen are read back.
+        #[test]
+        fn random_names_round_trip(
+            cn in "\\PC{1,60}",
+            dns in proptest::collection::vec("[a-z][a-z0-9-]{0,20}(\\.[a-z]{1,10}){0,3}", 0..5),
+        ) {
+            let der = cert_der(&[rcgen::DnValue::Utf8String(cn.clone())], &dns);
+            let n = certificate_names(&der).unwrap();
+            proptest::prop_assert_eq!(n.common_names, vec![cn]);
+            proptest::prop_assert_eq!(n.dns_names, dns);
+        }
+
+        /// Truncated or corrupted certificates never panic the reader.
+        #[test]
+        fn damaged_certificates_do_not_panic(cut in 0usize..600, flip in 0usize..600, bits in 1u8..=255) {
+            let mut der = cert_der(&[rcgen::DnValue::Utf8String("cell".into())], &["a.b".into()]);
+            if flip < der.len() {
+                der[flip] ^= bits;
+            }
+            der.truncate(cut.min(der.len()));
+            let _ = certificate_names(&der);
+        }
     }
 }

@@ -158,7 +158,8 @@ impl FromRequestParts<Shared> for Viewer {
     type Rejection = ApiError;
 
     async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
-        authorize(st, &parts.headers, None, Role::ReadOnly).map(Viewer)
+        let peer = parts.extensions.get::<Peer>();
+        authorize(st, &parts.headers, None, peer, Role::ReadOnly).map(Viewer)
     }
 }
 
@@ -166,14 +167,19 @@ impl FromRequestParts<Shared> for Operator {
     type Rejection = ApiError;
 
     async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
-        authorize(st, &parts.headers, None, Role::Operator).map(Operator)
+        let peer = parts.extensions.get::<Peer>();
+        authorize(st, &parts.headers, None, peer, Role::Operator).map(Operator)
     }
 }
 
+/// The caller's role: from the token when one is presented (unknown: 401), else from a
+/// client certificate named in `http.tls.client_roles`; with `certificates_only` from the
+/// certificate alone. 403 when the role is below `need`.
 fn authorize(
     st: &AppState,
     headers: &HeaderMap,
     query_token: Option<&str>,
+    peer: Option<&Peer>,
     need: Role,
 ) -> ApiResult<Caller> {
     let bearer = headers
@@ -181,29 +187,52 @@ fn authorize(
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.strip_prefix("Bearer "))
         .map(str::trim);
-    let Some(token) = bearer.or(query_token) else {
-        return Err(err(
-            StatusCode::UNAUTHORIZED,
-            "missing token: send Authorization: Bearer <token>",
-        ));
-    };
-    let Some(role) = st.tokens.role_of(token) else {
-        return Err(err(StatusCode::UNAUTHORIZED, "unknown token"));
+    // An empty token (the dashboard opened without ?token=) is no token.
+    let token = bearer.or(query_token).filter(|t| !t.is_empty());
+    let certificates_only = peer.is_some_and(|p| p.certificates_only);
+    let (role, id) = match (token, peer.and_then(|p| p.role.as_ref())) {
+        (Some(token), _) if !certificates_only => {
+            let Some(role) = st.tokens.role_of(token) else {
+                return Err(err(StatusCode::UNAUTHORIZED, "unknown token"));
+            };
+            (role, Tokens::token_id(token))
+        }
+        (_, Some((name, role))) => (*role, format!("cert:{name}")),
+        (_, None) => {
+            let cert = match peer.and_then(|p| p.shown.as_deref()) {
+                Some(n) => format!(
+                    "the client certificate {n:?} is named in no http.tls.client_roles entry"
+                ),
+                None => "no client certificate".to_string(),
+            };
+            return Err(err(
+                StatusCode::UNAUTHORIZED,
+                if certificates_only {
+                    format!("this server accepts client certificates only (http.tls.certificates_only); {cert}")
+                } else if peer.is_some() {
+                    format!("missing token: send Authorization: Bearer <token>, or a client certificate named in http.tls.client_roles ({cert})")
+                } else {
+                    "missing token: send Authorization: Bearer <token>".to_string()
+                },
+            ));
+        }
     };
     if role < need {
         return Err(err(
             StatusCode::FORBIDDEN,
             format!(
-                "this action needs the {} role; the token is {}",
+                "this action needs the {} role; the {} is {}",
                 need.name(),
+                if id.starts_with("cert:") {
+                    "client certificate"
+                } else {
+                    "token"
+                },
                 role.name()
             ),
         ));
     }
-    Ok(Caller {
-        role,
-        token_id: Tokens::token_id(token),
-    })
+    Ok(Caller { role, token_id: id })
 }
 
 #[derive(Debug, Deserialize)]
@@ -215,8 +244,10 @@ async fn page(
     State(st): State<Shared>,
     headers: HeaderMap,
     Query(q): Query<TokenQuery>,
+    peer: Option<axum::Extension<Peer>>,
 ) -> Response {
-    match authorize(&st, &headers, q.token.as_deref(), Role::ReadOnly) {
+    let peer = peer.as_ref().map(|p| &p.0);
+    match authorize(&st, &headers, q.token.as_deref(), peer, Role::ReadOnly) {
         Ok(_) => Html(DASHBOARD_HTML).into_response(),
         Err(_) => (
             StatusCode::UNAUTHORIZED,
@@ -745,14 +776,18 @@ async fn audit_log(State(st): State<Shared>, _: Viewer) -> ApiResult {
     Ok(Json(rows).into_response())
 }
 
-/// Limits of the HTTP server (see `[http]` in docs/service.md).
-#[derive(Debug, Clone, Copy)]
+/// What the HTTP server enforces per connection (see `[http]` in docs/service.md): the
+/// limits, and how an HTTPS client's certificate maps to a role.
+#[derive(Debug, Clone)]
 pub struct ServerLimits {
     /// Most connections open at once; a connection beyond is closed at once.
     pub max_connections: usize,
     /// A connection must deliver a request's headers (and, with HTTPS, finish its
     /// handshake) within this time, also between the requests of a kept-alive connection.
     pub header_read_timeout: Duration,
+    /// Client-certificate login (`[http.tls] client_ca_file`); the certificate itself is
+    /// verified by the acceptor of [`tls_acceptor`].
+    pub clients: Option<Arc<ClientLogin>>,
 }
 
 impl ServerLimits {
@@ -761,12 +796,64 @@ impl ServerLimits {
         Self {
             max_connections: h.max_connections as usize,
             header_read_timeout: Duration::from_secs_f64(h.header_read_timeout_s),
+            clients: h
+                .tls
+                .as_ref()
+                .filter(|t| t.client_ca_file.is_some())
+                .map(|t| {
+                    Arc::new(ClientLogin {
+                        roles: t.client_roles.clone(),
+                        certificates_only: t.certificates_only,
+                    })
+                }),
+        }
+    }
+}
+
+/// Client-certificate login (`http.tls.client_ca_file`, `client_roles`,
+/// `certificates_only`).
+#[derive(Debug)]
+pub struct ClientLogin {
+    /// Certificate names and their roles.
+    pub roles: Vec<crate::config::ClientRole>,
+    /// Tokens refused; a mapped certificate is the only way in.
+    pub certificates_only: bool,
+}
+
+/// What the TLS handshake of a connection established about the client (a request
+/// extension on connections of a server with client-certificate login).
+#[derive(Debug, Clone)]
+pub struct Peer {
+    /// The certificate's name that matched `client_roles` and its role; None without a
+    /// certificate or with one named nowhere.
+    pub role: Option<(String, Role)>,
+    /// The certificate's CN or DNS name for messages (None without a certificate).
+    pub shown: Option<String>,
+    /// Tokens refused on this server.
+    pub certificates_only: bool,
+}
+
+impl Peer {
+    /// The peer of a finished handshake: its end-entity certificate's names looked up in
+    /// `login` (rustls has verified the chain to the plant CA).
+    pub fn of(
+        login: &ClientLogin,
+        certs: Option<&[rustls::pki_types::CertificateDer<'_>]>,
+    ) -> Self {
+        let names = certs
+            .and_then(|c| c.first())
+            .map(|c| crate::auth::certificate_names(c).unwrap_or_default());
+        Self {
+            role: names.as_ref().and_then(|n| n.role(&login.roles)),
+            shown: names.map(|n| n.shown()),
+            certificates_only: login.certificates_only,
         }
     }
 }
 
 /// The HTTPS acceptor of `[http.tls]` (rustls, ring provider): the certificate chain and
-/// key are read and checked at start; the error names the key and the file.
+/// key are read and checked at start, and the plant CA of `client_ca_file`; the error
+/// names the key and the file.
 pub fn tls_acceptor(t: &crate::config::HttpTls) -> crate::error::Result<tokio_rustls::TlsAcceptor> {
     use crate::error::invalid;
     use rustls::pki_types::pem::PemObject;
@@ -795,18 +882,66 @@ pub fn tls_acceptor(t: &crate::config::HttpTls) -> crate::error::Result<tokio_ru
         )
     })?;
     let provider = Arc::new(rustls::crypto::ring::default_provider());
-    let cfg = rustls::ServerConfig::builder_with_provider(provider)
+    let builder = rustls::ServerConfig::builder_with_provider(provider.clone())
         .with_safe_default_protocol_versions()
-        .map_err(|e| invalid("http.tls", e, "TLS 1.2 or 1.3 with the ring provider"))?
-        .with_no_client_auth()
-        .with_single_cert(certs, key)
-        .map_err(|e| {
-            invalid(
-                "http.tls.key_file",
-                format!("{} ({e})", t.key_file.display()),
-                "the private key of the certificate in http.tls.cert_file",
-            )
-        })?;
+        .map_err(|e| invalid("http.tls", e, "TLS 1.2 or 1.3 with the ring provider"))?;
+    let builder = match &t.client_ca_file {
+        None => builder.with_no_client_auth(),
+        Some(ca_file) => {
+            let ca: Vec<CertificateDer<'static>> = CertificateDer::pem_file_iter(ca_file)
+                .and_then(|it| it.collect::<std::result::Result<Vec<_>, _>>())
+                .map_err(|e| {
+                    invalid(
+                        "http.tls.client_ca_file",
+                        format!("{} ({e})", ca_file.display()),
+                        "a readable PEM file with the plant CA's certificate",
+                    )
+                })?;
+            let mut roots = rustls::RootCertStore::empty();
+            for c in ca {
+                roots.add(c).map_err(|e| {
+                    invalid(
+                        "http.tls.client_ca_file",
+                        format!("{} ({e})", ca_file.display()),
+                        "CA certificates rustls accepts",
+                    )
+                })?;
+            }
+            if roots.is_empty() {
+                return Err(invalid(
+                    "http.tls.client_ca_file",
+                    ca_file.display(),
+                    "a PEM file with at least one CERTIFICATE block",
+                ));
+            }
+            let verifier = rustls::server::WebPkiClientVerifier::builder_with_provider(
+                Arc::new(roots),
+                provider,
+            );
+            // Without certificates_only a client may come without a certificate (and log in
+            // with a token); a certificate it does present must chain to the plant CA.
+            let verifier = if t.certificates_only {
+                verifier
+            } else {
+                verifier.allow_unauthenticated()
+            };
+            let verifier = verifier.build().map_err(|e| {
+                invalid(
+                    "http.tls.client_ca_file",
+                    format!("{} ({e})", ca_file.display()),
+                    "a CA certificate usable to verify client certificates",
+                )
+            })?;
+            builder.with_client_cert_verifier(verifier)
+        }
+    };
+    let cfg = builder.with_single_cert(certs, key).map_err(|e| {
+        invalid(
+            "http.tls.key_file",
+            format!("{} ({e})", t.key_file.display()),
+            "the private key of the certificate in http.tls.cert_file",
+        )
+    })?;
     Ok(tokio_rustls::TlsAcceptor::from(Arc::new(cfg)))
 }
 
@@ -849,14 +984,25 @@ pub async fn serve(
         let app = app.clone();
         let tls = tls.clone();
         let closing = closing_rx.clone();
+        let header_timeout = limits.header_read_timeout;
+        let clients = limits.clients.clone();
         tokio::spawn(async move {
             let _permit = permit;
             match tls {
-                None => serve_connection(tcp, app, limits, closing).await,
+                None => serve_connection(tcp, app, header_timeout, closing).await,
                 Some(acc) => {
-                    let hs = tokio::time::timeout(limits.header_read_timeout, acc.accept(tcp));
+                    let hs = tokio::time::timeout(header_timeout, acc.accept(tcp));
                     if let Ok(Ok(stream)) = hs.await {
-                        serve_connection(stream, app, limits, closing).await;
+                        // Client-certificate login: every request of this connection
+                        // carries what the handshake established.
+                        let app = match &clients {
+                            Some(login) => app.layer(axum::Extension(Peer::of(
+                                login,
+                                stream.get_ref().1.peer_certificates(),
+                            ))),
+                            None => app,
+                        };
+                        serve_connection(stream, app, header_timeout, closing).await;
                     }
                 }
             }
@@ -872,7 +1018,7 @@ pub async fn serve(
 async fn serve_connection<I>(
     io: I,
     app: Router,
-    limits: ServerLimits,
+    header_read_timeout: Duration,
     mut closing: tokio::sync::watch::Receiver<bool>,
 ) where
     I: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin + Send + 'static,
@@ -881,7 +1027,7 @@ async fn serve_connection<I>(
     let mut builder = hyper::server::conn::http1::Builder::new();
     builder
         .timer(hyper_util::rt::TokioTimer::new())
-        .header_read_timeout(limits.header_read_timeout)
+        .header_read_timeout(header_read_timeout)
         .keep_alive(true);
     let conn = builder.serve_connection(hyper_util::rt::TokioIo::new(io), svc);
     let mut conn = std::pin::pin!(conn);

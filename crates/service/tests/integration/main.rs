@@ -12,6 +12,7 @@ mod chaos;
 mod dashboard_browser;
 mod envelope;
 mod http_api;
+mod http_client_certs;
 mod http_limits;
 mod modbus;
 mod modbus_output;
