@@ -398,3 +398,359 @@ async fn dashboard_in_headless_chromium() {
     assert!(dom_op2.contains("acknowledged"));
     run.stop().await.unwrap();
 }
+
+/// Headless Chromium driven over the DevTools protocol on `--remote-debugging-pipe`:
+/// Chromium reads commands from its descriptor 3 and writes answers and events to
+/// descriptor 4, one JSON message each, ended by a NUL byte. The shell that starts it
+/// puts the ends of our stdin/stdout pipes there (`3<&0 4>&1`), so no websocket and no
+/// unsafe descriptor juggling are needed.
+struct Browser {
+    child: std::process::Child,
+    to: std::process::ChildStdin,
+    from: std::sync::mpsc::Receiver<serde_json::Value>,
+    next_id: u64,
+    err_path: PathBuf,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    fn launch() -> Self {
+        let profile = tempfile::tempdir().unwrap();
+        let err_path = profile.path().join("chromium-stderr.txt");
+        let err_file = std::fs::File::create(&err_path).unwrap();
+        let mut child = Command::new("sh")
+            .arg("-c")
+            .arg(r#"exec "$0" "$@" 3<&0 4>&1 </dev/null >/dev/null"#)
+            .arg(chromium())
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--remote-debugging-pipe",
+                "--window-size=1280,1024",
+            ])
+            .arg(format!(
+                "--user-data-dir={}",
+                profile.path().join("profile").display()
+            ))
+            .arg("about:blank")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::from(err_file))
+            .spawn()
+            .expect("start chromium");
+        let to = child.stdin.take().unwrap();
+        let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+        let (tx, from) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            let mut buf = Vec::new();
+            loop {
+                buf.clear();
+                match out.read_until(0, &mut buf) {
+                    Ok(0) | Err(_) => return,
+                    Ok(_) => {
+                        if buf.last() == Some(&0) {
+                            buf.pop();
+                        }
+                        if let Ok(v) = serde_json::from_slice(&buf) {
+                            if tx.send(v).is_err() {
+                                return;
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        Self {
+            child,
+            to,
+            from,
+            next_id: 0,
+            err_path,
+            _profile: profile,
+        }
+    }
+
+    /// One command (on a page's session, or the browser's), its `result`.
+    fn call(
+        &mut self,
+        session: Option<&str>,
+        method: &str,
+        params: serde_json::Value,
+    ) -> serde_json::Value {
+        use std::io::Write;
+        self.next_id += 1;
+        let id = self.next_id;
+        let mut msg = serde_json::json!({ "id": id, "method": method, "params": params });
+        if let Some(s) = session {
+            msg["sessionId"] = s.into();
+        }
+        let mut bytes = msg.to_string().into_bytes();
+        bytes.push(0);
+        self.to.write_all(&bytes).unwrap();
+        self.to.flush().unwrap();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let v = self.from.recv_timeout(left).unwrap_or_else(|_| {
+                panic!(
+                    "no answer to {method} from chromium; stderr:\n{}",
+                    std::fs::read_to_string(&self.err_path).unwrap_or_default()
+                )
+            });
+            if v["id"] == id {
+                assert!(v.get("error").is_none(), "{method}: {v}");
+                return v["result"].clone();
+            }
+        }
+    }
+
+    /// A new tab on `url`, attached: its session id.
+    fn open(&mut self, url: &str) -> String {
+        let t = self.call(
+            None,
+            "Target.createTarget",
+            serde_json::json!({ "url": url }),
+        );
+        let a = self.call(
+            None,
+            "Target.attachToTarget",
+            serde_json::json!({ "targetId": t["targetId"], "flatten": true }),
+        );
+        a["sessionId"].as_str().unwrap().to_string()
+    }
+
+    /// A JavaScript expression's value in the page.
+    fn eval(&mut self, session: &str, expr: &str) -> serde_json::Value {
+        let r = self.call(
+            Some(session),
+            "Runtime.evaluate",
+            serde_json::json!({ "expression": expr, "returnByValue": true }),
+        );
+        assert!(r.get("exceptionDetails").is_none(), "{expr}: {r}");
+        r["result"]["value"].clone()
+    }
+
+    /// Polls `expr` until it is true (at most `secs`); an exception (the page not loaded
+    /// yet) counts as false.
+    fn wait_true(&mut self, session: &str, expr: &str, secs: f64) {
+        let deadline = Instant::now() + Duration::from_secs_f64(secs);
+        let guarded = format!(
+            "(() => {{ try {{ return ({expr}) === true; }} catch (e) {{ return false; }} }})()"
+        );
+        while self.eval(session, &guarded) != serde_json::json!(true) {
+            assert!(Instant::now() < deadline, "never true in the page: {expr}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// A left click with the mouse at the middle of the element `selector` (scrolled into
+    /// view): press and release as a user's click, hit-tested by the browser.
+    fn click(&mut self, session: &str, selector: &str) {
+        let sel = serde_json::to_string(selector).unwrap();
+        let at = self.eval(
+            session,
+            &format!(
+                "(() => {{ const b = document.querySelector({sel}); if (!b) return null; \
+                 b.scrollIntoView({{block: 'center'}}); const r = b.getBoundingClientRect(); \
+                 return [r.x + r.width / 2, r.y + r.height / 2]; }})()"
+            ),
+        );
+        assert!(at.is_array(), "no element {selector} to click");
+        for kind in ["mousePressed", "mouseReleased"] {
+            self.call(
+                Some(session),
+                "Input.dispatchMouseEvent",
+                serde_json::json!({ "type": kind, "x": at[0], "y": at[1], "button": "left",
+                                    "buttons": 1, "clickCount": 1 }),
+            );
+        }
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        use std::io::Write;
+        // Browser.close, then our own child by its handle if it is still there.
+        let _ = self
+            .to
+            .write_all(b"{\"id\":999999,\"method\":\"Browser.close\"}\0");
+        let _ = self.to.flush();
+        let deadline = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The acknowledge buttons clicked in a real browser: Chromium, driven over the DevTools
+/// protocol, loads the operator's dashboard, a mouse click on an alarm's *acknowledge*
+/// button and one on *acknowledge stop* run the page's handler, and the API shows the
+/// alarm acknowledged by the operator's token and the stop acknowledgement in the audit
+/// log; the viewer's page of the same moment has no button.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn acknowledge_buttons_clicked_in_chromium() {
+    let _ = chromium();
+    let t0 = Instant::now();
+    let dir = tempfile::tempdir().unwrap();
+    let run = start_with(
+        dir.path(),
+        "[machine]\nname = \"gs300-8\"\n[http]\nport = 0\n[storage]\npath = \"click.db\"\n\
+         [input]\nkind = \"simulator\"\nspeedup = 3000.0\n",
+    )
+    .await;
+    let g = run.generated.clone().unwrap();
+    let (ro, op) = (g.read_only, g.operator);
+    let api = Api::new(&run);
+    let base = api.base.clone();
+
+    // An alarm (one Pt100 made invalid) and a latched stop (the other above its limit).
+    let (_, model) = api.get("/api/model", Some(&ro)).await;
+    let narrow = model["config_toml"]
+        .as_str()
+        .unwrap()
+        .replacen("valid_max = 80.0", "valid_max = 10.0", 1)
+        .replacen("limit_max = 45.0", "limit_max = 8.0", 2);
+    let put = api
+        .client
+        .put(format!("{base}/api/model"))
+        .bearer_auth(&op)
+        .body(narrow)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(put.status().as_u16(), 200);
+    let alarms = api
+        .wait_for("/api/alarms?unacknowledged=true", &ro, 20.0, |v| {
+            !v.as_array().unwrap().is_empty()
+        })
+        .await;
+    let id = alarms[0]["id"].as_i64().unwrap();
+    api.wait_for("/api/status", &ro, 20.0, |v| v["stop"].is_string())
+        .await;
+    // The operator's token id as the audit log writes it (the PUT above).
+    let (_, audit) = api.get("/api/audit", Some(&ro)).await;
+    let op_id = audit
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["action"] == "change_model")
+        .unwrap_or_else(|| panic!("no change_model row: {audit}"))["token_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let stop_acks = |audit: &serde_json::Value| {
+        audit
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|a| a["action"] == "acknowledge_stop" && a["token_id"] == op_id.as_str())
+            .count()
+    };
+    assert_eq!(stop_acks(&audit), 0, "{audit}");
+
+    let alarm_button = format!("button[data-ack-alarm=\"{id}\"]");
+    let (ro_url, op_url) = (format!("{base}/?token={ro}"), format!("{base}/?token={op}"));
+    let sel = serde_json::to_string(&alarm_button).unwrap();
+    let (clicks, acked) = tokio::task::spawn_blocking({
+        let api_base = base.clone();
+        let ro = ro.clone();
+        move || {
+            let get = |path: &str| -> serde_json::Value {
+                reqwest::blocking::Client::new()
+                    .get(format!("{api_base}{path}"))
+                    .bearer_auth(&ro)
+                    .send()
+                    .unwrap()
+                    .json()
+                    .unwrap()
+            };
+            let mut b = Browser::launch();
+            // The viewer's page, rendered with the alarm and the stop: no button at all.
+            let viewer = b.open(&ro_url);
+            b.wait_true(
+                &viewer,
+                "document.getElementById('role').textContent === 'read_only' && \
+                 document.querySelector('#stop .alarm') !== null && \
+                 [...document.querySelectorAll('#alarms tbody tr')].some(r => \
+                   r.textContent.includes('active'))",
+                10.0,
+            );
+            assert_eq!(
+                b.eval(&viewer, "document.querySelectorAll('button').length"),
+                0
+            );
+            // The operator's page: both buttons; a mouse click on the alarm's.
+            let page = b.open(&op_url);
+            b.wait_true(
+                &page,
+                &format!(
+                    "document.querySelector({sel}) !== null && \
+                     document.getElementById('ack-stop') !== null"
+                ),
+                10.0,
+            );
+            let mut clicks = 0;
+            let acked = loop {
+                // The page redraws every 2 s; a click landing during a redraw is a
+                // click on replaced markup, so at most three tries.
+                clicks += 1;
+                b.click(&page, &alarm_button);
+                let deadline = Instant::now() + Duration::from_secs(3);
+                let mut found = None;
+                while found.is_none() && Instant::now() < deadline {
+                    found = get("/api/alarms?limit=1000")
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .find(|a| a["id"] == id && a["acknowledged_by"].is_string())
+                        .cloned();
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                if let Some(a) = found {
+                    break a;
+                }
+                assert!(clicks < 3, "alarm {id} not acknowledged after 3 clicks");
+            };
+            // The page redraws after the POST: the alarm shows acknowledged, no button.
+            b.wait_true(
+                &page,
+                &format!("document.querySelector({sel}) === null"),
+                10.0,
+            );
+            // The stop's button.
+            b.click(&page, "#ack-stop");
+            (clicks, acked)
+        }
+    })
+    .await
+    .unwrap();
+    eprintln!("alarm {id} acknowledged after {clicks} click(s): {acked}");
+    assert_eq!(acked["acknowledged_by"], op_id.as_str(), "{acked}");
+    let audit = api
+        .wait_for("/api/audit", &ro, 5.0, |v| stop_acks(v) == 1)
+        .await;
+    assert!(
+        audit
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["action"] == "acknowledge_alarm"
+                && a["detail"] == format!("alarm {id}").as_str()
+                && a["token_id"] == op_id.as_str()),
+        "{audit}"
+    );
+    eprintln!("click test: {:.1} s", t0.elapsed().as_secs_f64());
+    run.stop().await.unwrap();
+}
