@@ -19,6 +19,8 @@
 //!   ground it.
 //! - [`simulate`]: the envelope grinder on the cylindrical chain and the contact path fitted
 //!   from it.
+//! - [`mesh`]: one trait ([`mesh::GrindingMesh`]) over the cylindrical and the conical pair for
+//!   what a grinding run needs beyond the envelope kinematics.
 //! - [`report`]: the record of a grinding run (and of `equalise`) and its text tables.
 //! - [`setup`]: the set-up of a run: worm body for a gear, the pair of a shifted gear or a
 //!   redressed worm, default worm radii, the usable roll range of the gear flank.
@@ -58,6 +60,7 @@ pub mod flank;
 pub mod iso1328;
 pub mod kinematics;
 pub mod machine;
+pub mod mesh;
 pub mod modification;
 pub mod report;
 pub mod setup;

@@ -18,8 +18,12 @@ use serde::Serialize;
 use crate::conical::ConicalPair;
 use crate::contact::WormGearPair;
 use crate::diagonal::LineMap;
+use crate::envelope::{AnalyticTransfer, GroundFlank};
 use crate::iso1328::{FlankEvaluation, MultiTraceEvaluation};
-use crate::modification::{LineModification, Poly};
+use crate::kinematics::FeedCoupling;
+use crate::modification::{FlankModification, LineModification, Poly};
+use crate::solve::{IteratedSolve, IterationOptions};
+use crate::Result;
 
 /// Polynomial coefficients mm·mm⁻ᵏ → µm·mm⁻ᵏ.
 pub fn poly_to_um(p: &Poly) -> Vec<f64> {
@@ -245,7 +249,7 @@ pub struct FlaggedPoint {
 
 /// One simulation of the iterated solve.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SolveIteration {
+pub struct IterationReport {
     /// 1 = the first-order worm.
     pub iteration: usize,
     /// max |ground − wish| in µm.
@@ -256,7 +260,7 @@ pub struct SolveIteration {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SolveReport {
     /// Every envelope simulation; 1 = the first-order worm.
-    pub iterations: Vec<SolveIteration>,
+    pub iterations: Vec<IterationReport>,
     /// max |wish| in µm.
     pub wish_max_abs_um: f64,
     /// Remaining max |ground − wish| with the reported worm.
@@ -269,6 +273,229 @@ pub struct SolveReport {
     pub converged: bool,
     /// The first-order worm (before the iteration).
     pub first_order_worm: LineModReport,
+}
+
+impl SolveReport {
+    /// The report of an iterated solve run with `opts`.
+    ///
+    /// # Formula
+    /// tolerance = max(rel_tol·max |wish|, abs_tol); remaining in % = 100·remaining/max |wish|
+    /// (0 for no wish).
+    pub fn new(it: &IteratedSolve, opts: &IterationOptions) -> SolveReport {
+        let tol_mm = (opts.rel_tol * it.wish_max_abs_mm).max(opts.abs_tol_mm);
+        SolveReport {
+            iterations: it
+                .iterations
+                .iter()
+                .map(|i| IterationReport {
+                    iteration: i.iteration,
+                    max_abs_deviation_um: mm_to_um(i.max_abs_deviation_mm),
+                })
+                .collect(),
+            wish_max_abs_um: mm_to_um(it.wish_max_abs_mm),
+            remaining_um: mm_to_um(it.remaining_mm),
+            remaining_percent_of_wish: if it.wish_max_abs_mm > 0.0 {
+                100.0 * it.remaining_mm / it.wish_max_abs_mm
+            } else {
+                0.0
+            },
+            tolerance_um: mm_to_um(tol_mm),
+            converged: it.converged,
+            first_order_worm: LineModReport::from(&it.first_order_worm),
+        }
+    }
+
+    /// The warning of a solve that stopped above its tolerance (None if it converged).
+    pub fn warning(&self) -> Option<String> {
+        (!self.converged).then(|| {
+            format!(
+                "the iterated solve stopped at {:.4} µm remaining deviation ({:.3} % of the \
+                 wish), above its tolerance {:.4} µm",
+                self.remaining_um, self.remaining_percent_of_wish, self.tolerance_um
+            )
+        })
+    }
+}
+
+/// Why a point is flagged: the worm grinds it with its tip or root edge.
+pub const WORM_EDGE: &str = "the worm grinds this point with its tip or root edge";
+/// Why a point is flagged: the envelope is not explained by the analytic map.
+pub const NOT_EXPLAINED: &str = "envelope and analytic map differ beyond their second-order terms";
+
+/// The ground flank compared, point by point, with the analytic worm → gear map (eq. (38))
+/// and with the design.
+///
+/// The design is the wanted gear modification (solve), else the unmodified flank for the
+/// deviation and the analytic map for `from_design_mm`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlankComparison {
+    /// The maps in µm.
+    pub map: MapReport,
+    /// Points the analytic map does not explain.
+    pub flagged: Vec<FlaggedPoint>,
+    /// max |ground| in mm.
+    pub max_abs_ground_mm: f64,
+    /// max |ground − analytic| in mm.
+    pub max_abs_ground_minus_analytic_mm: f64,
+    /// max |ground − wanted| in mm (wanted = 0 without one).
+    pub max_abs_deviation_mm: f64,
+    /// ground − wanted (0 without one) per grid point, w outer, in mm.
+    pub deviation_mm: Vec<f64>,
+    /// ground − design (wanted, else the analytic map) per grid point, in mm.
+    pub from_design_mm: Vec<f64>,
+    /// ground per grid point, in mm.
+    pub ground_mm: Vec<f64>,
+}
+
+impl FlankComparison {
+    /// Compares `ground` (ground with `worm` under `coupling` on `mesh`) with the analytic
+    /// map and the wanted modification.
+    ///
+    /// # Errors
+    /// The analytic map's error at a grid point.
+    pub fn new<M: AnalyticTransfer + ?Sized>(
+        mesh: &M,
+        coupling: &FeedCoupling,
+        worm: &dyn FlankModification,
+        ground: &GroundFlank,
+        wanted: Option<&LineModification>,
+    ) -> Result<FlankComparison> {
+        let g = ground.grid;
+        let mut c = FlankComparison {
+            map: MapReport {
+                w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
+                z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
+                ground_um: Vec::with_capacity(g.n_w),
+                analytic_um: Vec::with_capacity(g.n_w),
+                deviation_um: Vec::with_capacity(g.n_w),
+            },
+            flagged: Vec::new(),
+            max_abs_ground_mm: 0.0,
+            max_abs_ground_minus_analytic_mm: 0.0,
+            max_abs_deviation_mm: 0.0,
+            deviation_mm: Vec::with_capacity(g.len()),
+            from_design_mm: Vec::with_capacity(g.len()),
+            ground_mm: Vec::with_capacity(g.len()),
+        };
+        for i in 0..g.n_w {
+            let (mut rg, mut ra, mut rd) = (Vec::new(), Vec::new(), Vec::new());
+            for j in 0..g.n_z {
+                let (w, z) = (g.w_mm(i), g.z_mm(j));
+                let an = mesh.predicted_gear_f_ft_mm(coupling, worm, w, z)?;
+                let (f, design) = c.add_point(ground, (i, j), an, wanted);
+                rg.push(mm_to_um(f));
+                ra.push(mm_to_um(an));
+                rd.push(mm_to_um(f - design));
+            }
+            c.map.ground_um.push(rg);
+            c.map.analytic_um.push(ra);
+            c.map.deviation_um.push(rd);
+        }
+        Ok(c)
+    }
+
+    /// Adds grid point (i, j) with analytic value `an` (mm); returns (ground, wanted) in mm.
+    fn add_point(
+        &mut self,
+        ground: &GroundFlank,
+        (i, j): (usize, usize),
+        an: f64,
+        wanted: Option<&LineModification>,
+    ) -> (f64, f64) {
+        let (w, z) = (ground.grid.w_mm(i), ground.grid.z_mm(j));
+        let gp = ground.at(i, j);
+        let f = gp.f_ft_mm;
+        let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
+        self.deviation_mm.push(f - design);
+        self.from_design_mm
+            .push(f - wanted.map_or(an, |m| m.f_ft_mm(w, z)));
+        self.ground_mm.push(f);
+        if !gp.explained {
+            self.flagged.push(FlaggedPoint {
+                w_mm: w,
+                z_mm: z,
+                ground_um: mm_to_um(f),
+                analytic_um: mm_to_um(an),
+                second_order_um: gp.second_order_f_ft_mm.map(mm_to_um),
+                reason: if gp.worm_edge {
+                    WORM_EDGE
+                } else {
+                    NOT_EXPLAINED
+                },
+            });
+        }
+        self.max_abs_ground_mm = self.max_abs_ground_mm.max(f.abs());
+        self.max_abs_ground_minus_analytic_mm =
+            self.max_abs_ground_minus_analytic_mm.max((f - an).abs());
+        self.max_abs_deviation_mm = self.max_abs_deviation_mm.max((f - design).abs());
+        (f, design)
+    }
+
+    /// One warning per reason with flagged points: their count and the first point.
+    pub fn flag_warnings(&self) -> Vec<String> {
+        let n = self.map.w_mm.len() * self.map.z_mm.len();
+        let mut warnings = Vec::new();
+        for reason in [WORM_EDGE, NOT_EXPLAINED] {
+            let pts: Vec<&FlaggedPoint> =
+                self.flagged.iter().filter(|p| p.reason == reason).collect();
+            if let Some(p) = pts.first() {
+                warnings.push(format!(
+                    "{} of {n} points: {reason} (first at w = {:.4} mm, z = {:.4} mm: envelope \
+                     {:.4} µm, analytic {:.4} µm); see flagged_points",
+                    pts.len(),
+                    p.w_mm,
+                    p.z_mm,
+                    p.ground_um,
+                    p.analytic_um
+                ));
+            }
+        }
+        warnings
+    }
+}
+
+impl MapReport {
+    /// Index of the grid value nearest to `x` (the first of equals).
+    pub fn nearest(v: &[f64], x: f64) -> usize {
+        v.iter()
+            .enumerate()
+            .fold((0, f64::INFINITY), |(bi, bd), (i, y)| {
+                let d = (y - x).abs();
+                if d < bd {
+                    (i, d)
+                } else {
+                    (bi, bd)
+                }
+            })
+            .0
+    }
+
+    /// Profile trace (w, value) of `values` (row per w) at column `j`.
+    pub fn profile_trace(&self, values: &[Vec<f64>], j: usize) -> Vec<(f64, f64)> {
+        self.w_mm
+            .iter()
+            .zip(values)
+            .map(|(w, row)| (*w, row[j]))
+            .collect()
+    }
+
+    /// Helix trace (z, value) of `values` at row `i`.
+    pub fn helix_trace(&self, values: &[Vec<f64>], i: usize) -> Vec<(f64, f64)> {
+        self.z_mm
+            .iter()
+            .zip(&values[i])
+            .map(|(z, v)| (*z, *v))
+            .collect()
+    }
+
+    /// Profile trace of envelope − analytic map at column `j`.
+    pub fn envelope_minus_analytic_trace(&self, j: usize) -> Vec<(f64, f64)> {
+        self.w_mm
+            .iter()
+            .zip(self.ground_um.iter().zip(&self.analytic_um))
+            .map(|(w, (g, a))| (*w, g[j] - a[j]))
+            .collect()
+    }
 }
 
 /// The dressed worm of `grind simulate --dress`.
@@ -595,6 +822,20 @@ fn path_roll_lines(t: &mut String, p: &PathReport) {
 }
 
 impl DressedReport {
+    /// The dressed profile (w mm, f_nFS µm) for the table: every ⌈(n − 1)/20⌉-th point and
+    /// the last, so at most 21 rows (empty for an empty table).
+    pub fn sample_profile_um(roll_mm: &[f64], f_mm: &[f64]) -> Vec<(f64, f64)> {
+        let n = roll_mm.len().min(f_mm.len());
+        let step = n.saturating_sub(1).div_ceil(20).max(1);
+        roll_mm
+            .iter()
+            .zip(f_mm)
+            .enumerate()
+            .filter(|(i, _)| i % step == 0 || *i + 1 == n)
+            .map(|(_, (w, v))| (*w, mm_to_um(*v)))
+            .collect()
+    }
+
     /// The dressed worm's lines of the run's table (set-up, ΔK, ranges, profile).
     pub fn table_lines(&self, t: &mut String) {
         let d = self;
@@ -812,5 +1053,98 @@ mod tests {
             "equalised", "45.000000", "1.500000", "-0.500000", "-45.000000", "90.000000"
         );
         assert!(t.contains(&row), "{t}");
+    }
+
+    #[test]
+    fn comparison_of_a_hand_made_ground_flank() {
+        use crate::envelope::{FlankGrid, GroundFlank};
+        use crate::modification::Uniform;
+        let (a, b) = (20f64.to_radians(), 15f64.to_radians());
+        let gear = InvoluteGear::new(31, 3.0, a, b).unwrap();
+        let worm = InvoluteGear::worm(1, 3.0, a, 50.0, Hand::Right).unwrap();
+        let pair = WormGearPair::reference(&worm, &gear, Flank::Right).unwrap();
+        let cpl = FeedCoupling::linear(0.0, 0.0).unwrap();
+        // a uniform worm stock u maps to f_Ft2 = −(cos β_b1/cos β_b2)·u everywhere (eq. (38))
+        let u = 0.004;
+        let an = -(pair.worm.beta_b_rad.cos() / pair.gear.beta_b_rad.cos()) * u;
+        let grid = FlankGrid::new((40.0, 44.0), (-5.0, 5.0), 3, 2).unwrap();
+        let mut ground = GroundFlank::new(grid);
+        for p in &mut ground.points {
+            p.f_ft_mm = an;
+            p.explained = true;
+        }
+        // one point (i = 1, j = 0) 2 µm off and not explained
+        ground.points[2].f_ft_mm = an + 0.002;
+        ground.points[2].explained = false;
+        let wanted =
+            LineModification::new(0.0, 42.0, Poly(vec![0.001]), Poly(vec![]), Poly(vec![]))
+                .unwrap();
+        let worm_mod = Uniform { f_ft_mm: u };
+        let c = FlankComparison::new(&pair, &cpl, &worm_mod, &ground, Some(&wanted)).unwrap();
+        assert_eq!(
+            (c.map.w_mm.clone(), c.map.z_mm.clone()),
+            (vec![40.0, 42.0, 44.0], vec![-5.0, 5.0])
+        );
+        for row in &c.map.analytic_um {
+            for v in row {
+                close(*v, an * 1e3, 1e-9);
+            }
+        }
+        close(c.max_abs_ground_minus_analytic_mm, 0.002, 1e-15);
+        close(c.max_abs_ground_mm, (an + 0.002).abs().max(an.abs()), 1e-15);
+        // the wanted modification is 1 µm everywhere
+        close(
+            c.max_abs_deviation_mm,
+            (an + 0.002 - 0.001).abs().max((an - 0.001).abs()),
+            1e-15,
+        );
+        close(c.deviation_mm[2], an + 0.002 - 0.001, 1e-15);
+        close(c.from_design_mm[0], an - 0.001, 1e-15);
+        close(c.map.deviation_um[1][0], (an + 0.002 - 0.001) * 1e3, 1e-12);
+        assert_eq!(c.flagged.len(), 1);
+        let f = &c.flagged[0];
+        assert_eq!((f.w_mm, f.z_mm, f.reason), (42.0, -5.0, NOT_EXPLAINED));
+        let w = c.flag_warnings();
+        assert_eq!(w.len(), 1);
+        assert!(
+            w[0].starts_with("1 of 6 points: envelope and analytic map differ"),
+            "{w:?}"
+        );
+        // without a wanted modification the design is the analytic map
+        let c = FlankComparison::new(&pair, &cpl, &worm_mod, &ground, None).unwrap();
+        close(c.from_design_mm[2], 0.002, 1e-15);
+        close(c.deviation_mm[2], an + 0.002, 1e-15);
+        // traces of the map
+        assert_eq!(MapReport::nearest(&c.map.w_mm, 42.9), 1);
+        assert_eq!(MapReport::nearest(&c.map.w_mm, 43.1), 2);
+        let trace = c.map.envelope_minus_analytic_trace(0);
+        assert_eq!(trace.len(), 3);
+        close(trace[1].1, 2.0, 1e-9);
+        close(trace[0].1, 0.0, 1e-12);
+        let helix = c.map.helix_trace(&c.map.ground_um, 1);
+        assert_eq!((helix[0].0, helix[1].0), (-5.0, 5.0));
+    }
+
+    #[test]
+    fn dressed_profile_is_sampled_to_21_rows_with_the_last() {
+        // 45 points: step ⌈44/20⌉ = 3 → indices 0, 3, …, 42 (15 rows) and the last, 44
+        let w: Vec<f64> = (0..45).map(f64::from).collect();
+        let f: Vec<f64> = w.iter().map(|x| x * 1e-4).collect();
+        let s = DressedReport::sample_profile_um(&w, &f);
+        let idx: Vec<f64> = s.iter().map(|p| p.0).collect();
+        let mut want: Vec<f64> = (0..15).map(|i| f64::from(3 * i)).collect();
+        want.push(44.0);
+        assert_eq!(idx, want);
+        close(s[1].1, 0.3, 1e-12);
+        // 21 points: every point
+        assert_eq!(
+            DressedReport::sample_profile_um(&w[..21], &f[..21]).len(),
+            21
+        );
+        assert!(DressedReport::sample_profile_um(&[], &[]).is_empty());
+        assert_eq!(
+            DressedReport::sample_profile_um(&[1.0], &[0.0]),
+            [(1.0, 0.0)]
+        );
     }
 }

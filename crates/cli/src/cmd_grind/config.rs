@@ -326,15 +326,26 @@ pub(super) fn dress_worm(
         t.contact_line_rad,
     )
     .context("dressed profile table")?;
-    let n = t.roll_mm.len();
-    let step = (n - 1).div_ceil(20).max(1);
-    let out = DressedReport {
+    let out = dressed_report(path, cfg.dresser.diameter_mm, &t, &profile);
+    Ok((worm, profile, out))
+}
+
+/// The record of the dressed worm (the used roll range and the axial-section estimate are
+/// filled in once the pair is known).
+fn dressed_report(
+    path: &std::path::Path,
+    dresser_diameter_mm: f64,
+    t: &DressedWormTable,
+    profile: &DressedProfile,
+) -> DressedReport {
+    let worm = &t.worm;
+    DressedReport {
         config: path.display().to_string(),
         correction: t.kind.name(),
         worm_starts: worm.z_s,
         worm_design_diameter_mm: worm.d_s0_mm,
         worm_diameter_mm: worm.d_s_mm,
-        dresser_diameter_mm: cfg.dresser.diameter_mm,
+        dresser_diameter_mm,
         dphi_s_rad: t.dk.dphi_s_rad,
         dgamma_deg: rad_to_deg(t.dk.dgamma_rad),
         dd_mm: t.dk.dd_mm,
@@ -345,16 +356,8 @@ pub(super) fn dress_worm(
         dressed_roll_range_mm: t.dressed_roll_range_mm,
         dressed_radius_range_mm: profile.dressed_radius_range_mm(),
         used_roll_range_mm: (0.0, 0.0),
-        profile_um: t
-            .roll_mm
-            .iter()
-            .zip(&t.f_mm)
-            .enumerate()
-            .filter(|(i, _)| i % step == 0 || *i == n - 1)
-            .map(|(_, (w, v))| (*w, mm_to_um(*v)))
-            .collect(),
-    };
-    Ok((worm, profile, out))
+        profile_um: DressedReport::sample_profile_um(&t.roll_mm, &t.f_mm),
+    }
 }
 
 /// A `gearcomp grind` config (`grind equalise`): gear and worm bodies, cone angles included.

@@ -23,33 +23,39 @@
 //! Interface units: degrees for angles, µm for modifications (coefficients in µm·mm⁻ᵏ), mm for
 //! lengths. They are converted by the gear crates' shared `gearcomp_geometry::units` only. Exception kept for
 //! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
+//!
+//! Glue only: `args.rs` (options), `config.rs` (options and TOML configs → the grinding
+//! crate's set-up, `gearcomp_grinding::setup`), `run.rs` (the subcommands, generic over
+//! `gearcomp_grinding::mesh::GrindingMesh`), `output.rs` (the record of
+//! `gearcomp_grinding::report` as JSON or its table) and `report.rs` (the HTML report).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Subcommand;
 use gearcomp_dressing::dresser::{Dresser, DresserSpec};
-use gearcomp_dressing::request::GrindDressConfig;
+use gearcomp_dressing::request::{DressedWormTable, GrindDressConfig};
 use gearcomp_dressing::worm::Worm as DressWorm;
 use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
 use gearcomp_geometry::GeometryError;
-use gearcomp_grinding::conical::{self, BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
+use gearcomp_grinding::conical::{BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{
     equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
 };
 use gearcomp_grinding::conical_lines;
 use gearcomp_grinding::contact::WormGearPair;
-use gearcomp_grinding::diagonal::{diagonal_ratio, line_map, rho1_estimate_rad, LineMap};
+use gearcomp_grinding::diagonal::{diagonal_ratio, rho1_estimate_rad, LineMap};
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
-use gearcomp_grinding::envelope::{AnalyticTransfer, EnvelopeGrinder};
+use gearcomp_grinding::envelope::EnvelopeGrinder;
 use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
-use gearcomp_grinding::iso1328::{tolerances, DeviationMap, MultiTraceEvaluation};
+use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
+use gearcomp_grinding::mesh::GrindingMesh;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
 use gearcomp_grinding::report::{
-    iso_rows, DressedReport, EqualiseReport, FlaggedPoint, FlankK, GrindReport, LineModReport,
-    MapReport, PathReport, SolveIteration, SolveReport, TracesReport,
+    iso_rows, DressedReport, EqualiseReport, FlankComparison, FlankK, GrindReport, LineModReport,
+    MapReport, SolveReport, TracesReport,
 };
 use gearcomp_grinding::setup::{self, default_worm_radii_mm, RollLimits, RollRangeError};
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
@@ -59,7 +65,6 @@ use serde::Deserialize;
 
 mod args;
 mod config;
-mod mesh;
 mod output;
 mod report;
 mod run;
@@ -69,6 +74,5 @@ pub use run::run;
 
 use args::*;
 use config::*;
-use mesh::*;
 use output::*;
 use report::*;

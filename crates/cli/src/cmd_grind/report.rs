@@ -40,48 +40,49 @@ pub(super) fn write_report(out: &GrindReport, path: &std::path::Path) -> Result<
         &out.map,
         &out.map.deviation_um,
     ));
-    // profile and helix traces of the deviation map at the evaluation lines
-    let e = &out.iso1328;
-    let jz = nearest(&out.map.z_mm, e.profile_z_mm);
-    let iw = nearest(&out.map.w_mm, e.helix_w_mm);
-    let prof: Vec<(f64, f64)> = out
-        .map
-        .w_mm
-        .iter()
-        .zip(&out.map.deviation_um)
-        .map(|(w, row)| (*w, row[jz]))
-        .collect();
-    let helix: Vec<(f64, f64)> = out
-        .map
-        .z_mm
-        .iter()
-        .zip(&out.map.deviation_um[iw])
-        .map(|(z, v)| (*z, *v))
-        .collect();
-    let prof_an: Vec<(f64, f64)> = out
-        .map
-        .w_mm
-        .iter()
-        .zip(out.map.ground_um.iter().zip(&out.map.analytic_um))
-        .map(|(w, (g, a))| (*w, g[jz] - a[jz]))
-        .collect();
+    trace_charts(&mut r, out)?;
+    iso_section(&mut r, &out.iso1328);
+    r.write(path)
+        .with_context(|| format!("writing report {}", path.display()))?;
+    Ok(())
+}
+
+/// Profile and helix traces of the deviation map at the evaluation lines.
+fn trace_charts(r: &mut HtmlReport, out: &GrindReport) -> Result<()> {
+    let (e, map) = (&out.iso1328, &out.map);
+    let jz = MapReport::nearest(&map.z_mm, e.profile_z_mm);
+    let iw = MapReport::nearest(&map.w_mm, e.helix_w_mm);
     r.chart(
         &Chart::new(
-            format!("Profile deviation at z = {:.2} mm", out.map.z_mm[jz]),
+            format!("Profile deviation at z = {:.2} mm", map.z_mm[jz]),
             "roll distance w / mm",
             "deviation / µm",
         )
-        .with(Series::line("deviation", prof))
-        .with(Series::line("envelope − analytic map", prof_an)),
+        .with(Series::line(
+            "deviation",
+            map.profile_trace(&map.deviation_um, jz),
+        ))
+        .with(Series::line(
+            "envelope − analytic map",
+            map.envelope_minus_analytic_trace(jz),
+        )),
     )?;
     r.chart(
         &Chart::new(
-            format!("Helix deviation at w = {:.3} mm", out.map.w_mm[iw]),
+            format!("Helix deviation at w = {:.3} mm", map.w_mm[iw]),
             "width z / mm",
             "deviation / µm",
         )
-        .with(Series::line("deviation", helix)),
+        .with(Series::line(
+            "deviation",
+            map.helix_trace(&map.deviation_um, iw),
+        )),
     )?;
+    Ok(())
+}
+
+/// The ISO 1328-1 table and its ranges and verdict.
+fn iso_section(r: &mut HtmlReport, e: &FlankEvaluation) {
     r.heading("ISO 1328-1:2013 evaluation");
     let rows: Vec<Vec<String>> = iso_rows(e)
         .into_iter()
@@ -109,21 +110,4 @@ pub(super) fn write_report(out: &GrindReport, path: &std::path::Path) -> Result<
         e.helix.range_mm.1,
         if e.within_tolerance { "within tolerance" } else { "out of tolerance" }
     ));
-    r.write(path)
-        .with_context(|| format!("writing report {}", path.display()))?;
-    Ok(())
-}
-
-pub(super) fn nearest(v: &[f64], x: f64) -> usize {
-    v.iter()
-        .enumerate()
-        .fold((0, f64::INFINITY), |(bi, bd), (i, y)| {
-            let d = (y - x).abs();
-            if d < bd {
-                (i, d)
-            } else {
-                (bi, bd)
-            }
-        })
-        .0
 }

@@ -38,7 +38,7 @@ pub(super) enum WormUsed<'a> {
 /// tolerances). The cylindrical [`WormGearPair`] runs the library's `Grinder` (which is
 /// `EnvelopeGrinder<WormGearPair>`), a [`ConicalPair`] the same algorithm on chains (29)–(31).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn grind_and_report<M: GrindMesh>(
+pub(super) fn grind_and_report<M: GrindingMesh>(
     mode: &'static str,
     mesh: &M,
     gear: &InvoluteGear,
@@ -58,140 +58,27 @@ pub(super) fn grind_and_report<M: GrindMesh>(
     let cpl = FeedCoupling::linear(k, a.shift_offset_mm).context("feed coupling")?;
     let ground = match extras.pre_ground {
         Some(pre) => pre,
-        None => {
-            let mut grinder =
-                EnvelopeGrinder::new(mesh, &cpl, worm_mod, EnvelopeMode::RotationAndFeed);
-            if let Some((root, tip)) = extras.worm_radii_mm {
-                grinder = grinder
-                    .with_worm_radii(root, tip)
-                    .context("--worm-root-radius-mm/--worm-tip-radius-mm")?;
-            }
-            let mut ground = GroundFlank::new(g);
-            grinder.grind_flank(&mut ground).context(
-                "grinding simulation (check --roll-start-mm/--roll-end-mm against the worm's \
-                 --worm-root-radius-mm/--worm-tip-radius-mm, --shift-offset-mm and the worm \
-                 modification)",
-            )?;
-            ground
-        }
+        None => grind(mesh, &cpl, worm_mod, g, extras.worm_radii_mm)?,
     };
-    let mut flagged = Vec::new();
-    let mut design_mm = Vec::with_capacity(g.len());
-    let mut ground_mm = Vec::with_capacity(g.len());
-    let mut map = MapReport {
-        w_mm: (0..g.n_w).map(|i| g.w_mm(i)).collect(),
-        z_mm: (0..g.n_z).map(|j| g.z_mm(j)).collect(),
-        ground_um: Vec::with_capacity(g.n_w),
-        analytic_um: Vec::with_capacity(g.n_w),
-        deviation_um: Vec::with_capacity(g.n_w),
-    };
-    let mut dev_mm = Vec::with_capacity(g.len());
-    let (mut max_g, mut max_ga, mut max_d) = (0.0f64, 0.0f64, 0.0f64);
-    for i in 0..g.n_w {
-        let (mut rg, mut ra, mut rd) = (Vec::new(), Vec::new(), Vec::new());
-        for j in 0..g.n_z {
-            let (w, z) = (g.w_mm(i), g.z_mm(j));
-            let f = ground.at(i, j).f_ft_mm;
-            let an = mesh
-                .predicted_gear_f_ft_mm(&cpl, worm_mod, w, z)
-                .with_context(|| format!("analytic map of the {}", M::NAME))?;
-            let design = wanted.map_or(0.0, |m| m.f_ft_mm(w, z));
-            dev_mm.push(f - design);
-            design_mm.push(f - wanted.map_or(an, |m| m.f_ft_mm(w, z)));
-            ground_mm.push(f);
-            let gp = ground.at(i, j);
-            if !gp.explained {
-                flagged.push(FlaggedPoint {
-                    w_mm: w,
-                    z_mm: z,
-                    ground_um: mm_to_um(f),
-                    analytic_um: mm_to_um(an),
-                    second_order_um: gp.second_order_f_ft_mm.map(mm_to_um),
-                    reason: if gp.worm_edge {
-                        "the worm grinds this point with its tip or root edge"
-                    } else {
-                        "envelope and analytic map differ beyond their second-order terms"
-                    },
-                });
-            }
-            max_g = max_g.max(f.abs());
-            max_ga = max_ga.max((f - an).abs());
-            max_d = max_d.max((f - design).abs());
-            rg.push(mm_to_um(f));
-            ra.push(mm_to_um(an));
-            rd.push(mm_to_um(f - design));
-        }
-        map.ground_um.push(rg);
-        map.analytic_um.push(ra);
-        map.deviation_um.push(rd);
-    }
-    let tol = tolerances(
-        2.0 * gear.reference_radius_mm(),
-        gear.m_n_mm,
-        a.face_width_mm,
-        a.class,
-    )
-    .context("ISO 1328-1 tolerances")?;
-    let iso = DeviationMap::new(g, dev_mm)?
-        .evaluate(tol, gear.m_n_mm)
-        .context("ISO 1328-1 evaluation")?;
-    let d_mm = 2.0 * gear.reference_radius_mm();
-    let traces = |v: Vec<f64>| -> Result<MultiTraceEvaluation> {
-        DeviationMap::new(g, v)?
-            .evaluate_traces(d_mm, gear.m_n_mm, a.face_width_mm, a.class, 3)
-            .context("ISO 1328-1 evaluation (three traces)")
-    };
-    let iso_traces = TracesReport {
-        design_reference: if wanted.is_some() {
-            "wanted gear modification"
-        } else {
-            "analytic worm → gear map of the given worm"
-        },
-        from_design: traces(design_mm)?,
-        from_involute: traces(ground_mm)?,
-    };
-    let mut warnings = Vec::new();
-    for reason in [
-        "the worm grinds this point with its tip or root edge",
-        "envelope and analytic map differ beyond their second-order terms",
-    ] {
-        let pts: Vec<&FlaggedPoint> = flagged.iter().filter(|p| p.reason == reason).collect();
-        if let Some(p) = pts.first() {
-            warnings.push(format!(
-                "{} of {} points: {reason} (first at w = {:.4} mm, z = {:.4} mm: envelope {:.4} \
-                 µm, analytic {:.4} µm); see flagged_points",
-                pts.len(),
-                g.len(),
-                p.w_mm,
-                p.z_mm,
-                p.ground_um,
-                p.analytic_um
-            ));
-        }
-    }
-    if let Some(sv) = &extras.solve {
-        if !sv.converged {
-            warnings.push(format!(
-                "the iterated solve stopped at {:.4} µm remaining deviation ({:.3} % of the \
-                 wish), above its tolerance {:.4} µm",
-                sv.remaining_um, sv.remaining_percent_of_wish, sv.tolerance_um
-            ));
-        }
-    }
+    let cmp = FlankComparison::new(mesh, &cpl, worm_mod, &ground, wanted)
+        .with_context(|| format!("analytic map of the {}", M::NAME))?;
+    let (iso, iso_traces) = iso_evaluation(gear, g, a, &cmp, wanted.is_some())?;
+    let mut warnings = cmp.flag_warnings();
+    warnings.extend(extras.solve.as_ref().and_then(SolveReport::warning));
     Ok(GrindReport {
         mode,
         worm_cone_deg: cones.worm_deg,
         gear_cone_deg: cones.gear_deg,
-        path: mesh.path_out(),
+        path: mesh.path_report(),
         diagonal_ratio: k,
         shift_offset_mm: a.shift_offset_mm,
         line_map: lm,
         worm_modification: worm_out,
         dressed_worm: dressed_out,
         wanted_gear_modification: wanted.map(LineModReport::from),
-        max_abs_ground_um: mm_to_um(max_g),
-        max_abs_ground_minus_analytic_um: mm_to_um(max_ga),
-        max_abs_deviation_um: mm_to_um(max_d),
+        max_abs_ground_um: mm_to_um(cmp.max_abs_ground_mm),
+        max_abs_ground_minus_analytic_um: mm_to_um(cmp.max_abs_ground_minus_analytic_mm),
+        max_abs_deviation_um: mm_to_um(cmp.max_abs_deviation_mm),
         deviation_reference: if wanted.is_some() {
             "wanted gear modification"
         } else if cones.gear_rad != 0.0 {
@@ -203,11 +90,67 @@ pub(super) fn grind_and_report<M: GrindMesh>(
         iso1328_traces: iso_traces,
         profile_shift: a.profile_shift,
         worm_radii_mm: extras.worm_radii_mm,
-        flagged_points: flagged,
+        flagged_points: cmp.flagged,
         warnings,
         solve: extras.solve,
-        map,
+        map: cmp.map,
     })
+}
+
+/// The envelope simulation of the grid (the worm bounded by its root and tip radii when
+/// given).
+fn grind<M: GrindingMesh>(
+    mesh: &M,
+    cpl: &FeedCoupling,
+    worm_mod: &dyn FlankModification,
+    g: FlankGrid,
+    worm_radii_mm: Option<(f64, f64)>,
+) -> Result<GroundFlank> {
+    let mut grinder = EnvelopeGrinder::new(mesh, cpl, worm_mod, EnvelopeMode::RotationAndFeed);
+    if let Some((root, tip)) = worm_radii_mm {
+        grinder = grinder
+            .with_worm_radii(root, tip)
+            .context("--worm-root-radius-mm/--worm-tip-radius-mm")?;
+    }
+    let mut ground = GroundFlank::new(g);
+    grinder.grind_flank(&mut ground).context(
+        "grinding simulation (check --roll-start-mm/--roll-end-mm against the worm's \
+         --worm-root-radius-mm/--worm-tip-radius-mm, --shift-offset-mm and the worm \
+         modification)",
+    )?;
+    Ok(ground)
+}
+
+/// ISO 1328-1 of the deviation map (middle traces), and over three traces from the design
+/// and from the unmodified flank.
+fn iso_evaluation(
+    gear: &InvoluteGear,
+    g: FlankGrid,
+    a: &SetupArgs,
+    cmp: &FlankComparison,
+    wanted: bool,
+) -> Result<(FlankEvaluation, TracesReport)> {
+    let d_mm = 2.0 * gear.reference_radius_mm();
+    let tol =
+        tolerances(d_mm, gear.m_n_mm, a.face_width_mm, a.class).context("ISO 1328-1 tolerances")?;
+    let iso = DeviationMap::new(g, cmp.deviation_mm.clone())?
+        .evaluate(tol, gear.m_n_mm)
+        .context("ISO 1328-1 evaluation")?;
+    let traces = |v: Vec<f64>| -> Result<MultiTraceEvaluation> {
+        DeviationMap::new(g, v)?
+            .evaluate_traces(d_mm, gear.m_n_mm, a.face_width_mm, a.class, 3)
+            .context("ISO 1328-1 evaluation (three traces)")
+    };
+    let iso_traces = TracesReport {
+        design_reference: if wanted {
+            "wanted gear modification"
+        } else {
+            "analytic worm → gear map of the given worm"
+        },
+        from_design: traces(cmp.from_design_mm.clone())?,
+        from_involute: traces(cmp.ground_mm.clone())?,
+    };
+    Ok((iso, iso_traces))
 }
 
 pub(super) fn simulate(a: SimulateArgs) -> Result<()> {
@@ -254,8 +197,8 @@ pub(super) fn simulate_conical(a: &SimulateArgs, c: Cones) -> Result<()> {
 
 /// `simulate` with the worm line modification of the options (--worm-c/-l/-q along ρ_F1) on
 /// either mesh: ρ_F1 from --worm-rho-deg or the mesh's estimate, K_ZV1 from --diagonal-ratio or
-/// --gear-rho-deg ([`GrindMesh::gear_line_choice`]).
-fn simulate_line<M: GrindMesh>(
+/// --gear-rho-deg ([`GrindingMesh::gear_line_choice`]).
+fn simulate_line<M: GrindingMesh>(
     a: &SimulateArgs,
     pair: &M,
     gear: &InvoluteGear,
@@ -292,14 +235,19 @@ fn simulate_line<M: GrindMesh>(
 }
 
 /// K_ZV1 from --diagonal-ratio, or from --gear-rho-deg and the worm line direction ρ_F1.
-pub(super) fn diagonal_choice<M: GrindMesh>(
+pub(super) fn diagonal_choice<M: GrindingMesh>(
     a: &SimulateArgs,
     pair: &M,
     rho1: f64,
 ) -> Result<(f64, Option<LineMap>)> {
     Ok(match (a.diagonal_ratio, a.gear_rho_deg) {
         (Some(k), _) => (k, None),
-        (None, Some(r2)) => pair.gear_line_choice(rho1, deg_to_rad(r2), a.setup.shift_offset_mm)?,
+        (None, Some(r2)) => pair
+            .gear_line_choice(rho1, deg_to_rad(r2), a.setup.shift_offset_mm)
+            .with_context(|| {
+                let chain = if M::CONICAL { " (conical)" } else { "" };
+                format!("diagonal ratio for --gear-rho-deg{chain}")
+            })?,
         (None, None) => (0.0, None),
     })
 }
@@ -359,27 +307,7 @@ pub(super) fn solve(a: SolveArgs) -> Result<()> {
     let (lm, worm_mod) = (it.line_map, it.worm.clone());
     // the same K from the closed form, as a cross-check of the line map
     let k = diagonal_ratio(&s.pair, rho1, wanted.rho_rad)?;
-    let tol_mm = (opts.rel_tol * it.wish_max_abs_mm).max(opts.abs_tol_mm);
-    let solve_out = SolveReport {
-        iterations: it
-            .iterations
-            .iter()
-            .map(|i| SolveIteration {
-                iteration: i.iteration,
-                max_abs_deviation_um: mm_to_um(i.max_abs_deviation_mm),
-            })
-            .collect(),
-        wish_max_abs_um: mm_to_um(it.wish_max_abs_mm),
-        remaining_um: mm_to_um(it.remaining_mm),
-        remaining_percent_of_wish: if it.wish_max_abs_mm > 0.0 {
-            100.0 * it.remaining_mm / it.wish_max_abs_mm
-        } else {
-            0.0
-        },
-        tolerance_um: mm_to_um(tol_mm),
-        converged: it.converged,
-        first_order_worm: LineModReport::from(&it.first_order_worm),
-    };
+    let solve_out = SolveReport::new(&it, &opts);
     let out = grind_and_report(
         "solve",
         &s.pair,
@@ -431,7 +359,7 @@ pub(super) fn solve_conical(a: &SolveArgs, c: Cones) -> Result<()> {
 
 /// ρ_F1 (--worm-rho-deg, or the mesh's estimate) and the wanted gear line modification
 /// (--gear-rho-deg, --gear-c/-l/-q) of `solve`, on either mesh.
-fn solve_targets<M: GrindMesh>(a: &SolveArgs, pair: &M) -> Result<(f64, LineModification)> {
+fn solve_targets<M: GrindingMesh>(a: &SolveArgs, pair: &M) -> Result<(f64, LineModification)> {
     let rho1 = a
         .worm_rho_deg
         .map_or_else(|| pair.rho1_default_rad(), deg_to_rad);
