@@ -188,7 +188,9 @@ fn authorize(
         .and_then(|v| v.strip_prefix("Bearer "))
         .map(str::trim);
     // An empty token (the dashboard opened without ?token=) is no token.
-    let token = bearer.or(query_token).filter(|t| !t.is_empty());
+    let token = bearer
+        .filter(|t| !t.is_empty())
+        .or(query_token.filter(|t| !t.is_empty()));
     let certificates_only = peer.is_some_and(|p| p.certificates_only);
     let (role, id) = match (token, peer.and_then(|p| p.role.as_ref())) {
         (Some(token), _) if !certificates_only => {
