@@ -36,6 +36,19 @@ fn main() {
             m.test_rmse.unwrap_or(f64::NAN),
             base[j].1.unwrap_or(f64::NAN)
         );
+        for c in &m.comparison {
+            println!(
+                "    {:40} val {:.3} {:?} {} {}",
+                c.family,
+                c.cv_rmse,
+                c.fold_rmse
+                    .iter()
+                    .map(|v| format!("{v:.2}"))
+                    .collect::<Vec<_>>(),
+                c.sensors,
+                c.detail
+            );
+        }
     }
     println!("family: validation / test per target (µm)");
     for fam in Family::ALL {

@@ -41,6 +41,10 @@ use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
 
+/// Stacked generalisation of the families (in `src/stack.rs`).
+#[path = "stack.rs"]
+pub mod stack;
+
 /// A model family of the automatic comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Family {
@@ -60,6 +64,10 @@ pub enum Family {
     Delay,
     /// Static least squares on single sensors and sensor differences A − B.
     Differences,
+    /// Convex combination of the other families' best models, weights fitted on their
+    /// out-of-fold predictions ([`stack`]); not in [`Family::ALL`]: compared by
+    /// default, or when named beside the families it combines.
+    Stacked,
 }
 
 impl Family {
@@ -86,6 +94,7 @@ impl Family {
             Family::Tf2 => "2nd-order transfer function",
             Family::Delay => "pure delay",
             Family::Differences => "sensor differences (A − B)",
+            Family::Stacked => "stacked families (convex weights)",
         }
     }
 }
@@ -508,6 +517,8 @@ struct Best {
     sse: Vec<f64>,
     cv: f64,
     detail: String,
+    /// Feature columns each fold's model uses (its own path), for out-of-fold predictions.
+    fold_cols: Vec<Vec<usize>>,
 }
 
 struct Ctx<'a> {
@@ -523,8 +534,8 @@ struct Ctx<'a> {
     taus: Vec<f64>,
 }
 
-/// A forward-selection result: units, per-fold SSE, pooled RMSE.
-type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64);
+/// A forward-selection result: units, per-fold SSE, pooled RMSE, each fold's columns.
+type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64, Vec<Vec<usize>>);
 
 /// Greedy forward path by the least-squares fit on the training rows of `fold` (`None`:
 /// every training row): at each step the unit (one per sensor, a unit is a set of feature
@@ -625,6 +636,7 @@ fn forward(
     let nf = ctx.eng.folds.len();
     let (full, _) = greedy(ctx, target, units, candidates, None);
     let mut fold_units = Vec::with_capacity(nf);
+    let mut fold_states: Vec<Vec<Vec<usize>>> = Vec::with_capacity(nf);
     // sse[k][f]: held-out SSE of fold f's model after k + 1 steps.
     let mut steps = full.len();
     let mut sse: Vec<Vec<f64>> = vec![Vec::with_capacity(nf); steps];
@@ -642,13 +654,23 @@ fn forward(
             }
         }
         steps = steps.min(k_ok);
+        fold_states.push(
+            states
+                .iter()
+                .map(|u| u.iter().flatten().copied().collect())
+                .collect(),
+        );
         fold_units.push(states.pop().unwrap_or_default());
     }
     let mut kept: Option<Prefix> = None;
     for (k, s) in sse.into_iter().enumerate().take(steps) {
         let v = ctx.eng.pooled(&s);
         if v.is_finite() && kept.as_ref().is_none_or(|b| v < b.2) {
-            kept = Some((full[k].clone(), s, v));
+            let fc = fold_states
+                .iter()
+                .map(|st| st.get(k).cloned().unwrap_or_default())
+                .collect();
+            kept = Some((full[k].clone(), s, v, fc));
         }
     }
     Forward {
@@ -658,8 +680,8 @@ fn forward(
     }
 }
 
-/// A shrunk path: units, per-fold SSE, pooled RMSE, fitter.
-type Shrunk = (Vec<Vec<usize>>, Vec<f64>, f64, Fitter);
+/// A shrunk path: units, per-fold SSE, pooled RMSE, fitter, each fold's columns.
+type Shrunk = (Vec<Vec<usize>>, Vec<f64>, f64, Fitter, Vec<Vec<usize>>);
 
 /// Shrinkage of a whole forward path instead of truncating it: ridge (α) or principal
 /// components (k) on every unit of each fold's path, validated on that fold's held-out
@@ -686,7 +708,8 @@ fn shrink_path(ctx: &Ctx, target: usize, fw: &Forward, fitters: &[Fitter]) -> Op
         if let Some(sse) = sse {
             let v = ctx.eng.pooled(&sse);
             if v.is_finite() && best.as_ref().is_none_or(|b| v < b.2) {
-                best = Some((fw.units.clone(), sse, v, fit));
+                let fc = fw.fold_units.iter().map(|u| flat(u)).collect();
+                best = Some((fw.units.clone(), sse, v, fit, fc));
             }
         }
     }
@@ -701,13 +724,14 @@ fn family_best(
     static_path: &Forward,
 ) -> Option<Best> {
     let all: Vec<usize> = (0..ctx.n_in).collect();
-    let mk = |units: Vec<Vec<usize>>, sse: Vec<f64>, cv: f64, fitter, detail: String| Best {
+    let mk = |(units, sse, cv, fitter, fold_cols): Shrunk, detail: String| Best {
         family: fam,
         units,
         fitter,
         sse,
         cv,
         detail,
+        fold_cols,
     };
     let describe = |units: &[Vec<usize>]| -> String {
         units
@@ -727,7 +751,11 @@ fn family_best(
             .join(", ")
     };
     // Forward selection by least squares over every sensor, with these candidate units.
-    let ols = |units: &dyn Fn(usize) -> Vec<Vec<usize>>| forward(ctx, target, units, &all).kept;
+    let ols = |units: &dyn Fn(usize) -> Vec<Vec<usize>>| {
+        forward(ctx, target, units, &all)
+            .kept
+            .map(|(u, sse, cv, fc)| (u, sse, cv, Fitter::Ols, fc))
+    };
     // The path truncated (least squares) or shrunk whole (ridge), whichever validates
     // better; its detail lists the τ / delay of each unit.
     let ridge: Vec<Fitter> = opts
@@ -741,23 +769,22 @@ fn family_best(
         let mut best: Option<Best> = None;
         let cands = fw
             .kept
-            .map(|(u, sse, cv)| (u, sse, cv, Fitter::Ols))
+            .map(|(u, sse, cv, fc)| (u, sse, cv, Fitter::Ols, fc))
             .into_iter()
             .chain(shrunk);
-        for (u, sse, cv, f) in cands {
-            if best.as_ref().is_none_or(|b| cv < b.cv) {
-                let mut d = describe(&u);
-                if let Fitter::Ridge(a) = f {
+        for c in cands {
+            if best.as_ref().is_none_or(|b| c.2 < b.cv) {
+                let mut d = describe(&c.0);
+                if let Fitter::Ridge(a) = c.3 {
                     d = format!("{d}; ridge α = {a}");
                 }
-                best = Some(mk(u, sse, cv, f, d));
+                best = Some(mk(c, d));
             }
         }
         best
     };
     match fam {
-        Family::Static => ols(&|s| vec![vec![ctx.value[s]]])
-            .map(|(u, sse, cv)| mk(u, sse, cv, Fitter::Ols, String::new())),
+        Family::Static => ols(&|s| vec![vec![ctx.value[s]]]).map(|c| mk(c, String::new())),
         Family::Ridge | Family::Pcr => {
             // The static family's path, shrunk instead of truncated (each fold shrinks its
             // own path, chosen on its training rows).
@@ -770,13 +797,13 @@ fn family_best(
             } else {
                 (1..=cols).map(Fitter::Pcr).collect()
             };
-            shrink_path(ctx, target, static_path, &fitters).map(|(u, sse, cv, f)| {
-                let d = match f {
+            shrink_path(ctx, target, static_path, &fitters).map(|c| {
+                let d = match c.3 {
                     Fitter::Ridge(a) => format!("α = {a}"),
                     Fitter::Pcr(k) => format!("{k} of {cols} components"),
                     Fitter::Ols => String::new(),
                 };
-                mk(u, sse, cv, f, d)
+                mk(c, d)
             })
         }
         Family::LeadLag => {
@@ -798,16 +825,16 @@ fn family_best(
                 let cands = fw
                     .kept
                     .clone()
-                    .map(|(u, sse, cv)| (u, sse, cv, Fitter::Ols))
+                    .map(|(u, sse, cv, fc)| (u, sse, cv, Fitter::Ols, fc))
                     .into_iter()
                     .chain(shrunk);
-                for (u, sse, cv, f) in cands {
-                    if best.as_ref().is_none_or(|b| cv < b.cv) {
-                        let d = match f {
+                for c in cands {
+                    if best.as_ref().is_none_or(|b| c.2 < b.cv) {
+                        let d = match c.3 {
                             Fitter::Ridge(a) => format!("τ = {tau} s, ridge α = {a}"),
                             _ => format!("τ = {tau} s"),
                         };
-                        best = Some(mk(u, sse, cv, f, d));
+                        best = Some(mk(c, d));
                     }
                 }
             }
@@ -832,6 +859,7 @@ fn family_best(
                 .chain(ctx.delay[s].iter().map(|&d| vec![d]))
                 .collect()
         }),
+        Family::Stacked => None,
         Family::Differences => {
             // Candidates: each sensor alone, or its difference with another sensor.
             ols(&|s| {
@@ -839,13 +867,13 @@ fn family_best(
                     .chain(ctx.diff.iter().filter(|d| d.0 == s).map(|d| vec![d.2]))
                     .collect()
             })
-            .map(|(u, sse, cv)| {
-                let pairs = u
-                    .iter()
-                    .flatten()
-                    .filter_map(|&c| ctx.feats[c].minus.map(|_| c))
-                    .count();
-                mk(u, sse, cv, Fitter::Ols, format!("{pairs} difference(s)"))
+            .map(|c| {
+                let pairs =
+                    c.0.iter()
+                        .flatten()
+                        .filter(|&&k| ctx.feats[k].minus.is_some())
+                        .count();
+                mk(c, format!("{pairs} difference(s)"))
             })
         }
     }
@@ -867,10 +895,15 @@ pub fn identify_auto(
             return Err(invalid("delay_s", d, "delays > 0 s"));
         }
     }
+    let want_stack = opts.families.is_empty() || opts.families.contains(&Family::Stacked);
     let families: Vec<Family> = if opts.families.is_empty() {
         Family::ALL.to_vec()
     } else {
-        opts.families.clone()
+        opts.families
+            .iter()
+            .copied()
+            .filter(|&f| f != Family::Stacked)
+            .collect()
     };
     let scheme = deployment_scheme(table, &train, opts.folds)?;
     let segs = table.segment_ranges();
@@ -990,6 +1023,66 @@ pub fn identify_auto(
     let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
     let dendrogram = Dendrogram::single_linkage(&corr.map(f64::abs));
 
+    let val_rows: Vec<Vec<usize>> = scheme
+        .folds
+        .iter()
+        .map(|(_, v)| {
+            (0..scheme.block.len())
+                .filter(|&i| scheme.block[i] == Some(*v))
+                .collect()
+        })
+        .collect();
+    // The members' out-of-fold predictions and sensors; the stack's weights on every
+    // validation row, its held-out SSE per fold and its sensors.
+    let stack_members = |members: &[(Best, bool)], j: usize, cap: usize| {
+        let mut preds = Vec::with_capacity(members.len());
+        let mut groups = Vec::with_capacity(members.len());
+        for (b, d) in members {
+            let (e, data, fs) = if *d {
+                (eng_d.as_ref()?, &dcols, &dfeats)
+            } else {
+                (&eng, &cols, &feats)
+            };
+            let p = out_of_fold(e, data, b, j, &val_rows)?;
+            debug_assert!({
+                let y = &table.targets[j];
+                let s: f64 = val_rows
+                    .iter()
+                    .flatten()
+                    .zip(&p)
+                    .map(|(&i, p)| (y[i] - p).powi(2))
+                    .sum();
+                let t: f64 = b.sse.iter().sum();
+                (s - t).abs() <= 1e-6 * (1.0 + t)
+            });
+            preds.push(p);
+            groups.push(sensors_of_units(fs, &b.units));
+        }
+        let y: Vec<f64> = val_rows
+            .iter()
+            .flatten()
+            .map(|&i| table.targets[j][i])
+            .collect();
+        let fold_of_row: Vec<usize> = val_rows
+            .iter()
+            .enumerate()
+            .flat_map(|(f, r)| std::iter::repeat_n(f, r.len()))
+            .collect();
+        let sse = stack::held_out_sse(&preds, &y, &fold_of_row, val_rows.len(), &groups, cap)?;
+        let all: Vec<usize> = (0..y.len()).collect();
+        let (w, _) = stack::convex_weights(&preds, &y, &all, &groups, cap)?;
+        let mut order: Vec<usize> = (0..w.len()).filter(|&k| w[k] > 0.0).collect();
+        order.sort_by(|&a, &b| w[b].total_cmp(&w[a]));
+        let mut sensors: Vec<usize> = Vec::new();
+        for k in order {
+            for &s in &groups[k] {
+                if !sensors.contains(&s) {
+                    sensors.push(s);
+                }
+            }
+        }
+        Some((w, sse, sensors))
+    };
     let one_target = |j: usize| -> Result<TargetModel> {
         let all: Vec<usize> = (0..c).collect();
         let static_path = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all);
@@ -1023,10 +1116,14 @@ pub fn identify_auto(
                 cv: eng.pooled(&sse),
                 sse,
                 detail: "all inputs".into(),
+                fold_cols: vec![all_cols.clone(); eng.folds.len()],
             })
         } else {
             None
         };
+        // Every family's best, for the stack: (best, whether it lives in the differences'
+        // engine).
+        let mut members: Vec<(Best, bool)> = best.iter().map(|b| (b.clone(), false)).collect();
         for &fam in &families {
             let cx = match (&ctx_d, fam) {
                 (Some(d), Family::Differences) => d,
@@ -1055,6 +1152,7 @@ pub fn identify_auto(
                         eligible: true,
                         kept: false,
                     });
+                    members.push((b.clone(), fam == Family::Differences));
                     if best.as_ref().is_none_or(|x| b.cv < x.cv) {
                         best = Some(b);
                         kept = Some(comparison.len() - 1);
@@ -1069,6 +1167,69 @@ pub fn identify_auto(
                     eligible: false,
                     kept: false,
                 }),
+            }
+        }
+        // Stacked generalisation of the families (`select::stack`): convex weights on their
+        // out-of-fold predictions, validated with weights fitted on the other folds only.
+        let stacked = if want_stack && members.len() >= 2 {
+            stack_members(&members, j, opts.max_sensors)
+        } else {
+            None
+        };
+        if let Some((w, sse, sensors)) = &stacked {
+            let cv = eng.pooled(sse);
+            let detail = members
+                .iter()
+                .zip(w)
+                .filter(|(_, &w)| w > 0.0)
+                .map(|((b, _), w)| {
+                    let d = if b.detail.is_empty() {
+                        b.family.name().to_string()
+                    } else {
+                        format!("{} ({})", b.family.name(), b.detail)
+                    };
+                    format!("{w:.3} × {d}")
+                })
+                .collect::<Vec<_>>()
+                .join(" + ");
+            comparison.push(FamilyScore {
+                family: Family::Stacked.name().into(),
+                sensors: sensors.len(),
+                cv_rmse: cv,
+                fold_rmse: eng.fold_rmse(sse),
+                detail: detail.clone(),
+                eligible: true,
+                kept: false,
+            });
+            if cv.is_finite() && best.as_ref().is_none_or(|x| cv < x.cv) {
+                if let Some(s) = comparison.last_mut() {
+                    s.kept = true;
+                }
+                let mut parts: Vec<(f64, LinearModel)> = Vec::new();
+                for ((b, d), &wk) in members.iter().zip(w) {
+                    if wk > 0.0 {
+                        let (model, _, _) = if *d {
+                            final_model(table, &train, j, &dfeats, &dcols, b)?
+                        } else {
+                            final_model(table, &train, j, &feats, &cols, b)?
+                        };
+                        parts.push((wk, model));
+                    }
+                }
+                let refs: Vec<(f64, &LinearModel)> = parts.iter().map(|(w, m)| (*w, m)).collect();
+                let model = combine_models(&refs);
+                model.validate(&format!("model of {}", table.target_names[j]))?;
+                let fit = fit_of(table, &train, j, &model)?;
+                let fitted = Fitted {
+                    names: model.terms.iter().map(term_name).collect(),
+                    model,
+                    fit,
+                    sensors: sensors.clone(),
+                    tau_s: None,
+                    ridge_alpha: None,
+                    family: format!("{}: {detail}", Family::Stacked.name()),
+                };
+                return target_model(table, &train, j, fitted, cv, eng.fold_rmse(sse), comparison);
             }
         }
         if let Some(k) = kept {
@@ -1121,12 +1282,17 @@ pub fn identify_auto(
         out.push(r.ok_or_else(|| invalid("targets", "a worker", "a result per target"))??);
     }
     let method = format!(
-        "every family compared ({}); validation: {}; at most {} sensor(s)",
+        "every family compared ({}{}); validation: {}; at most {} sensor(s)",
         families
             .iter()
             .map(|f| f.name())
             .collect::<Vec<_>>()
             .join(", "),
+        if want_stack {
+            format!(", {}", Family::Stacked.name())
+        } else {
+            String::new()
+        },
         scheme.description,
         opts.max_sensors
     );
@@ -1167,17 +1333,16 @@ fn feat_name(table: &Table, f: &Feat) -> String {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn finish(
+/// The model of a family's best on every training row: the written model, its fit and
+/// the regressor names.
+fn final_model(
     table: &Table,
     train: &[bool],
     j: usize,
     feats: &[Feat],
     cols: &[Vec<f64>],
-    eng: &Engine,
-    b: Best,
-    comparison: Vec<FamilyScore>,
-) -> Result<TargetModel> {
+    b: &Best,
+) -> Result<(LinearModel, LinearFit, Vec<String>)> {
     let chosen: Vec<usize> = b.units.iter().flatten().copied().collect();
     let names: Vec<String> = chosen
         .iter()
@@ -1215,38 +1380,94 @@ fn finish(
         terms,
     };
     model.validate(&format!("model of {}", table.target_names[j]))?;
-    let predicted = predict(table, &model)?;
-    let e: Vec<f64> = table.targets[j]
-        .iter()
-        .zip(&predicted)
-        .map(|(y, p)| y - p)
-        .collect();
+    Ok((model, fit, names))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    table: &Table,
+    train: &[bool],
+    j: usize,
+    feats: &[Feat],
+    cols: &[Vec<f64>],
+    eng: &Engine,
+    b: Best,
+    comparison: Vec<FamilyScore>,
+) -> Result<TargetModel> {
+    let (model, fit, names) = final_model(table, train, j, feats, cols, &b)?;
+    let chosen: Vec<usize> = b.units.iter().flatten().copied().collect();
     let tau = chosen.iter().find_map(|&c| match feats[c].kind {
         Transform::FirstOrderLag { tau_s } if b.family == Family::LeadLag => Some(tau_s),
         _ => None,
     });
-    Ok(TargetModel {
-        target: table.target_names[j].clone(),
-        classes: Vec::new(),
-        representatives: Vec::new(),
-        target_score: Vec::new(),
+    let fitted = Fitted {
+        model,
+        fit,
+        names,
         sensors: sensors_of_units(feats, &b.units),
         tau_s: tau,
         ridge_alpha: match b.fitter {
             Fitter::Ridge(a) => Some(a),
             _ => None,
         },
-        cv_rmse: b.cv,
-        fold_rmse: eng.fold_rmse(&b.sse),
-        regressors: names,
-        fit,
-        model,
-        predicted,
         family: if b.detail.is_empty() {
             b.family.name().to_string()
         } else {
             format!("{} ({})", b.family.name(), b.detail)
         },
+    };
+    target_model(
+        table,
+        train,
+        j,
+        fitted,
+        b.cv,
+        eng.fold_rmse(&b.sse),
+        comparison,
+    )
+}
+
+/// A kept model on every training row, with what the report says about it.
+struct Fitted {
+    model: LinearModel,
+    fit: LinearFit,
+    names: Vec<String>,
+    sensors: Vec<usize>,
+    tau_s: Option<f64>,
+    ridge_alpha: Option<f64>,
+    family: String,
+}
+
+fn target_model(
+    table: &Table,
+    train: &[bool],
+    j: usize,
+    f: Fitted,
+    cv_rmse: f64,
+    fold_rmse: Vec<f64>,
+    comparison: Vec<FamilyScore>,
+) -> Result<TargetModel> {
+    let predicted = predict(table, &f.model)?;
+    let e: Vec<f64> = table.targets[j]
+        .iter()
+        .zip(&predicted)
+        .map(|(y, p)| y - p)
+        .collect();
+    Ok(TargetModel {
+        target: table.target_names[j].clone(),
+        classes: Vec::new(),
+        representatives: Vec::new(),
+        target_score: Vec::new(),
+        sensors: f.sensors,
+        tau_s: f.tau_s,
+        ridge_alpha: f.ridge_alpha,
+        cv_rmse,
+        fold_rmse,
+        regressors: f.names,
+        fit: f.fit,
+        model: f.model,
+        predicted,
+        family: f.family,
         comparison,
         envelope: None,
         outside: Vec::new(),
@@ -1254,6 +1475,101 @@ fn finish(
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
     })
+}
+
+/// Out-of-fold predictions of a family's best on the validation rows (fold by fold, in
+/// `val_rows` order): each fold's own columns fitted on that fold's training rows.
+fn out_of_fold(
+    eng: &Engine,
+    data: &[Vec<f64>],
+    b: &Best,
+    j: usize,
+    val_rows: &[Vec<usize>],
+) -> Option<Vec<f64>> {
+    let mut out = Vec::new();
+    for (f, rows) in val_rows.iter().enumerate() {
+        let cols = b.fold_cols.get(f)?;
+        let fold = eng.folds.get(f)?;
+        let coef = solve_reduced(
+            &fold.train_r.select_columns(&eng.columns(cols, j)),
+            fold.n_train,
+            cols.len(),
+            b.fitter,
+        )?;
+        for &i in rows {
+            out.push(
+                coef[0]
+                    + cols
+                        .iter()
+                        .zip(&coef[1..])
+                        .map(|(&c, b)| b * data[c][i])
+                        .sum::<f64>(),
+            );
+        }
+    }
+    Some(out)
+}
+
+/// The fit summary of a combined model on the training rows (its coefficients; standard
+/// errors do not exist for a combination: NaN, printed `-`).
+fn fit_of(table: &Table, train: &[bool], j: usize, model: &LinearModel) -> Result<LinearFit> {
+    let p = predict(table, model)?;
+    let residuals: Vec<f64> = table.targets[j]
+        .iter()
+        .zip(&p)
+        .zip(train)
+        .filter(|(_, &m)| m)
+        .map(|((y, p), _)| y - p)
+        .collect();
+    let ytr = select_rows(&table.targets[j], train);
+    let n = ytr.len().max(1) as f64;
+    let mean = ytr.iter().sum::<f64>() / n;
+    let sst: f64 = ytr.iter().map(|y| (y - mean).powi(2)).sum();
+    let sse: f64 = residuals.iter().map(|e| e * e).sum();
+    let mut coefficients = vec![model.intercept];
+    coefficients.extend(model.terms.iter().map(|t| t.coefficient));
+    Ok(LinearFit {
+        std_errors: vec![f64::NAN; coefficients.len()],
+        coefficients,
+        r2: if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN },
+        rmse: (sse / n).sqrt(),
+        sse,
+        residuals,
+    })
+}
+
+/// The convex combination Σ w_k·model_k as one model: intercepts and the coefficients of
+/// equal terms (same channel, same transform) summed; terms in order of first appearance.
+fn combine_models(parts: &[(f64, &LinearModel)]) -> LinearModel {
+    let mut intercept = 0.0;
+    let mut terms: Vec<Term> = Vec::new();
+    for &(w, m) in parts {
+        intercept += w * m.intercept;
+        for t in &m.terms {
+            match terms
+                .iter_mut()
+                .find(|x| x.channel == t.channel && x.transform == t.transform)
+            {
+                Some(x) => x.coefficient += w * t.coefficient,
+                None => terms.push(Term {
+                    channel: t.channel.clone(),
+                    coefficient: w * t.coefficient,
+                    transform: t.transform,
+                }),
+            }
+        }
+    }
+    LinearModel { intercept, terms }
+}
+
+fn term_name(t: &Term) -> String {
+    let n = &t.channel;
+    match t.transform {
+        Transform::Value => n.clone(),
+        Transform::FirstOrderLag { tau_s } => format!("lag({n}, τ = {tau_s} s)"),
+        Transform::Delay { delay_s } => format!("{n} delayed {delay_s} s"),
+        Transform::Rate { tau_s } => format!("rate({n}, τ = {tau_s} s)"),
+    }
 }
 
 /// How a fixed model is fitted ([`evaluate_fixed`]).
@@ -1353,4 +1669,58 @@ pub fn evaluate_fixed(
         cv_rmse: eng.pooled(&sse),
         fit,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::data::{read_csv, ReadOptions, Selection};
+
+    /// The combined model predicts Σ w_k·(prediction of model k) (equal terms merged).
+    #[test]
+    fn combined_model_is_the_weighted_sum_of_its_parts() {
+        let mut text = String::from("time_s,a_c,b_c,y_um\n");
+        for i in 0..50 {
+            let t = 60.0 * i as f64;
+            text += &format!("{t},{},{},0\n", 20.0 + (t / 900.0).sin(), 25.0 + t / 3000.0);
+        }
+        let sel = Selection {
+            targets: vec!["y_um".into()],
+            ..Selection::default()
+        };
+        let table = read_csv(&text, "t", &sel, ReadOptions::default()).unwrap();
+        let term = |c: &str, coefficient: f64, transform| Term {
+            channel: c.into(),
+            coefficient,
+            transform,
+        };
+        let m1 = LinearModel {
+            intercept: 1.0,
+            terms: vec![
+                term("a_c", 2.0, Transform::Value),
+                term("b_c", 3.0, Transform::FirstOrderLag { tau_s: 600.0 }),
+            ],
+        };
+        let m2 = LinearModel {
+            intercept: -1.0,
+            terms: vec![
+                term("a_c", 4.0, Transform::Value),
+                term("b_c", -1.0, Transform::Value),
+            ],
+        };
+        let c = combine_models(&[(0.25, &m1), (0.75, &m2)]);
+        assert_eq!(c.terms.len(), 3);
+        assert_eq!(c.terms[0].coefficient, 0.25 * 2.0 + 0.75 * 4.0);
+        let (p, p1, p2) = (
+            predict(&table, &c).unwrap(),
+            predict(&table, &m1).unwrap(),
+            predict(&table, &m2).unwrap(),
+        );
+        for i in 0..p.len() {
+            // By hand: the lag is the only state; a and b enter linearly.
+            let expect = 0.25 * p1[i] + 0.75 * p2[i];
+            assert!((p[i] - expect).abs() < 1e-12 * (1.0 + expect.abs()), "{i}");
+        }
+    }
 }

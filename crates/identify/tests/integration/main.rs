@@ -10,3 +10,4 @@ mod multirun;
 mod properties;
 mod runs;
 mod seed003;
+mod stack;
