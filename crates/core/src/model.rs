@@ -126,14 +126,17 @@ impl Envelope {
         if p == 0 || self.whitening.len() != p * p || features.len() != p {
             return 0.0;
         }
-        let dx: Vec<f64> = features
-            .iter()
-            .zip(&self.feature_mean)
-            .map(|(x, m)| x - m)
-            .collect();
+        // No temporary for x − mean: called per row and per live scan.
+        let dx = || features.iter().zip(&self.feature_mean).map(|(x, m)| x - m);
         self.whitening
             .chunks(p)
-            .map(|row| row.iter().zip(&dx).map(|(w, d)| w * d).sum::<f64>().powi(2))
+            .map(|row| {
+                row.iter()
+                    .zip(dx())
+                    .map(|(w, d)| w * d)
+                    .sum::<f64>()
+                    .powi(2)
+            })
             .sum()
     }
 

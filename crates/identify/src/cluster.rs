@@ -22,8 +22,14 @@ pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
         ));
     }
     let n = x.len() as f64;
-    let mx = x.iter().sum::<f64>() / n;
-    let my = y.iter().sum::<f64>() / n;
+    pearson_about(x, y, x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n)
+        .ok_or_else(|| invalid(name, "a constant series", "series that vary"))
+}
+
+/// [`pearson`] of equally long `x`, `y` with their means `mx`, `my` given (computed once
+/// per column by [`correlation_matrix`]: the same figures as [`pearson`]'s own); `None`
+/// when a series is constant.
+fn pearson_about(x: &[f64], y: &[f64], mx: f64, my: f64) -> Option<f64> {
     let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
     for (a, b) in x.iter().zip(y) {
         let (dx, dy) = (a - mx, b - my);
@@ -31,10 +37,7 @@ pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
         sxx += dx * dx;
         syy += dy * dy;
     }
-    if !(sxx > 0.0 && syy > 0.0) {
-        return Err(invalid(name, "a constant series", "series that vary"));
-    }
-    Ok((sxy / (sxx * syy).sqrt()).clamp(-1.0, 1.0))
+    (sxx > 0.0 && syy > 0.0).then(|| (sxy / (sxx * syy).sqrt()).clamp(-1.0, 1.0))
 }
 
 /// The Pearson correlation matrix of the columns (diagonal 1).
@@ -44,14 +47,26 @@ pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
 pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatrix<f64>> {
     let c = columns.len();
     let mut r = DMatrix::identity(c, c);
+    let means: Vec<f64> = columns
+        .iter()
+        .map(|x| x.iter().sum::<f64>() / x.len() as f64)
+        .collect();
     for i in 0..c {
         for j in i + 1..c {
-            let label = format!(
-                "correlation({}, {})",
-                names.get(i).map_or("?", |s| s),
-                names.get(j).map_or("?", |s| s)
-            );
-            let v = pearson(columns[i], columns[j], &label)?;
+            let label = || {
+                format!(
+                    "correlation({}, {})",
+                    names.get(i).map_or("?", |s| s),
+                    names.get(j).map_or("?", |s| s)
+                )
+            };
+            let (x, y) = (columns[i], columns[j]);
+            let v = if x.len() == y.len() && x.len() >= 2 {
+                pearson_about(x, y, means[i], means[j])
+                    .ok_or_else(|| invalid(&label(), "a constant series", "series that vary"))?
+            } else {
+                pearson(x, y, &label())?
+            };
             r[(i, j)] = v;
             r[(j, i)] = v;
         }
