@@ -69,8 +69,9 @@ mod plant {
             commit_s: f64,
             queue: Option<usize>,
         },
-        /// Nowhere: a thread receives and counts them (the cycle's cost alone).
-        Discard,
+        /// Nowhere: a thread receives and counts them (the cycle's cost alone); record
+        /// queues of `queue` records (PostgreSQL's size when `None`).
+        Discard { queue: Option<usize> },
     }
 
     fn machine(sink: &Sink, name: String, clock: Clock) -> Machine {
@@ -104,8 +105,9 @@ mod plant {
                     .unwrap();
                 (rec_tx, writer)
             }
-            Sink::Discard => {
-                let (rec_tx, rec_rx) = sync_channel(1 << 16);
+            Sink::Discard { queue } => {
+                let (rec_tx, rec_rx) =
+                    sync_channel(queue.unwrap_or(storage::postgres::RECORD_HANDOFF));
                 let stats = stats.clone();
                 let writer = std::thread::spawn(move || {
                     for r in rec_rx {
@@ -156,6 +158,8 @@ mod plant {
         pub drained_s: f64,
         pub lost: u64,
         pub rss_mb: f64,
+        /// The machine's 1-minute load average at the end of the measurement.
+        pub load: String,
     }
 
     /// The process's resident memory, MB (VmRSS of /proc/self/status).
@@ -259,6 +263,10 @@ mod plant {
         let committed_per_s = (committed(&machines) - committed_at_measure) as f64 / window;
         measuring.store(false, Ordering::Relaxed);
         let rss_mb = rss_mb();
+        let load = std::fs::read_to_string("/proc/loadavg")
+            .ok()
+            .and_then(|s| s.split_whitespace().next().map(str::to_string))
+            .unwrap_or_else(|| "?".into());
 
         // Drain: every sample sent must be committed.
         let t_drain = Instant::now();
@@ -284,6 +292,7 @@ mod plant {
             drained_s,
             lost,
             rss_mb,
+            load,
         }
     }
 }
@@ -330,7 +339,7 @@ fn main() {
     };
     let runs = [
         ("baseline-1-machine-pg", pg(0.25), 1),
-        ("cycles-only-no-record", plant::Sink::Discard, n),
+        ("cycles-only-no-record", plant::Sink::Discard { queue }, n),
         ("pg-commit-0.25s", pg(0.25), n),
         ("pg-commit-1s", pg(1.0), n),
     ];
@@ -339,7 +348,7 @@ fn main() {
         println!(
             "plant/{label:<22} {:>4} machines: {:>6.0} samples/s sent (target {:>6.0}), \
              sample→offset p50 {:.3} ms p99 {:.3} ms ({} scans), record {:>6.0} samples/s \
-             committed, drained in {:.2} s, {} lost, RSS {:.0} MB",
+             committed, drained in {:.2} s, {} lost, RSS {:.0} MB, load {}",
             f.machines,
             f.sent_per_s,
             f.machines as f64 * plant::CHANNELS as f64 * plant::RATE_HZ,
@@ -349,7 +358,8 @@ fn main() {
             f.committed_per_s,
             f.drained_s,
             f.lost,
-            f.rss_mb
+            f.rss_mb,
+            f.load
         );
     }
 }
