@@ -35,9 +35,9 @@ pub struct Overrides {
 
 /// Capacity of the input queue (messages).
 pub const INPUT_QUEUE: usize = 1 << 14;
-/// Capacity of the record queue (records); a full queue holds the cycle back rather than
-/// dropping a sample.
-pub const RECORD_QUEUE: usize = 1 << 16;
+/// Capacity of the record queue (records) with SQLite; a full queue holds the cycle back
+/// rather than dropping a sample. Each backend sizes its own (`Store::record_queue`).
+pub use crate::storage::RECORD_QUEUE;
 
 /// The engine configuration and where it came from.
 pub fn engine_config(cfg: &ServiceConfig) -> Result<(EngineConfig, String)> {
@@ -585,7 +585,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
     // Phase 4: the store writer and the cycle.
     let clock = Clock::new(opened.origin_s, plan.speedup);
     let shutdown = Arc::new(AtomicBool::new(false));
-    let (rec_tx, rec_rx) = sync_channel(RECORD_QUEUE);
+    let (rec_tx, rec_rx) = sync_channel(store.record_queue());
     let (in_tx, in_rx) = sync_channel::<InputMsg>(INPUT_QUEUE);
     let (off_tx, off_rx) = tokio::sync::watch::channel(OffsetOut::default());
     let live = Arc::new(Mutex::new(Live::new(&channels, &axes)));
