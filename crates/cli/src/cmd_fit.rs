@@ -2,19 +2,19 @@
 //!
 //! Data in (CSV; the embedded FL_THERMAL test by default), model file and report out.
 
+use std::io::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use gearcomp_core::model::{ModelFile, ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink};
+use gearcomp_core::model::{ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink};
 use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
-use gearcomp_identify::dendrogram::dendrogram_svg;
 use gearcomp_identify::identify::{
-    identify, plain_least_squares, Grouping, Identification, IdentifyOptions, ModelKind, Origin,
-    RepresentativeBy, Split, TargetModel,
+    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
+    Split, TargetModel,
 };
+use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
-use gearcomp_identify::workpiece::{combined_offsets_um, shrink_offset_um, workpiece_shrink};
-use gearcomp_report::{Chart, HtmlReport, Series};
+use gearcomp_identify::workpiece::workpiece_shrink;
 
 /// Model kind (`--model`).
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -273,114 +273,6 @@ fn load(
     Ok((read_runs(&refs, sel, opts)?, name))
 }
 
-/// A figure for printing: "-" instead of NaN or infinity.
-fn num(v: f64, prec: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.prec$}")
-    } else {
-        "-".into()
-    }
-}
-
-/// A coefficient-like figure in exponent form, "-" when not finite.
-fn num_e(v: f64, prec: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.prec$e}")
-    } else {
-        "-".into()
-    }
-}
-
-fn thin(points: Vec<(f64, f64)>, max: usize) -> Vec<(f64, f64)> {
-    let step = points.len().div_ceil(max.max(1)).max(1);
-    points.into_iter().step_by(step).collect()
-}
-
-/// Test rows, test rows outside the training envelope, mean 95 % interval half-width.
-fn extrapolation(
-    train: &[bool],
-    m: &gearcomp_identify::identify::TargetModel,
-) -> (usize, usize, f64) {
-    let mut n = 0;
-    let mut out = 0;
-    for (i, &tr) in train.iter().enumerate() {
-        if !tr {
-            n += 1;
-            out += usize::from(m.outside.get(i).copied().unwrap_or(false));
-        }
-    }
-    let half = if m.interval_um.is_empty() {
-        f64::NAN
-    } else {
-        m.interval_um.iter().sum::<f64>() / m.interval_um.len() as f64
-    };
-    (n, out, half)
-}
-
-/// A number for JSON: null when not finite.
-fn jnum(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        serde_json::json!(v)
-    } else {
-        serde_json::Value::Null
-    }
-}
-
-/// `fit --json`: per target the chosen family, sensors, model terms, validation folds,
-/// the family comparison, train and test error.
-fn fit_json(
-    id: &gearcomp_identify::identify::Identification,
-    base: &[(f64, Option<f64>)],
-    data_name: &str,
-    table: &Table,
-    file: &ModelFile,
-) -> anyhow::Result<serde_json::Value> {
-    let n_train = id.train.iter().filter(|&&m| m).count();
-    let targets: Vec<serde_json::Value> = id
-        .targets
-        .iter()
-        .zip(base)
-        .map(|(m, b)| {
-            serde_json::json!({
-                "target": m.target,
-                "family": m.family,
-                "sensors": m.sensors.iter().map(|&s| id.input_names[s].clone()).collect::<Vec<_>>(),
-                "intercept": jnum(m.model.intercept),
-                "terms": serde_json::to_value(&m.model.terms).unwrap_or_default(),
-                "validation_rmse_um": jnum(m.cv_rmse),
-                "validation_folds_um": m.fold_rmse.iter().map(|v| jnum(*v)).collect::<Vec<_>>(),
-                "train_rmse_um": jnum(m.train_rmse),
-                "test_rmse_um": m.test_rmse.map_or(serde_json::Value::Null, jnum),
-                "test_rows_outside_envelope": extrapolation(&id.train, m).1,
-                "mean_interval_half_width_um": jnum(extrapolation(&id.train, m).2),
-                "plain_ls_all_inputs": {
-                    "train_rmse_um": jnum(b.0),
-                    "test_rmse_um": b.1.map_or(serde_json::Value::Null, jnum),
-                },
-                "comparison": m.comparison.iter().map(|c| serde_json::json!({
-                    "family": c.family,
-                    "sensors": c.sensors,
-                    "validation_rmse_um": jnum(c.cv_rmse),
-                    "validation_folds_um": c.fold_rmse.iter().map(|v| jnum(*v)).collect::<Vec<_>>(),
-                    "detail": c.detail,
-                })).collect::<Vec<_>>(),
-            })
-        })
-        .collect();
-    Ok(serde_json::json!({
-        "data": data_name,
-        "rows": table.time_s.len(),
-        "training_rows": n_train,
-        "test_rows": table.time_s.len() - n_train,
-        "runs": table.run_names,
-        "inputs": id.input_names,
-        "notes": id.notes,
-        "method": id.method,
-        "targets": targets,
-        "model_file": serde_json::to_value(file)?,
-    }))
-}
-
 /// The train/test split the options ask for, and a note when it was chosen by default.
 fn split_of(args: &Args, table: &Table) -> anyhow::Result<(Split, Option<String>)> {
     let mut split_note = None;
@@ -529,427 +421,45 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let file = id.to_model_file(&origin, &args.axis, workpiece.as_ref().map(|w| w.0.clone()))?;
 
-    // Text summary.
-    let mut out = String::new();
-    use std::fmt::Write as _;
-    let n_train = id.train.iter().filter(|&&m| m).count();
-    let _ = writeln!(
-        out,
-        "data: {data_name}: {} rows, {} inputs, {} target(s); {} training rows, {} test rows",
-        table.time_s.len(),
-        table.inputs.len(),
-        table.targets.len(),
-        n_train,
-        table.time_s.len() - n_train
-    );
-    if let Some(n) = &split_note {
-        let _ = writeln!(out, "  note: {n}");
-    }
-    if table.runs.is_some() {
-        let _ = writeln!(
-            out,
-            "  runs: {} ({}); {} segment(s) (filters restart at each)",
-            table.run_names.len(),
-            table.run_names.join(", "),
-            table.segment_ranges().len()
-        );
-    }
-    for n in &id.notes {
-        let _ = writeln!(out, "  note: {n}");
-    }
-    for i in table.issues.iter().take(20) {
-        let _ = writeln!(out, "  note: {i}");
-    }
-    if table.issues.len() > 20 {
-        let _ = writeln!(out, "  note: … {} more", table.issues.len() - 20);
-    }
-    let _ = writeln!(out, "method: {}", id.method);
-    let names = &id.input_names;
-    let fmt_opt = |v: Option<f64>| v.map_or("-".to_string(), |v| num(v, 3));
-    let mut rows = Vec::new();
-    for (m, b) in id.targets.iter().zip(&base) {
-        let sensors: Vec<&str> = m.sensors.iter().map(|&s| names[s].as_str()).collect();
-        let _ = writeln!(
-            out,
-            "\n{}: {}; {} sensor(s): {}{}{}",
-            m.target,
-            if m.classes.is_empty() {
-                m.family.clone()
-            } else {
-                format!("{} classes", m.classes.len())
-            },
-            sensors.len(),
-            sensors.join(", "),
-            m.tau_s
-                .map_or(String::new(), |t| format!("; rate τ = {t} s")),
-            m.ridge_alpha
-                .map_or(String::new(), |a| format!("; ridge α = {a}"))
-        );
-        if !m.comparison.is_empty() {
-            let _ = writeln!(
-                out,
-                "  {:<40} {:>8} {:>12}  folds µm; choice",
-                "family (validation on training rows)", "sensors", "RMSE µm"
-            );
-            for c in &m.comparison {
-                let _ = writeln!(
-                    out,
-                    "  {:<40} {:>8} {:>12}  {}; {}{}",
-                    c.family,
-                    c.sensors,
-                    num(c.cv_rmse, 3),
-                    c.fold_rmse
-                        .iter()
-                        .map(|v| num(*v, 3))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    c.detail,
-                    if c.family == m.family {
-                        "  ← kept"
-                    } else {
-                        ""
-                    }
-                );
-            }
-        }
-        let _ = writeln!(
-            out,
-            "  RMSE µm: train {}, test {}, validation {} (folds: {}); R² = {}",
-            num(m.train_rmse, 3),
-            fmt_opt(m.test_rmse),
-            num(m.cv_rmse, 3),
-            m.fold_rmse
-                .iter()
-                .map(|v| num(*v, 3))
-                .collect::<Vec<_>>()
-                .join(", "),
-            num(m.fit.r2, 4)
-        );
-        let _ = writeln!(
-            out,
-            "  plain least squares on all {} inputs: train {}, test {} µm",
-            names.len(),
-            num(b.0, 3),
-            fmt_opt(b.1)
-        );
-        let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
-        let _ = writeln!(
-            out,
-            "  extrapolation: {n_out} of {n_test} test rows outside the training envelope; 95 % prediction interval ± {} µm on average (validation RMSE × √(1 + leverage))",
-            num(mean_half, 3)
-        );
-        let _ = writeln!(
-            out,
-            "  {:<34} {:>16} {:>14}",
-            "term", "coefficient", "std. error"
-        );
-        let _ = writeln!(
-            out,
-            "  {:<34} {:>16} {:>14}",
-            "intercept",
-            num(m.fit.coefficients[0], 6),
-            num(m.fit.std_errors.first().copied().unwrap_or(f64::NAN), 6)
-        );
-        for (k, name) in m.regressors.iter().enumerate() {
-            let _ = writeln!(
-                out,
-                "  {:<34} {:>16} {:>14}",
-                name,
-                num_e(m.fit.coefficients[k + 1], 6),
-                num_e(m.fit.std_errors.get(k + 1).copied().unwrap_or(f64::NAN), 4)
-            );
-        }
-        rows.push(vec![
-            m.target.clone(),
-            m.family.clone(),
-            sensors.join(" "),
-            m.tau_s.map_or("-".into(), |t| format!("{t}")),
-            num(m.train_rmse, 3),
-            fmt_opt(m.test_rmse),
-            num(m.cv_rmse, 3),
-            fmt_opt(b.1),
-        ]);
-    }
-    if let Some((w, wm)) = &workpiece {
-        let chans: Vec<&str> = w
-            .temperature
-            .terms
-            .iter()
-            .map(|t| t.channel.as_str())
-            .collect();
-        let _ = writeln!(out, "\nworkpiece: Ta = {:.6} + Σ ai·ti on {} (train RMSE {:.3} °C); δT at Ta = Tb + 30 K: {:.4} µm",
-            w.temperature.intercept, chans.join(", "), wm.train_rmse, shrink_offset_um(w, w.design_temp_c + 30.0)?);
-    }
+    let fit = FitReport {
+        data_name: &data_name,
+        table: &table,
+        id: &id,
+        plain_ls: &base,
+        split: &split,
+        split_note: split_note.as_deref(),
+        file: &file,
+        workpiece: workpiece.as_ref().map(|(w, m)| (w, m)),
+    };
+    output(&args, &fit)
+}
+
+/// Prints the summary (or the JSON document) and writes the model file and the report.
+fn output(args: &Args, fit: &FitReport) -> anyhow::Result<()> {
+    let summary = fit.summary_text()?;
     let mut stdout = std::io::stdout().lock();
     if args.json {
-        let v = fit_json(&id, &base, &data_name, &table, &file)?;
-        let mut text = serde_json::to_string_pretty(&v)?;
+        let mut text = serde_json::to_string_pretty(&fit.to_json()?)?;
         text.push('\n');
-        std::io::Write::write_all(&mut stdout, text.as_bytes())?;
+        stdout.write_all(text.as_bytes())?;
     } else {
-        use std::io::Write as _;
-        stdout.write_all(out.as_bytes())?;
+        stdout.write_all(summary.as_bytes())?;
     }
-
     if let Some(p) = &args.out {
-        file.save(p)
+        fit.file
+            .save(p)
             .with_context(|| format!("write model file {}", p.display()))?;
         if !args.json {
-            std::io::Write::write_all(
-                &mut stdout,
-                format!("\nmodel file: {}\n", p.display()).as_bytes(),
-            )?;
+            writeln!(stdout, "\nmodel file: {}", p.display())?;
         }
     }
     if let Some(p) = &args.report {
-        write_report(
-            p,
-            &args,
-            &data_name,
-            &table,
-            &id,
-            &rows,
-            &file,
-            workpiece.as_ref(),
-            &split,
-        )?;
+        fit.html_report(&args.name)?
+            .write(p)
+            .with_context(|| format!("write report {}", p.display()))?;
         if !args.json {
-            std::io::Write::write_all(
-                &mut stdout,
-                format!("report: {}\n", p.display()).as_bytes(),
-            )?;
+            writeln!(stdout, "report: {}", p.display())?;
         }
     }
-    Ok(())
-}
-
-/// The HTML report: summary table, data notes, dendrogram, per-target charts and terms,
-/// the workpiece shrink, and the model file.
-#[allow(clippy::too_many_arguments)]
-fn write_report(
-    p: &std::path::Path,
-    args: &Args,
-    data_name: &str,
-    table: &Table,
-    id: &Identification,
-    rows: &[Vec<String>],
-    file: &ModelFile,
-    workpiece: Option<&(WorkpieceShrink, TargetModel)>,
-    split: &Split,
-) -> anyhow::Result<()> {
-    let mut r = HtmlReport::new(format!("gearcomp fit: {}", args.name));
-    r.paragraph(&format!("Data: {data_name}. {}", id.method));
-    r.heading("Summary (RMSE in the target unit, µm)");
-    r.table(
-        &[
-            "target",
-            "family",
-            "chosen sensors",
-            "rate τ / s",
-            "train",
-            "test",
-            "cross-validation",
-            "plain LS test (all inputs)",
-        ],
-        rows,
-    );
-    if !table.issues.is_empty() {
-        r.heading("Data notes");
-        r.preformatted(
-            &table
-                .issues
-                .iter()
-                .map(|i| i.to_string())
-                .collect::<Vec<_>>()
-                .join("\n"),
-        );
-    }
-    r.heading("Sensor classes (fuzzy equivalence dendrogram, training rows)");
-    let first = &id.targets[0];
-    let cut = if first.classes.is_empty() {
-        None
-    } else {
-        let merges = &id.dendrogram.merges;
-        let k = first.classes.len();
-        let done = id.input_names.len().saturating_sub(k);
-        merges
-            .get(done)
-            .map(|m| m.level)
-            .or_else(|| merges.last().map(|m| m.level))
-    };
-    r.raw_svg(&dendrogram_svg(
-        &id.dendrogram,
-        &id.input_names,
-        cut,
-        &first.sensors,
-    ));
-    if cut.is_some() {
-        r.paragraph(&format!(
-            "Dashed line: the cut giving {} classes for {}; red: its chosen sensors.",
-            first.classes.len(),
-            first.target
-        ));
-    } else {
-        r.paragraph(&format!("Red: the sensors chosen for {}.", first.target));
-    }
-    for (j, m) in id.targets.iter().enumerate() {
-        r.heading(&m.target);
-        if !m.comparison.is_empty() {
-            r.paragraph(&format!("Family comparison ({}), validation RMSE on the training rows in µm; the lowest eligible is kept: {}.", id.method, m.family));
-            let crow: Vec<Vec<String>> = m
-                .comparison
-                .iter()
-                .map(|c| {
-                    vec![
-                        c.family.clone(),
-                        c.sensors.to_string(),
-                        num(c.cv_rmse, 3),
-                        c.fold_rmse
-                            .iter()
-                            .map(|v| num(*v, 3))
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                        c.detail.clone(),
-                        if c.kept { "kept".into() } else { String::new() },
-                    ]
-                })
-                .collect();
-            r.table(
-                &[
-                    "family",
-                    "sensors",
-                    "validation RMSE",
-                    "folds",
-                    "choice",
-                    "",
-                ],
-                &crow,
-            );
-        }
-        let cls: Vec<String> = m
-            .classes
-            .iter()
-            .map(|c| {
-                format!(
-                    "{{{}}}",
-                    c.iter()
-                        .map(|&i| id.input_names[i].as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            })
-            .collect();
-        r.paragraph(&format!(
-            "Classes: {}. Chosen: {}.",
-            cls.join(" "),
-            m.sensors
-                .iter()
-                .map(|&s| id.input_names[s].as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-        let hours: Vec<f64> = table.time_s.iter().map(|t| t / 3600.0).collect();
-        let meas = thin(
-            hours
-                .iter()
-                .copied()
-                .zip(table.targets[j].iter().copied())
-                .collect(),
-            2500,
-        );
-        let pred = thin(
-            hours
-                .iter()
-                .copied()
-                .zip(m.predicted.iter().copied())
-                .collect(),
-            2500,
-        );
-        let res = thin(
-            hours
-                .iter()
-                .zip(table.targets[j].iter().zip(&m.predicted))
-                .map(|(h, (y, p))| (*h, y - p))
-                .collect(),
-            2500,
-        );
-        let split_h = match &split {
-            Split::TimeBefore(s) => format!(" (train before {:.1} h)", s / 3600.0),
-            _ => String::new(),
-        };
-        r.chart(
-            &Chart::new(
-                format!("{}: measured vs predicted{split_h}", m.target),
-                "time / h",
-                "displacement / µm",
-            )
-            .with(Series::line("measured", meas))
-            .with(Series::line("predicted", pred))
-            .with(Series::line(
-                "95 % interval (upper)",
-                thin(
-                    hours
-                        .iter()
-                        .zip(m.predicted.iter().zip(&m.interval_um))
-                        .map(|(h, (p, w))| (*h, p + w))
-                        .collect(),
-                    2500,
-                ),
-            ))
-            .with(Series::line(
-                "95 % interval (lower)",
-                thin(
-                    hours
-                        .iter()
-                        .zip(m.predicted.iter().zip(&m.interval_um))
-                        .map(|(h, (p, w))| (*h, p - w))
-                        .collect(),
-                    2500,
-                ),
-            ))
-            .with(Series::points(
-                "outside the training envelope (extrapolating)",
-                thin(
-                    hours
-                        .iter()
-                        .zip(m.predicted.iter().zip(&m.outside))
-                        .filter(|(_, (_, &o))| o)
-                        .map(|(h, (p, _))| (*h, *p))
-                        .collect(),
-                    1500,
-                ),
-            )),
-        )?;
-        let (n_test, n_out, mean_half) = extrapolation(&id.train, m);
-        r.paragraph(&format!(
-            "{n_out} of {n_test} test rows are outside the training envelope (a channel outside its training range, or the regressors farther from the training mean than any training row: Mahalanobis bound); they are marked on the chart. 95 % prediction interval: ± {} µm on average.",
-            num(mean_half, 3)
-        ));
-        r.chart(
-            &Chart::new(
-                format!("{}: residual (measured − predicted)", m.target),
-                "time / h",
-                "residual / µm",
-            )
-            .with(Series::line("residual", res)),
-        )?;
-    }
-    if let Some((w, _)) = &workpiece {
-        let offs = combined_offsets_um(table, &file.axes[0]).ok();
-        r.heading("Workpiece shrink (dry hobbing)");
-        r.paragraph(&format!(
-            "Ta model intercept {:.6} °C, {} term(s); δT at Ta = Tb + 30 K: {:.4} µm.",
-            w.temperature.intercept,
-            w.temperature.terms.len(),
-            shrink_offset_um(w, w.design_temp_c + 30.0)?
-        ));
-        if offs.is_none() {
-            r.paragraph("The combined offset δM + δT is not drawn: the workpiece model's channels are not all in the main data.");
-        }
-    }
-    r.heading("Model file");
-    r.preformatted(&file.to_toml_string()?);
-    r.write(p)
-        .with_context(|| format!("write report {}", p.display()))?;
     Ok(())
 }

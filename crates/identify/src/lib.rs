@@ -4,7 +4,8 @@
 //! clustering of their correlation ([`cluster`]), keeps one representative per class, fits
 //! static or dynamic least-squares models ([`regress`], [`identify`]) validated on held-out
 //! data, adds the dry-hobbing workpiece shrink ([`workpiece`]), and produces the thermal
-//! model file of `gearcomp_core::model` that the compensation engine runs.
+//! model file of `gearcomp_core::model` that the compensation engine runs; [`report`]
+//! renders a fit as text, JSON and HTML.
 //!
 //! ```
 //! use gearcomp_identify::{data, identify};
@@ -33,6 +34,7 @@ pub mod envelope;
 pub mod error;
 pub mod identify;
 pub mod regress;
+pub mod report;
 pub mod select;
 pub mod transform;
 pub mod workpiece;
