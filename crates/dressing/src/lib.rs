@@ -21,6 +21,8 @@
 //!   checked against the clearance budget, with the producible range when it is not.
 //! - [`topological_request`]: a `[solve.topological]` request, the 3- or 4-point program over
 //!   the worm width, checked per position, with the dressed worm f_nFS(w, b).
+//! - [`report`]: the results of `gearcomp dress` in interface units (degrees, µm) with their
+//!   text tables and HTML reports.
 //!
 //! Design trade-off: the dresser flank is tabulated once (exact envelope at 1201 stations,
 //! natural cubic spline) instead of being re-solved at every query; the spline error
@@ -45,6 +47,7 @@ pub mod envelope;
 pub mod error;
 pub mod gear;
 pub mod kinematics;
+pub mod report;
 pub mod request;
 pub mod schedule;
 pub mod simulation;
