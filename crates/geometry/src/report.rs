@@ -857,6 +857,7 @@ impl GearReport {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
     use crate::units::deg_to_rad;
     use crate::Hand;

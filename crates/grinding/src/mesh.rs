@@ -112,6 +112,7 @@ impl GrindingMesh for ConicalPair {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
     use crate::conical::BeveloidGear;
     use crate::flank::{Flank, Hand, InvoluteGear};
@@ -143,7 +144,7 @@ mod tests {
         let (pc, pk) = (cyl.path_report(), con.path_report());
         close(pc.centre_distance_mm, pk.centre_distance_mm, 1e-9);
         assert!(pc.conical.is_none() && pk.conical.is_some());
-        assert!(!WormGearPair::CONICAL && ConicalPair::CONICAL);
+        const { assert!(!WormGearPair::CONICAL && ConicalPair::CONICAL) };
     }
 
     /// tan ρ_F1 = s/tan β_bF1 (axial-section estimate), written out.

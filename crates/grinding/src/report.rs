@@ -972,6 +972,7 @@ impl EqualiseReport {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
     use crate::flank::{Flank, Hand, InvoluteGear};
 

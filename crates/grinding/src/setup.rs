@@ -327,6 +327,7 @@ impl RollLimits {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
     fn rad(d: f64) -> f64 {
