@@ -28,8 +28,9 @@
 //! # Ok::<(), gearcomp_geometry::GeometryError>(())
 //! ```
 //!
-//! Every function is allocation-free and returns a `Copy` error, so the thickness and
-//! measurement functions may be called from a control cycle (see `benches/geometry_eval.rs`).
+//! Every function outside [`report`] (an interface record with strings and vectors) is
+//! allocation-free and returns a `Copy` error, so the thickness and measurement functions may
+//! be called from a control cycle (see `benches/geometry_eval.rs`).
 
 pub mod balls;
 pub mod error;
