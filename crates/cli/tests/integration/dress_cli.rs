@@ -25,7 +25,7 @@ budget_mm = 0.1
 
 /// `dress solve --json` reproduces the docs/dressing.md "Reference case G1-Z5" root and profile for G1-Z5, c = 0.2 µm.
 #[test]
-fn dress_solve_json_matches_errata_s1() {
+fn dress_solve_json_matches_reference_case_g1_z5() {
     let cfg = write_config_here("solve", CONFIG);
     let report = cfg.with_file_name("solve.html");
     let out = gearcomp(&[

@@ -34,7 +34,7 @@ fn c1_c7_contact_line_is_straight() {
 /// C2 against docs/dressing.md "Reference: feed marks of the full simulation": G1, ΔK = 0, 4 rows, 41 vectors over one feed period; the largest feed
 /// mark at 0.5°/0.2°/0.1°/0.04° per step is 1.61/0.253/0.065/0.0105 µm and scales as Δt².
 #[test]
-fn c2_feed_marks_errata_s4() {
+fn c2_feed_marks_reference() {
     let s = common::g1();
     let fl = Flank::Right;
     let ws = active_points(&s, fl, 4);

@@ -126,7 +126,7 @@ fn b4_rotation_is_uniform_normal_offset() {
 /// Dresser design for G1 and G1-Z5 against docs/dressing.md "Reference case G1-Z5" and docs/dressing.md "Derivation: dresser envelope and tip fillet": fillet radius, w_Nf, r_Nf, the
 /// root gap in the dresser plane, the tip association, and left/right symmetry.
 #[test]
-fn dresser_design_errata_s1_s6() {
+fn dresser_design_reference_cases() {
     let g1 = common::g1();
     for side in &g1.dresser.sides {
         assert!(

@@ -36,7 +36,7 @@ fn rel(a: f64, b: f64) -> f64 {
 
 /// D3 replacement (docs/dressing.md "Reference case G1-Z5", G1-Z5, c = 0.2 µm): root, profile, shape, stretching, side effects.
 #[test]
-fn d3_g1_z5_crowning_errata_s1() {
+fn d3_g1_z5_crowning_reference_case() {
     let s = common::g1_z5();
     let (p, (a, b)) = crowning(&s, 0.2e-3);
     assert!((p.w_mm[0] - 74.49085).abs() < 1e-5);
@@ -126,7 +126,7 @@ fn d4_no_root() {
 /// solve meets the 4 targets and reproduces the profile over [5 %, 100 %] (compare profile,
 /// never ΔK). The minimum-norm answer of docs/dressing.md "Derivation: minimum-norm 4-point solve" is (−0.00233, 0.00100, −0.00959, 0.05022).
 #[test]
-fn d1_four_point_minimum_norm_errata_s2() {
+fn d1_four_point_minimum_norm() {
     let s = common::g1();
     let fl = Flank::Right;
     let (a, b) = s.active_profile(fl).unwrap();

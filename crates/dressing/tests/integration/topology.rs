@@ -19,7 +19,7 @@ use gearcomp_dressing::worm::Flank;
 const FL: Flank = Flank::Right;
 
 /// The docs/dressing.md "Reference case G1-Z5" crowning root of G1-Z5 (c = 0.2 µm).
-fn errata_root() -> AxisCorrection {
+fn g1_z5_crowning_root() -> AxisCorrection {
     AxisCorrection::from_array([6.057e-4, 0.5580f64.to_radians(), -0.02450, -1.0413])
 }
 
@@ -46,7 +46,7 @@ fn spec(ws: Vec<f64>, bs: Vec<f64>, deg: f64) -> SimSpec {
 #[test]
 fn constant_schedule_reproduces_screw_evaluation() {
     let s = common::g1_z5();
-    let k = errata_root();
+    let k = g1_z5_crowning_root();
     let sched = PolynomialSchedule::linear(k, AxisCorrection::default());
     assert!(!sched.is_constant());
     let ws = vec![at(&s, 0.05), at(&s, 0.5), at(&s, 0.95)];
@@ -72,7 +72,7 @@ fn constant_schedule_reproduces_screw_evaluation() {
 #[test]
 fn linear_schedule_matches_local_screw_evaluation() {
     let s = common::g1_z5();
-    let ke = errata_root().to_array();
+    let ke = g1_z5_crowning_root().to_array();
     let per = AxisCorrection::from_array([
         ke[0] / 40.0 + 7e-6,
         ke[1] / 40.0,
@@ -115,7 +115,7 @@ fn second_order<S: CorrectionSchedule>(s: &DressingSetup, w: f64, nu: f64, sched
 #[test]
 fn quasi_static_error_is_second_order() {
     let s = common::g1_z5();
-    let ke = errata_root().to_array();
+    let ke = g1_z5_crowning_root().to_array();
     let per = AxisCorrection::from_array([
         -3.0 * (ke[0] / 40.0 + 7e-6),
         -3.0 * ke[1] / 40.0,
@@ -256,7 +256,7 @@ fn topological_three_point_with_width_dependent_association() {
 #[test]
 fn worm_topology_grid_interpolates() {
     let s = common::g1_z5();
-    let k = errata_root();
+    let k = g1_z5_crowning_root();
     let ws: Vec<f64> = (0..9).map(|i| at(&s, f64::from(i) / 8.0)).collect();
     let bs = vec![0.0, 10.0, 20.0];
     let topo = WormTopology::quasi_static(&s, FL, ws.clone(), bs, &k).unwrap();
