@@ -789,3 +789,75 @@ fn machines_of_one_process_share_one_writer_and_each_keeps_exactly_once_and_its_
         .get(0);
     assert_eq!(locks, 0);
 }
+
+#[test]
+fn a_machine_whose_records_the_server_refuses_holds_back_only_itself() {
+    let server = PgServer::start();
+    let dir = tempfile::tempdir().unwrap();
+    let params = || WriterParams {
+        commit_interval: Duration::from_millis(50),
+        clock: Clock::new(0.0, 1.0),
+    };
+    let start = |name: &str| {
+        let mut cfg = pg_cfg(&server, name);
+        cfg.storage.spill_path = Some(dir.path().join(format!("{name}.db")));
+        cfg.storage.reconnect = gearcomp_service::config::Backoff {
+            min_s: 0.05,
+            max_s: 0.2,
+        };
+        let s = open_store(&cfg).unwrap();
+        s.register_names(&names(&["a_c"]), &names(&["X"]), &[])
+            .unwrap();
+        let stats = Arc::new(StoreStats::default());
+        let (tx, rx) = sync_channel(s.record_queue());
+        let h = s.spawn_writer(rx, params(), stats.clone()).unwrap();
+        (tx, h, stats)
+    };
+    let (tx_a, _h_a, stats_a) = start("refused-a");
+    let (tx_b, h_b, stats_b) = start("refused-b");
+    let sample = |i: u64| Record::Sample {
+        time_s: i as f64,
+        channel: 0,
+        raw: i as f64,
+    };
+    for i in 1..=100 {
+        tx_a.send(sample(i)).unwrap();
+    }
+    let t0 = Instant::now();
+    while stats_a.committed_samples.load(Ordering::Acquire) < 100 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    // PostgreSQL refuses a NUL character in text (SQLite would keep it): machine a's
+    // next chunk can never be written.
+    tx_a.send(Record::AlarmRaised {
+        time_s: 100.5,
+        key: "input.bad".into(),
+        message: "bad\0text".into(),
+    })
+    .unwrap();
+    for i in 101..=200 {
+        tx_a.send(sample(i)).unwrap();
+    }
+    // Machine b, sharing the writer, goes on committing everything.
+    for i in 1..=1000 {
+        tx_b.send(sample(i)).unwrap();
+        if i % 100 == 0 {
+            std::thread::sleep(Duration::from_millis(30));
+        }
+    }
+    drop(tx_b);
+    h_b.join().unwrap().unwrap();
+    assert_eq!(stats_b.committed_samples.load(Ordering::Acquire), 1000);
+    let rows = stored_samples(&server, "refused-b");
+    assert_eq!(rows.len(), 1000);
+    assert!(rows
+        .iter()
+        .enumerate()
+        .all(|(i, r)| *r == (i as i64 + 1, (i + 1) as f64)));
+    // Machine a kept its first 100 and holds the rest, flagged, in order.
+    assert_eq!(stats_a.committed_samples.load(Ordering::Acquire), 100);
+    assert_eq!(stored_samples(&server, "refused-a").len(), 100);
+    assert!(stats_a.unreachable.load(Ordering::Acquire));
+    assert!(stats_a.buffered_records.load(Ordering::Acquire) >= 101);
+}

@@ -68,6 +68,10 @@ struct Member {
     /// Set once every sender is gone: until when the rest is tried.
     closing: Option<Instant>,
     done: Sender<Result<()>>,
+    /// Chunks of this machine alone that the server refused in a row (the session
+    /// stayed up), and when it is tried again.
+    refused: u32,
+    retry_at: Instant,
 }
 
 struct Handle {
@@ -322,6 +326,8 @@ impl Hub {
                     oldest,
                     closing: None,
                     done,
+                    refused: 0,
+                    retry_at: Instant::now(),
                 });
                 let _ = reply.send(Ok(()));
             }
@@ -450,9 +456,13 @@ impl Hub {
             }
             let mut attempts: Vec<(usize, Attempt)> = Vec::new();
             let mut total = 0usize;
+            let now = Instant::now();
             for (i, m) in self.members.iter_mut().enumerate() {
                 if total >= TXN_RECORDS {
                     break;
+                }
+                if now < m.retry_at {
+                    continue;
                 }
                 if let Some(a) = m.w.prepare() {
                     total += a.records;
@@ -462,38 +472,79 @@ impl Hub {
             if attempts.is_empty() {
                 return true;
             }
-            let Some(client) = self.client.as_mut() else {
-                return false;
-            };
-            let parts: Vec<Part<'_>> = attempts
-                .iter()
-                .map(|(i, a)| {
-                    let w = &self.members[*i].w;
-                    Part {
-                        mid: w.target.machine_id,
-                        chunk: w.pending.range(..a.records),
-                        first_id: w.next_id,
-                        batch: a.batch,
-                    }
-                })
-                .collect();
-            let written = write_chunks(client, &parts);
-            drop(parts);
-            match written {
+            match self.write(&attempts) {
                 Ok(()) => {
                     self.failures = 0;
                     for (i, a) in attempts {
-                        self.members[i].w.done(a);
+                        self.members[i].done(a);
                     }
                 }
-                Err(e) => {
+                Err(e) if self.client.as_ref().is_none_or(|c| c.is_closed()) => {
                     self.fail(&e);
                     return false;
+                }
+                Err(e) => {
+                    // The server refused the transaction but the session is up: write
+                    // each machine alone, so one machine's refused records hold back only
+                    // that machine (retried with its own back-off, as its own writer was).
+                    if attempts.len() == 1 {
+                        let i = attempts[0].0;
+                        self.refuse(i, &e);
+                        continue;
+                    }
+                    for (i, a) in attempts {
+                        match self.write(&[(i, a)]) {
+                            Ok(()) => self.members[i].done(a),
+                            Err(e) if self.client.as_ref().is_none_or(|c| c.is_closed()) => {
+                                self.fail(&e);
+                                return false;
+                            }
+                            Err(e) => self.refuse(i, &e),
+                        }
+                    }
                 }
             }
         }
     }
 
+    /// One transaction with the chunks of `attempts` (`(member, chunk)`).
+    fn write(&mut self, attempts: &[(usize, Attempt)]) -> Result<()> {
+        let Some(client) = self.client.as_mut() else {
+            return Err(ServiceError::Stopped("the store session"));
+        };
+        let parts: Vec<Part<'_>> = attempts
+            .iter()
+            .map(|(i, a)| {
+                let w = &self.members[*i].w;
+                Part {
+                    mid: w.target.machine_id,
+                    chunk: w.pending.range(..a.records),
+                    first_id: w.next_id,
+                    batch: a.batch,
+                }
+            })
+            .collect();
+        write_chunks(client, &parts)
+    }
+
+    /// The server refused member `i`'s chunk on its own: it alarms and waits its back-off.
+    fn refuse(&mut self, i: usize, e: &ServiceError) {
+        let m = &mut self.members[i];
+        m.refused += 1;
+        m.retry_at = Instant::now() + Duration::from_secs_f64(m.w.backoff.wait_s(m.refused));
+        m.w.fail(e);
+    }
+}
+
+impl Member {
+    /// Its chunk is committed.
+    fn done(&mut self, a: Attempt) {
+        self.refused = 0;
+        self.w.done(a);
+    }
+}
+
+impl Hub {
     /// Members whose senders are gone leave once written, or when their time is up (the
     /// rest then goes to their spill file); their lock is released.
     fn leave_finished(&mut self) {
