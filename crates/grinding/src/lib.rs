@@ -29,6 +29,8 @@
 //! - [`conical`]: conical (beveloid) worm and/or workpiece: beveloid flanks, chains (29)–(31),
 //!   the contact path (50)–(86) with its feed terms, generating coupling and diagonal ratio.
 //! - [`conical_sim`]: the conical contact path fitted from two simulated feed couplings.
+//! - [`equalise_request`]: the `grind equalise` config (`[gear]`, `[worm]`, `[equalise]`) and
+//!   its search input.
 //! - [`conical_equalise`]: the worm cone angle that equalises K_ZV1 on both flanks (A6, T14).
 //! - [`conical_lines`]: line-class transfer on conical chains (worm ↔ gear modification of the
 //!   form (25)/(26)) and its inverse.
@@ -55,6 +57,7 @@ pub mod diagonal;
 pub mod dressed;
 pub mod dressed_topology;
 pub mod envelope;
+pub mod equalise_request;
 mod error;
 pub mod flank;
 pub mod iso1328;

@@ -25,7 +25,8 @@
 //! copy-paste compatibility with `gearcomp dress` output: Δφ_S is given in rad (`dphi_s_rad`).
 //!
 //! Glue only: `args.rs` (options), `config.rs` (options and TOML configs → the grinding
-//! crate's set-up, `gearcomp_grinding::setup`), `run.rs` (the subcommands, generic over
+//! crate's set-up, `gearcomp_grinding::setup`; the `equalise` config is
+//! `gearcomp_grinding::equalise_request`), `run.rs` (the subcommands, generic over
 //! `gearcomp_grinding::mesh::GrindingMesh`), `output.rs` (the record of
 //! `gearcomp_grinding::report` as JSON or its table) and `report.rs` (the HTML report).
 
@@ -40,7 +41,7 @@ use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
 use gearcomp_geometry::GeometryError;
 use gearcomp_grinding::conical::{BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{
-    equalise_worm_cone_angle, flank_ratios, EqualiseSpec, Equalised, WormLines,
+    equalise_worm_cone_angle, flank_ratios, Equalised, WormLines,
 };
 use gearcomp_grinding::conical_lines;
 use gearcomp_grinding::contact::WormGearPair;
@@ -48,6 +49,7 @@ use gearcomp_grinding::diagonal::{diagonal_ratio, rho1_estimate_rad, LineMap};
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
 use gearcomp_grinding::envelope::EnvelopeGrinder;
 use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
+use gearcomp_grinding::equalise_request::EqualiseConfig;
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
 use gearcomp_grinding::kinematics::FeedCoupling;
@@ -61,7 +63,6 @@ use gearcomp_grinding::setup::{self, default_worm_radii_mm, RollLimits, RollRang
 use gearcomp_grinding::solve::{solve_iterated, IterationOptions};
 use gearcomp_grinding::GrindError;
 use gearcomp_report::{Chart, HeatAxis, HeatMap, HtmlReport, Series};
-use serde::Deserialize;
 
 mod args;
 mod config;

@@ -378,9 +378,9 @@ fn solve_targets<M: GrindingMesh>(a: &SolveArgs, pair: &M) -> Result<(f64, LineM
 pub(super) fn equalise(a: EqualiseArgs) -> Result<()> {
     let text = std::fs::read_to_string(&a.config)
         .with_context(|| format!("reading {}", a.config.display()))?;
-    let cfg: GrindConfig =
+    let cfg: EqualiseConfig =
         toml::from_str(&text).with_context(|| format!("parsing {}", a.config.display()))?;
-    let spec = equalise_spec(&cfg)?;
+    let spec = cfg.spec()?;
     let given = deg_to_rad(cfg.worm.cone_angle_deg);
     let at_given = flank_ratios(&spec, given).context("[worm] cone_angle_deg")?;
     let e: Equalised = match equalise_worm_cone_angle(&spec) {
