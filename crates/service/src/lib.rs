@@ -6,6 +6,7 @@
 //! dashboard. One process can serve several machines.
 //!
 //! * [`config`]: `machine.toml` ([`ServiceConfig`]), unknown keys refused.
+//! * [`backoff`]: the reconnect back-off every client and the PostgreSQL store share.
 //! * [`cycle`]: the cycle thread, bumpless transfer on model changes.
 //! * [`clock`]: the service clock (sped-up time continuing the record; its wall-clock anchor).
 //! * [`storage`]: the backend-neutral record (`Store`), SQLite and PostgreSQL, batched
@@ -19,6 +20,7 @@
 
 pub mod alarms;
 pub mod auth;
+pub mod backoff;
 pub mod clock;
 pub mod config;
 pub mod cycle;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::Backoff;
+use crate::backoff::Backoff;
 use crate::error::{check_range, invalid, Result};
 
 /// OPC UA input (CNC variables, temperatures the CNC exposes) and offset output.
