@@ -14,6 +14,7 @@
 //! - [`simulate`]: a cut in simulation: C2 tracking error and the helix slope deviation
 //!   f_Hβ, compared with ISO 1328-1 tolerances (`gearcomp_geometry::iso1328`).
 //! - [`gcode`]: the G83 cycle and its parser.
+//! - [`report`]: a cycle's result in interface units, its text lines and the HTML report.
 //!
 //! Conventions (θ = 0 at the near dead point, axis directions, helix sign) are in
 //! `docs/shaping.md`.
@@ -31,6 +32,7 @@ pub mod error;
 pub mod gcode;
 pub mod interpolator;
 pub mod ratio;
+pub mod report;
 pub mod servo;
 pub mod simulate;
 pub mod units;
