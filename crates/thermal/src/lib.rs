@@ -11,6 +11,8 @@
 //! * [`engine`]: [`Engine`], built once, then [`Engine::step`] per cycle (no allocation);
 //!   identified models (`gearcomp_core::model::ModelFile`) run as `kind = "model"` terms.
 //! * [`sim`]: lumped thermal network with presets for the machines of EP0138375, JPH0761598B2 and CN105397560.
+//! * [`demo`]: the demo shift of `gearcomp demo` (a preset, optionally a model file) and its
+//!   result as text, JSON and an HTML report.
 //!
 //! Offsets are in µm; a positive offset increases the centre distance (see
 //! `docs/thermal.md` for every convention fixed here).
@@ -67,6 +69,7 @@ pub use engine::{
 pub use error::{Result, ThermalError};
 pub use sensor::SensorKind;
 pub mod closed_loop;
+pub mod demo;
 pub mod presets;
 pub mod sim;
 
