@@ -142,13 +142,27 @@ impl Envelope {
 
     /// Leverage h = 1/n + d²/(n − 1) of a regressor vector.
     pub fn leverage(&self, features: &[f64]) -> f64 {
+        self.leverage_of_d2(self.d2(features))
+    }
+
+    fn leverage_of_d2(&self, d2: f64) -> f64 {
         let n = self.rows.max(2) as f64;
-        1.0 / n + self.d2(features) / (n - 1.0)
+        1.0 / n + d2 / (n - 1.0)
     }
 
     /// The first reason live inputs are outside: `channels` are the values of
     /// [`Envelope::ranges`]' channels in that order, `features` the model's regressors.
     pub fn check(&self, channels: &[f64], features: &[f64]) -> Option<Outside> {
+        self.check_d2(channels, || self.d2(features))
+    }
+
+    /// [`Envelope::check`] and [`Envelope::leverage`] of one row from one d².
+    pub fn check_and_leverage(&self, channels: &[f64], features: &[f64]) -> (Option<Outside>, f64) {
+        let d2 = self.d2(features);
+        (self.check_d2(channels, || d2), self.leverage_of_d2(d2))
+    }
+
+    fn check_d2(&self, channels: &[f64], d2: impl FnOnce() -> f64) -> Option<Outside> {
         for (k, (r, &v)) in self.ranges.iter().zip(channels).enumerate() {
             if v < r.min || v > r.max {
                 return Some(Outside::Range {
@@ -157,7 +171,7 @@ impl Envelope {
                 });
             }
         }
-        let d2 = self.d2(features);
+        let d2 = d2();
         (d2 > self.max_d2 && !self.whitening.is_empty()).then_some(Outside::Mahalanobis { d2 })
     }
 

@@ -2,6 +2,9 @@
 //! cost of only reading the data, measured in the same run; and the per-sample model
 //! evaluation (allocation-free `TransformState` stepping) against a plain dot product.
 //!
+//! The `read_path` group times what the whole-process comparison with numpy
+//! (`static_vs_numpy.py`) spends before and during the static identification.
+//!
 //! Budget: issue 12 asks for ≤ 1 s for the full default `fit` on FL_THERMAL (every family
 //! and the validation included); figures are reported as ratios to the CSV read.
 #![allow(missing_docs, clippy::unwrap_used, clippy::expect_used)]
@@ -37,6 +40,57 @@ fn bench(c: &mut Criterion) {
         b.iter(|| identify(black_box(&table), &dynamic).unwrap())
     });
     g.finish();
+
+    // The read path of the whole-process benchmark (static_vs_numpy.py): inflating the
+    // embedded gzip (members on every core) and parsing the clean log (pieces on every
+    // core), against the row-by-row reader of the same text (a quoted header name sends
+    // it through the csv crate), measured in the same run.
+    let static_sel = Selection {
+        targets: vec!["ch1_um".into(), "ch3_um".into(), "ch5_um".into()],
+        ..Selection::default()
+    };
+    let quoted = text.replacen("time_s", "\"time_s\"", 1);
+    let mut r = c.benchmark_group("read_path");
+    r.sample_size(20);
+    r.bench_function("baseline_row_by_row_csv_crate-16in-3tg-11115rows", |b| {
+        b.iter(|| {
+            read_csv(
+                black_box(&quoted),
+                "fl",
+                &static_sel,
+                ReadOptions::default(),
+            )
+            .unwrap()
+        })
+    });
+    r.bench_function("inflate_embedded_fl_thermal-4.4MB", |b| {
+        b.iter(|| gearcomp_datasets::fl_thermal_csv().unwrap())
+    });
+    r.bench_function("read_csv_clean-16in-3tg-11115rows", |b| {
+        b.iter(|| read_csv(black_box(&text), "fl", &static_sel, ReadOptions::default()).unwrap())
+    });
+    r.bench_function("inflate_and_read-16in-3tg-11115rows", |b| {
+        b.iter(|| {
+            let t = gearcomp_datasets::fl_thermal_csv().unwrap();
+            read_csv(&t, "fl", &static_sel, ReadOptions::default()).unwrap()
+        })
+    });
+    let static_opts = IdentifyOptions {
+        model: gearcomp_identify::identify::ModelKind::Static,
+        classes: Some(6),
+        ..IdentifyOptions::default()
+    };
+    let static_table = read_csv(&text, "fl", &static_sel, ReadOptions::default()).unwrap();
+    r.bench_function("identify_static_6_classes_and_plain_ls-3tg", |b| {
+        b.iter(|| {
+            let id = identify(black_box(&static_table), &static_opts).unwrap();
+            let base =
+                gearcomp_identify::identify::plain_least_squares(&static_table, &static_opts.split)
+                    .unwrap();
+            (id, base)
+        })
+    });
+    r.finish();
 
     // Per-cycle evaluation of an 8-sensor value + rate model: 16 terms.
     let coeffs: Vec<f64> = (0..16).map(|i| 0.1 * i as f64).collect();

@@ -8,6 +8,8 @@ default `gearcomp fit` (every family and validation, five targets) against 1 s.
 Usage (from the repository root, after `cargo build --release -p gearcomp`):
     python3 crates/identify/benches/static_vs_numpy.py [path/to/gearcomp] [repeats]
 """
+import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -27,10 +29,20 @@ RUST_STATIC_CSV = RUST_STATIC + ["--data", PLAIN]
 NUMPY_STATIC_CSV = [sys.executable, f"{HERE}/numpy_static.py", PLAIN]
 
 
+CPU = {}
+
+
 def once(cmd):
+    """Wall time of one fresh process; its CPU time (user + system, all threads) is kept in
+    CPU under the command (less sensitive to other load on the machine than wall time)."""
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - t
+    wall = time.perf_counter() - t
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    CPU.setdefault(tuple(cmd), []).append(cpu)
+    return wall
 
 
 def main():
@@ -48,10 +60,19 @@ def main():
     for _ in range(max(3, REPEATS // 3)):
         default.append(once(RUST_DEFAULT))
     r, n, rc, nc, d = (statistics.median(v) for v in (rust, numpy, rust_csv, numpy_csv, default))
+    spread = lambda v: f"{min(v) * 1e3:.1f}–{max(v) * 1e3:.1f}"
+    cpu = lambda cmd: statistics.median(CPU[tuple(cmd)][1:])
+    print(f"load average {os.getloadavg()[0]:.2f} (1 min) at the end")
     print(f"static pipeline, whole process, median of {REPEATS}:")
     print(f"  embedded gzip: gearcomp {r * 1e3:7.1f} ms, numpy (same .csv.gz) {n * 1e3:7.1f} ms: "
           f"{n / r:.1f}x (target >= 20x)")
     print(f"  plain CSV (--data): gearcomp {rc * 1e3:7.1f} ms, numpy {nc * 1e3:7.1f} ms: {nc / rc:.1f}x")
+    print(f"  range of the wall times: gearcomp gzip {spread(rust)}, numpy gzip {spread(numpy)}, "
+          f"gearcomp CSV {spread(rust_csv)}, numpy CSV {spread(numpy_csv)} ms")
+    cr, cn, crc, cnc = (cpu(c) for c in (RUST_STATIC, NUMPY_STATIC, RUST_STATIC_CSV, NUMPY_STATIC_CSV))
+    print(f"  CPU time (user + system, all threads), medians: embedded gzip gearcomp {cr * 1e3:.1f} ms, "
+          f"numpy {cn * 1e3:.1f} ms: {cn / cr:.1f}x; plain CSV gearcomp {crc * 1e3:.1f} ms, "
+          f"numpy {cnc * 1e3:.1f} ms: {cnc / crc:.1f}x")
     print(f"default gearcomp fit (every family, 5 targets), median of {len(default)}: "
           f"{d * 1e3:.0f} ms (budget 1000 ms)")
 

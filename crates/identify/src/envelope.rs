@@ -132,8 +132,9 @@ pub fn rows_outside_and_intervals(
         for (k, &ch) in chans.iter().enumerate() {
             c[k] = table.inputs[ch][i];
         }
-        outside.push(env.check(&c, &f).is_some());
-        half.push(1.96 * sigma_v * (1.0 + env.leverage(&f)).sqrt());
+        let (out, h) = env.check_and_leverage(&c, &f);
+        outside.push(out.is_some());
+        half.push(1.96 * sigma_v * (1.0 + h).sqrt());
     }
     Ok((outside, half))
 }

@@ -740,7 +740,10 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
 /// Drops inputs that are constant on the training rows or duplicate an earlier input
 /// (|r| = 1 within 1e-12: the same signal, possibly scaled or offset); returns the reduced
 /// table and one note per dropped input naming it and why.
-pub fn drop_degenerate_inputs(table: &Table, train: &[bool]) -> (Table, Vec<String>) {
+pub fn drop_degenerate_inputs<'a>(
+    table: &'a Table,
+    train: &[bool],
+) -> (std::borrow::Cow<'a, Table>, Vec<String>) {
     let mut keep: Vec<usize> = Vec::new();
     let mut notes = Vec::new();
     let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, train)).collect();
@@ -785,12 +788,12 @@ pub fn drop_degenerate_inputs(table: &Table, train: &[bool]) -> (Table, Vec<Stri
         keep.push(i);
     }
     if keep.len() == table.inputs.len() {
-        return (table.clone(), notes);
+        return (std::borrow::Cow::Borrowed(table), notes);
     }
     let mut t = table.clone();
     t.input_names = keep.iter().map(|&i| table.input_names[i].clone()).collect();
     t.inputs = keep.iter().map(|&i| table.inputs[i].clone()).collect();
-    (t, notes)
+    (std::borrow::Cow::Owned(t), notes)
 }
 
 fn ridge_cv(
@@ -982,14 +985,24 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
         .map(|x| select_rows(x, &train))
         .collect();
     let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+    let ys: Vec<Vec<f64>> = table
+        .targets
+        .iter()
+        .map(|y| select_rows(y, &train))
+        .collect();
+    let ys: Vec<&[f64]> = ys.iter().map(|v| v.as_slice()).collect();
+    let fits = regress::ols_many(&refs, &ys, &table.input_names)?;
     table
         .targets
         .iter()
-        .map(|y| {
-            let fit = regress::ols(&refs, &select_rows(y, &train), &table.input_names)?;
+        .zip(fits)
+        .map(|(y, fit)| {
+            let mut row = vec![0.0; table.inputs.len()];
             let e: Vec<f64> = (0..y.len())
                 .map(|i| {
-                    let row: Vec<f64> = table.inputs.iter().map(|x| x[i]).collect();
+                    for (r, x) in row.iter_mut().zip(&table.inputs) {
+                        *r = x[i];
+                    }
                     y[i] - fit.predict(&row)
                 })
                 .collect();

@@ -78,34 +78,63 @@ pub fn lstsq_qr(
     y: &DVector<f64>,
     names: &[String],
 ) -> Result<(DVector<f64>, DMatrix<f64>)> {
-    let p = a.ncols();
-    let qr = a.qr();
-    let r = qr.r();
-    let mut qty = y.clone();
-    qr.q_tr_mul(&mut qty);
-    let max_pivot = (0..p).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
-    let min_pivot = (0..p)
-        .map(|j| r[(j, j)].abs())
-        .fold(f64::INFINITY, f64::min);
-    if !exceeds(min_pivot, RANK_TOL * max_pivot) {
-        return Err(IdentifyError::RankDeficient {
-            columns: names.join(", "),
-            pivot: min_pivot,
-            tolerance: RANK_TOL * max_pivot,
-        });
+    let s = QrSolver::new(a, names)?;
+    Ok((s.solve(y)?, s.r_inv))
+}
+
+/// One Householder QR of a design, solving for any number of right-hand sides (the same
+/// figures as a QR per right-hand side: the factorisation does not depend on it).
+struct QrSolver<'a> {
+    qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    r: DMatrix<f64>,
+    r_inv: DMatrix<f64>,
+    min_pivot: f64,
+    max_pivot: f64,
+    names: &'a [String],
+}
+
+impl<'a> QrSolver<'a> {
+    fn new(a: DMatrix<f64>, names: &'a [String]) -> Result<Self> {
+        let p = a.ncols();
+        let qr = a.qr();
+        let r = qr.r();
+        let max_pivot = (0..p).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
+        let min_pivot = (0..p)
+            .map(|j| r[(j, j)].abs())
+            .fold(f64::INFINITY, f64::min);
+        if !exceeds(min_pivot, RANK_TOL * max_pivot) {
+            return Err(IdentifyError::RankDeficient {
+                columns: names.join(", "),
+                pivot: min_pivot,
+                tolerance: RANK_TOL * max_pivot,
+            });
+        }
+        let r_inv = r
+            .solve_upper_triangular(&DMatrix::identity(p, p))
+            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+        Ok(Self {
+            qr,
+            r,
+            r_inv,
+            min_pivot,
+            max_pivot,
+            names,
+        })
     }
-    let rhs = qty.rows(0, p).into_owned();
-    let b = r
-        .solve_upper_triangular(&rhs)
-        .ok_or_else(|| IdentifyError::RankDeficient {
-            columns: names.join(", "),
-            pivot: min_pivot,
-            tolerance: RANK_TOL * max_pivot,
-        })?;
-    let r_inv = r
-        .solve_upper_triangular(&DMatrix::identity(p, p))
-        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-    Ok((b, r_inv))
+
+    fn solve(&self, y: &DVector<f64>) -> Result<DVector<f64>> {
+        let p = self.r.ncols();
+        let mut qty = y.clone();
+        self.qr.q_tr_mul(&mut qty);
+        let rhs = qty.rows(0, p).into_owned();
+        self.r
+            .solve_upper_triangular(&rhs)
+            .ok_or_else(|| IdentifyError::RankDeficient {
+                columns: self.names.join(", "),
+                pivot: self.min_pivot,
+                tolerance: RANK_TOL * self.max_pivot,
+            })
+    }
 }
 
 fn summarise(
@@ -140,16 +169,39 @@ fn summarise(
 /// CN105397560, [0026]–[0036], eqs. (3)–(5) (docs/identification.md) [RECONSTRUCTED]; QR instead of the
 /// normal equations of eq. (5) for accuracy (same minimiser).
 pub fn ols(columns: &[&[f64]], y: &[f64], names: &[String]) -> Result<LinearFit> {
-    let a = design(columns, y, names)?;
-    let (b, r_inv) = lstsq_qr(a.clone(), &DVector::from_column_slice(y), names)?;
-    let coefficients: Vec<f64> = b.iter().copied().collect();
-    let mut fit = summarise(coefficients, Vec::new(), &a, y);
-    let dof = y.len() - a.ncols();
-    let sigma = (fit.sse / dof as f64).sqrt();
-    fit.std_errors = (0..a.ncols())
-        .map(|j| sigma * r_inv.row(j).norm())
-        .collect();
-    Ok(fit)
+    let mut fits = ols_many(columns, &[y], names)?;
+    fits.pop()
+        .ok_or_else(|| invalid("targets", "none", "one target"))
+}
+
+/// [`ols`] of each target in `ys` on the same `columns`, from one QR of the design (the
+/// same fits as one [`ols`] call per target, without refactoring the design each time).
+pub fn ols_many(columns: &[&[f64]], ys: &[&[f64]], names: &[String]) -> Result<Vec<LinearFit>> {
+    let Some(first) = ys.first() else {
+        return Ok(Vec::new());
+    };
+    let a = design(columns, first, names)?;
+    if let Some(y) = ys.iter().find(|y| y.len() != first.len()) {
+        return Err(invalid(
+            "targets",
+            format!("{} and {} rows", first.len(), y.len()),
+            "targets of equal length",
+        ));
+    }
+    let solver = QrSolver::new(a.clone(), names)?;
+    ys.iter()
+        .map(|y| {
+            let b = solver.solve(&DVector::from_column_slice(y))?;
+            let coefficients: Vec<f64> = b.iter().copied().collect();
+            let mut fit = summarise(coefficients, Vec::new(), &a, y);
+            let dof = y.len() - a.ncols();
+            let sigma = (fit.sse / dof as f64).sqrt();
+            fit.std_errors = (0..a.ncols())
+                .map(|j| sigma * solver.r_inv.row(j).norm())
+                .collect();
+            Ok(fit)
+        })
+        .collect()
 }
 
 /// Ridge regression with an unpenalised intercept, columns standardised on these rows.
