@@ -36,6 +36,7 @@ pub mod identify;
 pub mod regress;
 pub mod report;
 pub mod select;
+pub mod stack;
 pub mod transform;
 pub mod workpiece;
 

@@ -41,10 +41,6 @@ use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
 
-/// Stacked generalisation of the families (in `src/stack.rs`).
-#[path = "stack.rs"]
-pub mod stack;
-
 /// A model family of the automatic comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Family {
@@ -1068,9 +1064,10 @@ pub fn identify_auto(
             .enumerate()
             .flat_map(|(f, r)| std::iter::repeat_n(f, r.len()))
             .collect();
-        let sse = stack::held_out_sse(&preds, &y, &fold_of_row, val_rows.len(), &groups, cap)?;
+        let sse =
+            crate::stack::held_out_sse(&preds, &y, &fold_of_row, val_rows.len(), &groups, cap)?;
         let all: Vec<usize> = (0..y.len()).collect();
-        let (w, _) = stack::convex_weights(&preds, &y, &all, &groups, cap)?;
+        let (w, _) = crate::stack::convex_weights(&preds, &y, &all, &groups, cap)?;
         let mut order: Vec<usize> = (0..w.len()).filter(|&k| w[k] > 0.0).collect();
         order.sort_by(|&a, &b| w[b].total_cmp(&w[a]));
         let mut sensors: Vec<usize> = Vec::new();
@@ -1169,7 +1166,7 @@ pub fn identify_auto(
                 }),
             }
         }
-        // Stacked generalisation of the families (`select::stack`): convex weights on their
+        // Stacked generalisation of the families (`crate::stack`): convex weights on their
         // out-of-fold predictions, validated with weights fitted on the other folds only.
         let stacked = if want_stack && members.len() >= 2 {
             stack_members(&members, j, opts.max_sensors)

@@ -1,10 +1,10 @@
-//! Stacked generalisation (`gearcomp_identify::select::stack`): the convex weights against an
+//! Stacked generalisation (`gearcomp_identify::stack`): the convex weights against an
 //! independent construction written here (projected gradient onto the simplex, the
 //! projection by sorting, Duchi et al. 2008), a closed form, and the sensor cap against a
 //! brute force over the admissible supports.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use gearcomp_identify::select::stack::{convex_weights, held_out_sse};
+use gearcomp_identify::stack::{convex_weights, held_out_sse};
 use proptest::prelude::*;
 
 /// Euclidean projection of `v` onto {w ≥ 0, Σ w = 1} (sort-based).
