@@ -871,7 +871,7 @@ fn modbus_refresh_s() -> f64 {
     1.0
 }
 
-pub use crate::sources::replay::ReplayInput;
+pub use crate::sources::replay_config::ReplayInput;
 
 #[cfg(feature = "opcua")]
 pub use crate::sources::opcua_config::{

@@ -9,4 +9,5 @@ pub mod opcua;
 #[cfg(feature = "opcua")]
 pub mod opcua_config;
 pub mod replay;
+pub mod replay_config;
 pub mod sim;

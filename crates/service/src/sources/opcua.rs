@@ -64,16 +64,7 @@ use crate::config::{OpcUaInput, OpcUaNumericType};
 use crate::cycle::{Clock, InputMsg, OffsetOut};
 use crate::error::{invalid, Result};
 
-/// Parses a node id in the OPC UA text form (`ns=2;s=Name`, `ns=3;i=42`, `i=2258`).
-pub fn parse_node(field: &str, s: &str) -> Result<NodeId> {
-    NodeId::from_str(s.trim()).map_err(|_| {
-        invalid(
-            field,
-            format!("{s:?}"),
-            "an OPC UA node id such as \"ns=2;s=Temp.Bed\" or \"ns=3;i=1021\"",
-        )
-    })
-}
+pub use super::opcua_config::parse_node;
 
 /// The OPC UA name of a value's data type, for messages.
 pub fn type_name(v: &Variant) -> &'static str {

@@ -5,11 +5,24 @@
 //! `ServiceConfig::validate`), which names the key, the value and the allowed range.
 
 use std::path::PathBuf;
+use std::str::FromStr;
 
+use opcua::types::NodeId;
 use serde::{Deserialize, Serialize};
 
 use crate::backoff::Backoff;
 use crate::error::{check_range, invalid, Result};
+
+/// Parses a node id in the OPC UA text form (`ns=2;s=Name`, `ns=3;i=42`, `i=2258`).
+pub fn parse_node(field: &str, s: &str) -> Result<NodeId> {
+    NodeId::from_str(s.trim()).map_err(|_| {
+        invalid(
+            field,
+            format!("{s:?}"),
+            "an OPC UA node id such as \"ns=2;s=Temp.Bed\" or \"ns=3;i=1021\"",
+        )
+    })
+}
 
 /// OPC UA input (CNC variables, temperatures the CNC exposes) and offset output.
 ///
@@ -420,7 +433,7 @@ impl OpcUaInput {
         }
         for (i, c) in self.channels.iter().enumerate() {
             let f = format!("input.channels[{i}]");
-            crate::sources::opcua::parse_node(&format!("{f}.node"), &c.node)?;
+            parse_node(&format!("{f}.node"), &c.node)?;
             check_range(&format!("{f}.scale"), c.scale, -1e6, 1e6, "finite, ≠ 0")?;
             if c.scale == 0.0 {
                 return Err(invalid(format!("{f}.scale"), 0, "≠ 0"));
@@ -429,7 +442,7 @@ impl OpcUaInput {
         }
         for (i, p) in self.positions.iter().enumerate() {
             let f = format!("input.positions[{i}]");
-            crate::sources::opcua::parse_node(&format!("{f}.node"), &p.node)?;
+            parse_node(&format!("{f}.node"), &p.node)?;
             check_range(&format!("{f}.scale"), p.scale, -1e6, 1e6, "finite, ≠ 0")?;
             if p.scale == 0.0 {
                 return Err(invalid(format!("{f}.scale"), 0, "≠ 0"));
@@ -444,10 +457,10 @@ impl OpcUaInput {
             }
         }
         if let Some(t) = &self.trigger {
-            crate::sources::opcua::parse_node("input.trigger.node", &t.node)?;
+            parse_node("input.trigger.node", &t.node)?;
         }
         if let Some(p) = &self.program_state {
-            crate::sources::opcua::parse_node("input.program_state.node", &p.node)?;
+            parse_node("input.program_state.node", &p.node)?;
             if p.safe_values.is_empty() {
                 return Err(invalid(
                     "input.program_state.safe_values",
@@ -457,10 +470,10 @@ impl OpcUaInput {
             }
         }
         if let Some(s) = &self.stop_output {
-            crate::sources::opcua::parse_node("input.stop_output.node", &s.node)?;
+            parse_node("input.stop_output.node", &s.node)?;
         }
         if let Some(h) = &self.heartbeat {
-            crate::sources::opcua::parse_node("input.heartbeat.node", &h.node)?;
+            parse_node("input.heartbeat.node", &h.node)?;
             if !matches!(
                 h.data_type,
                 OpcUaNumericType::Int16 | OpcUaNumericType::Int32
@@ -481,7 +494,7 @@ impl OpcUaInput {
         }
         for (i, o) in self.pulse_outputs.iter().enumerate() {
             let f = format!("input.pulse_outputs[{i}]");
-            crate::sources::opcua::parse_node(&format!("{f}.node"), &o.node)?;
+            parse_node(&format!("{f}.node"), &o.node)?;
             if !matches!(
                 o.data_type,
                 OpcUaNumericType::Int32 | OpcUaNumericType::Double
@@ -511,7 +524,7 @@ impl OpcUaInput {
         }
         let outputs = self.outputs();
         for (i, (f, o)) in outputs.iter().enumerate() {
-            crate::sources::opcua::parse_node(&format!("{f}.node"), &o.node)?;
+            parse_node(&format!("{f}.node"), &o.node)?;
             let a = o.scale.abs();
             if !(o.scale.is_finite() && (1e-6..=1e6).contains(&a)) {
                 return Err(invalid(
