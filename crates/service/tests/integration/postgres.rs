@@ -828,11 +828,25 @@ fn a_machine_whose_records_the_server_refuses_holds_back_only_itself() {
         assert!(t0.elapsed() < Duration::from_secs(10));
         std::thread::sleep(Duration::from_millis(10));
     }
-    // PostgreSQL refuses a NUL character in text (SQLite would keep it): machine a's
-    // next chunk can never be written.
+    // A record the server refuses for good (here a constraint the test adds; in a plant
+    // e.g. a trigger or a full tablespace): machine a's next chunk can never be written.
+    server
+        .client()
+        .batch_execute(
+            "ALTER TABLE alarms ADD CONSTRAINT refused_for_test CHECK (key <> 'input.refused')",
+        )
+        .unwrap();
     tx_a.send(Record::AlarmRaised {
         time_s: 100.5,
-        key: "input.bad".into(),
+        key: "input.refused".into(),
+        message: "refused".into(),
+    })
+    .unwrap();
+    // A NUL character, which PostgreSQL's text cannot hold, no longer holds a machine
+    // back: machine b's alarm is stored with U+FFFD in its place.
+    tx_b.send(Record::AlarmRaised {
+        time_s: 0.5,
+        key: "input.bad\0key".into(),
         message: "bad\0text".into(),
     })
     .unwrap();
@@ -855,6 +869,16 @@ fn a_machine_whose_records_the_server_refuses_holds_back_only_itself() {
         .iter()
         .enumerate()
         .all(|(i, r)| *r == (i as i64 + 1, (i + 1) as f64)));
+    let alarm = server
+        .client()
+        .query_one(
+            "SELECT a.key, a.message FROM alarms a JOIN machines m ON m.id = a.machine_id \
+             WHERE m.name = 'refused-b'",
+            &[],
+        )
+        .unwrap();
+    assert_eq!(alarm.get::<_, String>(0), "input.bad\u{FFFD}key");
+    assert_eq!(alarm.get::<_, String>(1), "bad\u{FFFD}text");
     // Machine a kept its first 100 and holds the rest, flagged, in order.
     assert_eq!(stats_a.committed_samples.load(Ordering::Acquire), 100);
     assert_eq!(stored_samples(&server, "refused-a").len(), 100);

@@ -541,21 +541,21 @@ pub(super) fn write_chunks(client: &mut Client, parts: &[Part<'_>]) -> Result<()
                     tx.execute(
                         "INSERT INTO alarms (machine_id, time_s, key, message) \
                          VALUES ($1, $2, $3, $4)",
-                        &[&mid, time_s, key, message],
+                        &[&mid, time_s, &pg_text(key), &pg_text(message)],
                     )?;
                 }
                 Record::AlarmCleared { time_s, key } => {
                     tx.execute(
                         "UPDATE alarms SET cleared_s = $1 \
                          WHERE machine_id = $2 AND key = $3 AND cleared_s IS NULL",
-                        &[time_s, &mid, key],
+                        &[time_s, &mid, &pg_text(key)],
                     )?;
                 }
                 Record::AlarmAcknowledged { id, by } => {
                     tx.execute(
                         "UPDATE alarms SET acknowledged_by = $1, acknowledged_unix_s = $2 \
                          WHERE id = $3 AND machine_id = $4",
-                        &[by, &unix_now_s(), id, &mid],
+                        &[&pg_text(by), &unix_now_s(), id, &mid],
                     )?;
                 }
                 Record::Audit {
@@ -567,7 +567,14 @@ pub(super) fn write_chunks(client: &mut Client, parts: &[Part<'_>]) -> Result<()
                     tx.execute(
                         "INSERT INTO audit (machine_id, unix_s, token_id, role, action, detail) \
                          VALUES ($1, $2, $3, $4, $5, $6)",
-                        &[&mid, &unix_now_s(), token_id, role, action, detail],
+                        &[
+                            &mid,
+                            &unix_now_s(),
+                            &pg_text(token_id),
+                            &pg_text(role),
+                            &pg_text(action),
+                            &pg_text(detail),
+                        ],
                     )?;
                 }
                 Record::Model {
@@ -577,7 +584,7 @@ pub(super) fn write_chunks(client: &mut Client, parts: &[Part<'_>]) -> Result<()
                     tx.execute(
                         "INSERT INTO models (machine_id, unix_s, source, config_toml) \
                          VALUES ($1, $2, $3, $4)",
-                        &[&mid, &unix_now_s(), source, config_toml],
+                        &[&mid, &unix_now_s(), &pg_text(source), &pg_text(config_toml)],
                     )?;
                 }
                 Record::Resume { time_s, state } => resume = Some((*time_s, state)),
@@ -710,4 +717,37 @@ pub(super) fn write_chunks(client: &mut Client, parts: &[Part<'_>]) -> Result<()
 /// NaN and ±∞ are stored as NULL, as in the SQLite record.
 pub(super) fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
+}
+
+/// PostgreSQL's `text` cannot hold U+0000 (the server refuses the whole transaction, so
+/// one such character would hold a machine's record back for good); SQLite keeps it.
+/// Every text the running service records (alarm keys and messages, audit fields,
+/// model sources) passes here: a NUL is stored as U+FFFD, the replacement character,
+/// and nothing else changes. An alarm cleared later by the same key finds its row,
+/// since the key is mapped the same way both times.
+pub(super) fn pg_text(s: &str) -> std::borrow::Cow<'_, str> {
+    if s.contains('\0') {
+        std::borrow::Cow::Owned(s.replace('\0', "\u{FFFD}"))
+    } else {
+        std::borrow::Cow::Borrowed(s)
+    }
+}
+
+#[cfg(test)]
+mod text_tests {
+    use super::pg_text;
+
+    #[test]
+    fn nul_becomes_the_replacement_character_and_nothing_else_changes() {
+        assert_eq!(pg_text("bad\0text\0"), "bad\u{FFFD}text\u{FFFD}");
+        assert_eq!(pg_text("Prüfplatz \u{1F600}\t"), "Prüfplatz \u{1F600}\t");
+        assert!(matches!(
+            pg_text("plain"),
+            std::borrow::Cow::Borrowed("plain")
+        ));
+        // Written out by code point: every char except U+0000 is kept.
+        for c in ['\u{1}', 'a', '\u{7f}', '\u{FFFD}', '\u{10FFFF}'] {
+            assert_eq!(pg_text(&c.to_string()), c.to_string());
+        }
+    }
 }
