@@ -32,12 +32,19 @@ NUMPY_STATIC_CSV = [sys.executable, f"{HERE}/numpy_static.py", PLAIN]
 CPU = {}
 
 
+# numpy with one BLAS thread: on this shared 2-core machine OpenBLAS's worker threads spin
+# for a core and made the numpy side slower and far more variable (0.6–1.6 s against
+# 0.40–0.49 s wall), which would flatter the ratio. The baseline is numpy at its best here.
+NUMPY_ENV = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+
+
 def once(cmd):
     """Wall time of one fresh process; its CPU time (user + system, all threads) is kept in
     CPU under the command (less sensitive to other load on the machine than wall time)."""
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    env = NUMPY_ENV if cmd[0] == sys.executable else None
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, env=env)
     wall = time.perf_counter() - t
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
