@@ -331,126 +331,53 @@ impl CertNames {
     }
 }
 
-/// One DER element: (tag, contents, what follows). Low tag numbers only (every tag read
-/// here is one); definite lengths up to 4 bytes.
-fn der_tlv(input: &[u8]) -> Option<(u8, &[u8], &[u8])> {
-    let (&tag, rest) = input.split_first()?;
-    if tag & 0x1f == 0x1f {
-        return None;
-    }
-    let (&first, mut rest) = rest.split_first()?;
-    let len = if first < 0x80 {
-        usize::from(first)
-    } else {
-        let n = usize::from(first & 0x7f);
-        if n == 0 || n > 4 || rest.len() < n {
-            return None;
+/// A subject attribute's value as text: UTF8String, PrintableString, IA5String (RFC 5280
+/// §4.1.2.4 DirectoryString and the IA5String some CAs write) or BMPString (UCS-2); None for
+/// other string types (TeletexString, …) or invalid text. PrintableString and IA5String are
+/// read as UTF-8 without their character-set check, as before the reader used x509-cert: a
+/// CA that wrote `_` or `*` into a PrintableString still names the client it signed.
+fn directory_text(value: &x509_cert::der::Any) -> Option<String> {
+    use x509_cert::der::{asn1::BmpString, Tag, Tagged};
+    match value.tag() {
+        Tag::Utf8String => value.decode_as::<String>().ok(),
+        Tag::PrintableString | Tag::Ia5String => {
+            std::str::from_utf8(value.value()).ok().map(str::to_string)
         }
-        let len = rest[..n]
-            .iter()
-            .fold(0usize, |a, b| (a << 8) | usize::from(*b));
-        rest = &rest[n..];
-        len
-    };
-    if rest.len() < len {
-        return None;
-    }
-    Some((tag, &rest[..len], &rest[len..]))
-}
-
-/// The elements of a constructed value's contents.
-fn der_items(mut input: &[u8]) -> impl Iterator<Item = (u8, &[u8])> {
-    std::iter::from_fn(move || {
-        let (tag, body, rest) = der_tlv(input)?;
-        input = rest;
-        Some((tag, body))
-    })
-}
-
-/// A directory string as text (UTF8String, PrintableString, IA5String; BMPString as
-/// UTF-16BE); None for other string types or invalid text.
-fn der_text(tag: u8, body: &[u8]) -> Option<String> {
-    match tag {
-        0x0c | 0x13 | 0x16 => std::str::from_utf8(body).ok().map(str::to_string),
-        0x1e if body.len() % 2 == 0 => {
-            let units: Vec<u16> = body
-                .chunks_exact(2)
-                .map(|c| u16::from_be_bytes([c[0], c[1]]))
-                .collect();
-            String::from_utf16(&units).ok()
-        }
+        Tag::BmpString => BmpString::from_ucs2(value.value())
+            .ok()
+            .map(|s| s.to_string()),
         _ => None,
     }
 }
 
-/// The subject CNs and DNS subject alternative names of an X.509 certificate (DER), or
-/// None when it is not a certificate this reader can walk. The certificate has already
-/// been verified against the plant CA by rustls; this only reads the names.
+/// The subject CNs and DNS subject alternative names of an X.509 certificate (DER, decoded
+/// with RustCrypto's `x509-cert`), or None when it is not a certificate (truncated, damaged,
+/// a malformed subjectAltName or a dNSName that is no IA5String). The certificate has
+/// already been verified against the plant CA by rustls; this only reads the names.
 pub fn certificate_names(der: &[u8]) -> Option<CertNames> {
-    const CN: &[u8] = &[0x55, 0x04, 0x03];
-    const SAN: &[u8] = &[0x55, 0x1d, 0x11];
-    let (0x30, cert, _) = der_tlv(der)? else {
-        return None;
-    };
-    let (0x30, tbs, _) = der_tlv(cert)? else {
-        return None;
-    };
-    let mut fields = der_items(tbs).peekable();
-    // version [0] EXPLICIT (absent in v1), serialNumber, signature, issuer, validity.
-    if fields.peek().is_some_and(|(t, _)| *t == 0xa0) {
-        fields.next();
-    }
-    let mut fields = fields.skip(4);
-    let (0x30, subject) = fields.next()? else {
-        return None;
-    };
+    use x509_cert::der::{oid::AssociatedOid, oid::ObjectIdentifier, Decode};
+    /// id-at-commonName (X.520, RFC 4519 §2.3).
+    const CN: ObjectIdentifier = ObjectIdentifier::new_unwrap("2.5.4.3");
+    use x509_cert::ext::pkix::{name::GeneralName, SubjectAltName};
+    let cert = x509_cert::Certificate::from_der(der).ok()?;
+    let tbs = &cert.tbs_certificate;
     let mut names = CertNames::default();
-    for (set_tag, rdn) in der_items(subject) {
-        if set_tag != 0x31 {
-            return None;
-        }
-        for (_, atv) in der_items(rdn) {
-            let mut it = der_items(atv);
-            if let (Some((0x06, oid)), Some((tag, value))) = (it.next(), it.next()) {
-                if oid == CN {
-                    // A CN in a string type not read here (TeletexString, …) matches nothing.
-                    if let Some(t) = der_text(tag, value) {
-                        names.common_names.push(t);
-                    }
-                }
+    for atv in tbs.subject.0.iter().flat_map(|rdn| rdn.0.iter()) {
+        if atv.oid == CN {
+            // A CN in a string type not read here (TeletexString, …) matches nothing.
+            if let Some(t) = directory_text(&atv.value) {
+                names.common_names.push(t);
             }
         }
     }
-    // subjectPublicKeyInfo, then the optional unique ids [1], [2] and extensions [3].
-    for (tag, body) in fields.skip(1) {
-        if tag != 0xa3 {
+    for ext in tbs.extensions.iter().flatten() {
+        if ext.extn_id != SubjectAltName::OID {
             continue;
         }
-        let (0x30, exts, _) = der_tlv(body)? else {
-            return None;
-        };
-        for (_, ext) in der_items(exts) {
-            let mut it = der_items(ext);
-            let Some((0x06, oid)) = it.next() else {
-                continue;
-            };
-            if oid != SAN {
-                continue;
-            }
-            // critical BOOLEAN (optional), then the OCTET STRING holding GeneralNames.
-            let Some((0x04, value)) = it.find(|(t, _)| *t == 0x04) else {
-                return None;
-            };
-            let (0x30, general, _) = der_tlv(value)? else {
-                return None;
-            };
-            for (tag, name) in der_items(general) {
-                // dNSName [2] IMPLICIT IA5String.
-                if tag == 0x82 {
-                    names
-                        .dns_names
-                        .push(std::str::from_utf8(name).ok()?.to_string());
-                }
+        let san = SubjectAltName::from_der(ext.extn_value.as_bytes()).ok()?;
+        for name in san.0 {
+            if let GeneralName::DnsName(dns) = name {
+                names.dns_names.push(dns.to_string());
             }
         }
     }
@@ -601,6 +528,57 @@ mod tests {
             certificate_names(&der).unwrap().common_names,
             ["Schleifmaschine Ω"]
         );
+        // IA5String is read; a TeletexString CN is not (it matches nothing), the other
+        // CN of the same subject still is.
+        let der = cert_der(
+            &[
+                rcgen::DnValue::TeletexString(
+                    rcgen::string::TeletexString::try_from("t61 name").unwrap(),
+                ),
+                rcgen::DnValue::Ia5String(
+                    rcgen::string::Ia5String::try_from("cell-9@plant").unwrap(),
+                ),
+            ],
+            &["cell9.plant.local".into()],
+        );
+        let n = certificate_names(&der).unwrap();
+        assert_eq!(n.common_names, ["cell-9@plant"]);
+        assert_eq!(n.dns_names, ["cell9.plant.local"]);
+    }
+
+    #[test]
+    fn nonconforming_printable_string_cn_is_still_read() {
+        // Some CAs write `_` into a PrintableString (outside its X.680 character set); the
+        // name is read as written. The DER is rcgen's with the one byte changed in place
+        // (same length, so every enclosing length stays right; the signature is not checked
+        // here, rustls has done that). Self-signed: the issuer carries the same name
+        // first, the subject's is the last one.
+        let mut der = cert_der(
+            &[rcgen::DnValue::PrintableString(
+                rcgen::string::PrintableString::try_from("viewer 7").unwrap(),
+            )],
+            &[],
+        );
+        let at = der
+            .windows(10)
+            .rposition(|w| w == b"\x13\x08viewer 7")
+            .unwrap();
+        der[at + 8] = b'_';
+        assert_eq!(certificate_names(&der).unwrap().common_names, ["viewer_7"]);
+    }
+
+    #[test]
+    fn not_a_certificate_is_none() {
+        assert_eq!(certificate_names(&[]), None);
+        assert_eq!(certificate_names(b"-----BEGIN CERTIFICATE-----"), None);
+        let der = cert_der(
+            &[rcgen::DnValue::Utf8String("cell".into())],
+            &["a.b".into()],
+        );
+        // Cut anywhere inside: never a certificate.
+        for cut in [1, 4, der.len() / 2, der.len() - 1] {
+            assert_eq!(certificate_names(&der[..cut]), None, "cut at {cut}");
+        }
     }
 
     #[test]
