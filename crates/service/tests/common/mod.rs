@@ -210,3 +210,79 @@ impl OpcUaStandIn {
         }
     }
 }
+
+/// The variable `ns=<ns>;s=<name>` (browse and display name `name`) of type `data_type`
+/// holding `value`, under the Objects folder; read-only for clients. Returns its node id.
+#[cfg(feature = "opcua")]
+pub fn add_variable(
+    space: &mut opcua::server::address_space::AddressSpace,
+    ns: u16,
+    name: &str,
+    data_type: opcua::types::DataTypeId,
+    value: impl Into<opcua::types::Variant>,
+) -> opcua::types::NodeId {
+    variable(ns, name, data_type, value, false, space)
+}
+
+/// As [`add_variable`], but clients may write it (an output node: offset, pulses, feed
+/// hold, heartbeat); the test logs the writes with a write callback on the returned id.
+#[cfg(feature = "opcua")]
+pub fn add_writable_variable(
+    space: &mut opcua::server::address_space::AddressSpace,
+    ns: u16,
+    name: &str,
+    data_type: opcua::types::DataTypeId,
+    value: impl Into<opcua::types::Variant>,
+) -> opcua::types::NodeId {
+    variable(ns, name, data_type, value, true, space)
+}
+
+#[cfg(feature = "opcua")]
+fn variable(
+    ns: u16,
+    name: &str,
+    data_type: opcua::types::DataTypeId,
+    value: impl Into<opcua::types::Variant>,
+    writable: bool,
+    space: &mut opcua::server::address_space::AddressSpace,
+) -> opcua::types::NodeId {
+    let id = opcua::types::NodeId::new(ns, name);
+    let mut b = opcua::server::address_space::VariableBuilder::new(&id, name, name)
+        .data_type(data_type)
+        .value(value)
+        .organized_by(opcua::types::ObjectId::ObjectsFolder);
+    if writable {
+        b = b.writable();
+    }
+    b.insert(space);
+    id
+}
+
+/// True when the alarm list `v` (`/api/alarms`) holds an uncleared alarm `key`.
+pub fn alarm_active(v: &serde_json::Value, key: &str) -> bool {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .any(|a| a["key"] == key && a["cleared_s"].is_null())
+}
+
+/// The head of an OPC UA machine file: `engine.toml`, a 0.1 s cycle, HTTP on a free port,
+/// the `[storage]` keys `storage` (e.g. `path = "ua.db"`), and `[input]` on
+/// `opc.tcp://127.0.0.1:<port>/` with 0.05 s publishing, 0.1 s scans, reconnect back-off
+/// 0.05…`reconnect_max_s` s and channels A and B on `ns=<ns>;s=Temp.A` / `Temp.B`. The
+/// caller appends the rest of `[input]` (outputs, security, login).
+pub fn opcua_input_head(
+    port: u16,
+    storage: &str,
+    ns: impl std::fmt::Display,
+    reconnect_max_s: f64,
+) -> String {
+    format!(
+        "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
+         [storage]\n{storage}\n\
+         [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
+         publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
+         reconnect = {{ min_s = 0.05, max_s = {reconnect_max_s} }}\n\
+         channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n"
+    )
+}

@@ -14,11 +14,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{engine_ab, free_port, start_with, Api, OpcUaStandIn};
-use opcua::server::address_space::VariableBuilder;
+use common::{
+    add_variable, add_writable_variable, alarm_active as active, engine_ab, free_port,
+    opcua_input_head, start_with, Api, OpcUaStandIn,
+};
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::server::ServerHandle;
-use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, UAString, Variant};
+use opcua::types::{DataTypeId, DataValue, NodeId, StatusCode, UAString, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-cnc";
 
@@ -60,19 +62,10 @@ impl Cnc {
                     Variant::Int32(_) => DataTypeId::Int32,
                     _ => DataTypeId::BaseDataType,
                 };
-                VariableBuilder::new(&NodeId::new(ns, *name), *name, *name)
-                    .data_type(dt)
-                    .value(v.clone())
-                    .organized_by(ObjectId::ObjectsFolder)
-                    .insert(&mut *space);
+                add_variable(&mut space, ns, name, dt, v.clone());
             }
-            let comp = NodeId::new(ns, "TempComp");
-            VariableBuilder::new(&comp, "TempComp", "TempComp")
-                .data_type(DataTypeId::Double)
-                .value(0.0f64)
-                .writable()
-                .organized_by(ObjectId::ObjectsFolder)
-                .insert(&mut *space);
+            let comp =
+                add_writable_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64);
             let w = writes.clone();
             nm.inner()
                 .add_write_callback(comp, move |dv: DataValue, _| {
@@ -139,13 +132,6 @@ impl Cnc {
     }
 }
 
-fn active(v: &serde_json::Value, key: &str) -> bool {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .any(|a| a["key"] == key && a["cleared_s"].is_null())
-}
-
 fn message(v: &serde_json::Value, key: &str) -> String {
     v.as_array()
         .unwrap()
@@ -192,14 +178,9 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     let run = start_with(
         dir.path(),
         &format!(
-            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-             [storage]\npath = \"ua.db\"\n\
-             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
-             channels = [{{ channel = \"A\", node = \"ns=2;s=Temp.A\" }}, {{ channel = \"B\", node = \"ns=2;s=Temp.B\" }}]\n\
-             positions = [{{ axis = \"X\", node = \"ns=2;s=Pos.X\", scale = 0.5 }}]\n\
-             offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n"
+            "{}positions = [{{ axis = \"X\", node = \"ns=2;s=Pos.X\", scale = 0.5 }}]\n\
+             offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n",
+            opcua_input_head(port, "path = \"ua.db\"", 2, 0.2)
         ),
     )
     .await;
@@ -519,26 +500,11 @@ impl Plc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", 24.0), ("Temp.B", 20.0)] {
-                VariableBuilder::new(&NodeId::new(ns, name), name, name)
-                    .data_type(DataTypeId::Double)
-                    .value(v)
-                    .organized_by(ObjectId::ObjectsFolder)
-                    .insert(&mut *space);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v);
             }
-            let hold = NodeId::new(ns, "FeedHold");
-            VariableBuilder::new(&hold, "FeedHold", "FeedHold")
-                .data_type(DataTypeId::Boolean)
-                .value(false)
-                .writable()
-                .organized_by(ObjectId::ObjectsFolder)
-                .insert(&mut *space);
-            let beat = NodeId::new(ns, "Heartbeat");
-            VariableBuilder::new(&beat, "Heartbeat", "Heartbeat")
-                .data_type(DataTypeId::Int32)
-                .value(0i32)
-                .writable()
-                .organized_by(ObjectId::ObjectsFolder)
-                .insert(&mut *space);
+            let hold =
+                add_writable_variable(&mut space, ns, "FeedHold", DataTypeId::Boolean, false);
+            let beat = add_writable_variable(&mut space, ns, "Heartbeat", DataTypeId::Int32, 0i32);
             let h = holds.clone();
             nm.inner()
                 .add_write_callback(hold, move |dv: DataValue, _| match dv.value {
@@ -617,14 +583,9 @@ async fn opcua_feed_hold_and_heartbeat() {
     let run = start_with(
         dir.path(),
         &format!(
-            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-             [storage]\npath = \"plc.db\"\n\
-             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
-             channels = [{{ channel = \"A\", node = \"ns=2;s=Temp.A\" }}, {{ channel = \"B\", node = \"ns=2;s=Temp.B\" }}]\n\
-             stop_output = {{ node = \"ns=2;s=FeedHold\" }}\n\
-             heartbeat = {{ node = \"ns=2;s=Heartbeat\", period_s = 0.1 }}\n"
+            "{}stop_output = {{ node = \"ns=2;s=FeedHold\" }}\n\
+             heartbeat = {{ node = \"ns=2;s=Heartbeat\", period_s = 0.1 }}\n",
+            opcua_input_head(port, "path = \"plc.db\"", 2, 0.2)
         ),
     )
     .await;

@@ -20,7 +20,7 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{free_port, start_with, Api};
+use common::{alarm_active as active, free_port, start_with, Api};
 
 const SCRIPT: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -147,13 +147,6 @@ impl Drop for PyCnc {
     }
 }
 
-fn active(v: &serde_json::Value, key: &str) -> bool {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .any(|a| a["key"] == key && a["cleared_s"].is_null())
-}
-
 fn message(v: &serde_json::Value, key: &str) -> String {
     v.as_array()
         .unwrap()
@@ -175,14 +168,7 @@ fn engine_zx() -> String {
 }
 
 fn input_head(port: u16, db: &str, ns: u64) -> String {
-    format!(
-        "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-         [storage]\npath = \"{db}\"\n\
-         [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-         publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-         reconnect = {{ min_s = 0.05, max_s = 0.3 }}\n\
-         channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n"
-    )
+    common::opcua_input_head(port, &format!("path = \"{db}\""), ns, 0.3)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -9,11 +9,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::common::{free_port, start_with, Api, OpcUaStandIn, PULSE_ENGINE};
-use opcua::server::address_space::VariableBuilder;
+use crate::common::{
+    add_variable, add_writable_variable, free_port, opcua_input_head, start_with, Api,
+    OpcUaStandIn, PULSE_ENGINE,
+};
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::server::ServerHandle;
-use opcua::types::{DataTypeId, DataValue, NodeId, ObjectId, StatusCode, Variant};
+use opcua::types::{DataTypeId, DataValue, NodeId, StatusCode, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
 
@@ -61,24 +63,14 @@ impl Plc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", temp_a), ("Temp.B", 20.0)] {
-                VariableBuilder::new(&NodeId::new(ns, name), name, name)
-                    .data_type(DataTypeId::Double)
-                    .value(v)
-                    .organized_by(ObjectId::ObjectsFolder)
-                    .insert(&mut *space);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v);
             }
-            let pulses = NodeId::new(ns, "Pulses");
             let (dt, zero) = if double {
                 (DataTypeId::Double, Variant::Double(0.0))
             } else {
                 (DataTypeId::Int32, Variant::Int32(0))
             };
-            VariableBuilder::new(&pulses, "Pulses", "Pulses")
-                .data_type(dt)
-                .value(zero)
-                .writable()
-                .organized_by(ObjectId::ObjectsFolder)
-                .insert(&mut *space);
+            let pulses = add_writable_variable(&mut space, ns, "Pulses", dt, zero);
             let (h, w, lose) = (held.clone(), writes.clone(), lose_status.clone());
             nm.inner()
                 .add_write_callback(pulses.clone(), move |dv: DataValue, _| {
@@ -167,13 +159,8 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     let plc1 = Plc::start(port, 24.0).await;
     let ns = plc1.ns;
     let config = format!(
-        "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-         [storage]\npath = \"op.db\"\ncommit_interval_s = 0.05\n\
-         [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-         publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-         reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
-         channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
-         pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n"
+        "{}pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n",
+        opcua_input_head(port, "path = \"op.db\"\ncommit_interval_s = 0.05", ns, 0.2)
     );
     let run = start_with(dir.path(), &config).await;
     let ro = run.generated.clone().unwrap().read_only;
@@ -262,13 +249,8 @@ async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
     let ns = plc.ns;
     let config = |ty: &str| {
         format!(
-            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-             [storage]\npath = \"od.db\"\ncommit_interval_s = 0.05\n\
-             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
-             channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
-             pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\"{ty} }}]\n"
+            "{}pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\"{ty} }}]\n",
+            opcua_input_head(port, "path = \"od.db\"\ncommit_interval_s = 0.05", ns, 0.2)
         )
     };
     let run = start_with(dir.path(), &config("")).await;
@@ -332,13 +314,8 @@ async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
     let run = start_with(
         dir.path(),
         &format!(
-            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-             [storage]\npath = \"ol.db\"\ncommit_interval_s = 0.05\n\
-             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-             publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-             reconnect = {{ min_s = 0.05, max_s = 0.2 }}\n\
-             channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n\
-             pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n"
+            "{}pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n",
+            opcua_input_head(port, "path = \"ol.db\"\ncommit_interval_s = 0.05", ns, 0.2)
         ),
     )
     .await;

@@ -14,15 +14,15 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{free_port, start_with, Api};
+use common::{
+    add_variable, add_writable_variable, alarm_active as active, free_port, opcua_input_head,
+    start_with, Api,
+};
 use opcua::crypto::{CertificateStore, SecurityPolicy, X509Data};
-use opcua::server::address_space::VariableBuilder;
 use opcua::server::diagnostics::NamespaceMetadata;
 use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
 use opcua::server::{ServerBuilder, ServerHandle, ServerUserToken};
-use opcua::types::{
-    DataTypeId, DataValue, MessageSecurityMode, NodeId, ObjectId, StatusCode, Variant,
-};
+use opcua::types::{DataTypeId, DataValue, MessageSecurityMode, StatusCode, Variant};
 
 const NS_URI: &str = "urn:gearcomp-secure-cnc";
 const PASSWORD: &str = "Plant-pw-4840";
@@ -113,19 +113,10 @@ impl SecureCnc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", 24.0f64), ("Temp.B", 20.0)] {
-                VariableBuilder::new(&NodeId::new(ns, name), name, name)
-                    .data_type(DataTypeId::Double)
-                    .value(v)
-                    .organized_by(ObjectId::ObjectsFolder)
-                    .insert(&mut *space);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v);
             }
-            let comp = NodeId::new(ns, "TempComp");
-            VariableBuilder::new(&comp, "TempComp", "TempComp")
-                .data_type(DataTypeId::Double)
-                .value(0.0f64)
-                .writable()
-                .organized_by(ObjectId::ObjectsFolder)
-                .insert(&mut *space);
+            let comp =
+                add_writable_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64);
             let w = writes.clone();
             nm.inner()
                 .add_write_callback(comp, move |dv: DataValue, _| match dv.value {
@@ -163,13 +154,6 @@ impl SecureCnc {
     }
 }
 
-fn active(v: &serde_json::Value, key: &str) -> bool {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .any(|a| a["key"] == key && a["cleared_s"].is_null())
-}
-
 fn message(v: &serde_json::Value, key: &str) -> String {
     v.as_array()
         .unwrap()
@@ -193,14 +177,9 @@ async fn opcua_secure_logins_against_async_opcua() {
     std::env::set_var("GEARCOMP_TEST_OPCUA_SECURE_PW", PASSWORD);
     let cfg_at = |port: u16, db: &str, mode: &str, login: &str| {
         format!(
-            "[engine]\nfile = \"engine.toml\"\n[cycle]\nperiod_s = 0.1\n[http]\nport = 0\n\
-             [storage]\npath = \"{db}\"\n\
-             [input]\nkind = \"opcua\"\nendpoint = \"opc.tcp://127.0.0.1:{port}/\"\n\
-             security_policy = \"Basic256Sha256\"\nsecurity_mode = \"{mode}\"\npki_dir = \"pki\"\n\
-             {login}publishing_interval_s = 0.05\nscan_period_s = 0.1\n\
-             reconnect = {{ min_s = 0.05, max_s = 0.3 }}\n\
-             channels = [{{ channel = \"A\", node = \"ns=2;s=Temp.A\" }}, {{ channel = \"B\", node = \"ns=2;s=Temp.B\" }}]\n\
-             offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n"
+            "{}security_policy = \"Basic256Sha256\"\nsecurity_mode = \"{mode}\"\npki_dir = \"pki\"\n\
+             {login}offset_output = {{ axis = \"Z\", node = \"ns=2;s=TempComp\" }}\n",
+            opcua_input_head(port, &format!("path = \"{db}\""), 2, 0.3)
         )
     };
     let cfg = |db: &str, mode: &str, login: &str| cfg_at(port, db, mode, login);
