@@ -8,8 +8,11 @@
 //! time gap inside a run starts a new segment, and every filter, lag, delay and rate state
 //! of the model restarts at a segment's first sample ([`Table::segments`]).
 
+use crate::dialect::{self, CellError, Dialect};
 use crate::error::{invalid, IdentifyError, Result};
 use globset::Glob;
+
+pub use crate::dialect::MissingCells;
 
 /// Which columns to read.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,6 +50,13 @@ pub struct ReadOptions {
     pub gap_factor: f64,
     /// The log has no time column: row k of a run (bad rows counted) is at k·Δt seconds.
     pub sample_interval_s: Option<f64>,
+    /// Field delimiter (`,` `;` tab); `None`: detected from each file's header.
+    pub delimiter: Option<u8>,
+    /// Numbers written with a decimal comma; `None`: detected on the data when the
+    /// delimiter is `;` or tab ([`dialect::detect_decimal_comma`]).
+    pub decimal_comma: Option<bool>,
+    /// Rows with an empty or NaN used cell: an error, or left out with the run split there.
+    pub missing: MissingCells,
 }
 
 impl Default for ReadOptions {
@@ -55,6 +65,9 @@ impl Default for ReadOptions {
             skip_bad_rows: false,
             gap_factor: 3.0,
             sample_interval_s: None,
+            delimiter: None,
+            decimal_comma: None,
+            missing: MissingCells::Error,
         }
     }
 }
@@ -79,6 +92,14 @@ pub enum DataIssue {
         /// Time after the gap in s.
         to_s: f64,
     },
+    /// A row with an empty or NaN used cell, left out under [`MissingCells::Split`]: the
+    /// run is split there (every model state restarts at the next row).
+    Missing {
+        /// 1-based line number in the file.
+        line: u64,
+        /// Which cell.
+        reason: String,
+    },
 }
 
 impl std::fmt::Display for DataIssue {
@@ -89,6 +110,10 @@ impl std::fmt::Display for DataIssue {
                 f,
                 "line {line}: time gap of {:.0} s ({from_s} s → {to_s} s): the run is split, filters restart",
                 to_s - from_s
+            ),
+            DataIssue::Missing { line, reason } => write!(
+                f,
+                "line {line}: left out ({reason}; --missing split): the run is split there, filters restart"
             ),
         }
     }
@@ -212,6 +237,7 @@ struct Cols<'a> {
     target_idx: Vec<usize>,
     many: bool,
     stem: String,
+    dialect: Dialect,
 }
 
 /// Per-file reading state carried from row to row.
@@ -221,6 +247,14 @@ struct RowState {
     cur_run: Option<String>,
     ordinal: u64,
     prev_t: Option<f64>,
+    /// The time column holds time stamps (decided at its first non-empty cell).
+    stamps: Option<bool>,
+    /// Instant of the run's first time stamp in ns.
+    t0: Option<i64>,
+    /// The file's time stamps carry a UTC offset (decided at the first one).
+    has_offset: Option<bool>,
+    /// A row was left out for a missing cell: the next kept row starts a segment.
+    split_pending: bool,
 }
 
 /// The records of quote-free CSV text from byte `start` (just after the header): each line
@@ -454,6 +488,10 @@ struct Reader<'a> {
     t: Table,
     bad: Vec<(usize, u64, String)>,
     run_label: Vec<String>,
+    /// Rows left out for missing cells (`--missing split`).
+    missing: Vec<(usize, u64, String)>,
+    /// Kept rows that start a segment because missing rows were left out before them.
+    forced: Vec<usize>,
 }
 
 /// Reads one or several CSV files (`(text, name)` pairs) into one [`Table`]; with several
@@ -482,12 +520,20 @@ pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> 
         t: Table::default(),
         bad: Vec::new(),
         run_label: Vec::new(),
+        missing: Vec::new(),
+        forced: Vec::new(),
     };
     for (fi, (text, name)) in files.iter().enumerate() {
         r.t.files.push(name.to_string());
         r.file(fi, text, name, files.len() > 1)?;
     }
-    let Reader { mut t, bad, .. } = r;
+    let Reader {
+        mut t,
+        bad,
+        missing,
+        forced,
+        ..
+    } = r;
     let many = files.len() > 1;
     let where_ = |fi: usize, line: u64| {
         if many {
@@ -533,6 +579,14 @@ pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> 
             (fi, line, DataIssue::BadRow { line, reason })
         })
         .collect();
+    issues.extend(missing.into_iter().map(|(fi, line, reason)| {
+        let reason = if many {
+            format!("{}: {reason}", files[fi].1)
+        } else {
+            reason
+        };
+        (fi, line, DataIssue::Missing { line, reason })
+    }));
     // Segments: a new run starts one; a gap (step > gap_factor × the median step within
     // runs) inside a run starts another.
     let n = t.time_s.len();
@@ -540,6 +594,12 @@ pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> 
     let mut run_start = vec![false; n];
     for (i, s) in run_start.iter_mut().enumerate() {
         *s = i == 0 || run_of(i) != run_of(i - 1) || t.file_of_row[i] != t.file_of_row[i - 1];
+    }
+    // Rows left out for missing cells split the run (`--missing split`).
+    for &i in &forced {
+        if let Some(s) = run_start.get_mut(i) {
+            *s = true;
+        }
     }
     let mut steps: Vec<f64> = (1..n)
         .filter(|&i| !run_start[i])
@@ -589,8 +649,28 @@ pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> 
 impl Reader<'_> {
     fn file(&mut self, fi: usize, text: &str, name: &str, many: bool) -> Result<()> {
         let sel = self.sel;
+        let text = dialect::strip_bom(text);
+        let delimiter = self
+            .opts
+            .delimiter
+            .unwrap_or_else(|| dialect::detect_delimiter(text));
+        let dialect = Dialect {
+            delimiter,
+            decimal_comma: self
+                .opts
+                .decimal_comma
+                .unwrap_or_else(|| dialect::detect_decimal_comma(text, delimiter)),
+        };
+        if dialect.decimal_comma && delimiter == b',' {
+            return Err(invalid(
+                "--decimal-comma",
+                name,
+                "a log delimited by ';' or tab (with ',' as the delimiter, a comma cannot be the decimal separator; give --delimiter)",
+            ));
+        }
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
+            .delimiter(delimiter)
             .flexible(true)
             .trim(csv::Trim::All)
             .from_reader(text.as_bytes());
@@ -683,6 +763,7 @@ impl Reader<'_> {
             target_idx,
             many,
             stem,
+            dialect,
         };
         let mut st = RowState {
             last_line: 1,
@@ -694,7 +775,7 @@ impl Reader<'_> {
         // A clean single-run log (every row complete, finite, time increasing) is parsed
         // on every core at once; any irregular line sends the file down the row-by-row path
         // below, which reports it exactly as before.
-        if self.t.runs.is_none() && self.t.time_s.is_empty() {
+        if self.t.runs.is_none() && self.t.time_s.is_empty() && dialect == Dialect::PLAIN {
             if let Some(ti) = c.time_idx {
                 let slots: Vec<usize> = std::iter::once(ti)
                     .chain(c.input_idx.iter().copied())
@@ -716,7 +797,7 @@ impl Reader<'_> {
             let mut fields: Vec<&str> = Vec::with_capacity(header.len());
             for (line, l) in records {
                 fields.clear();
-                fields.extend(l.split(',').map(str::trim_ascii));
+                fields.extend(l.split(char::from(delimiter)).map(str::trim_ascii));
                 self.row(fi, line, &fields, &c, &mut st);
             }
             return Ok(());
@@ -756,10 +837,23 @@ impl Reader<'_> {
             return;
         }
         if rec.len() != c.header.len() {
+            let d = c.dialect;
+            let other = [b',', b';', b'\t']
+                .into_iter()
+                .filter(|&o| o != d.delimiter && !(o == b',' && d.decimal_comma))
+                .find(|&o| rec.iter().any(|f| f.as_bytes().contains(&o)));
+            let hint = match other {
+                Some(o) => format!(
+                    " (the delimiter is {}, this row holds {}: force one with --delimiter)",
+                    dialect::delimiter_name(d.delimiter),
+                    dialect::delimiter_name(o)
+                ),
+                None => String::new(),
+            };
             self.bad.push((
                 fi,
                 line,
-                format!("{} fields, header has {}", rec.len(), c.header.len()),
+                format!("{} fields, header has {}{hint}", rec.len(), c.header.len()),
             ));
             st.ordinal += 1;
             return;
@@ -782,37 +876,55 @@ impl Reader<'_> {
             st.cur_run = Some(run.clone());
             st.ordinal = 0;
             st.prev_t = None;
+            st.t0 = None;
         }
         let this_ordinal = st.ordinal;
         st.ordinal += 1;
-        let cell = |i: usize| -> std::result::Result<f64, String> {
-            let s = rec.get(i).copied().unwrap_or("");
-            match s.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(v),
-                Ok(v) => Err(format!("{} = {v} is not finite", c.header[i])),
-                Err(_) if s.is_empty() => Err(format!("{} is empty", c.header[i])),
-                Err(_) => Err(format!("{} = {s:?} is not a number", c.header[i])),
+        let dc = c.dialect.decimal_comma;
+        // Every used cell: the first failure decides the reason (inputs, then targets).
+        let mut vals = Vec::with_capacity(c.input_idx.len() + c.target_idx.len());
+        let mut first: Option<CellError> = None;
+        let mut first_bad: Option<String> = None;
+        for i in c.input_idx.iter().chain(&c.target_idx) {
+            let s = rec.get(*i).copied().unwrap_or("");
+            match dialect::parse_number(s, &c.header[*i], dc) {
+                Ok(v) => vals.push(v),
+                Err(e) => {
+                    if let (CellError::Bad(b), None) = (&e, &first_bad) {
+                        first_bad = Some(b.clone());
+                    }
+                    first.get_or_insert(e);
+                }
             }
-        };
-        let parsed: std::result::Result<Vec<f64>, String> = c
-            .input_idx
-            .iter()
-            .copied()
-            .chain(c.target_idx.iter().copied())
-            .map(cell)
-            .collect();
+        }
         let time = match (c.time_idx, self.opts.sample_interval_s) {
-            (Some(ti), _) => cell(ti),
+            (Some(ti), _) => time_cell(rec.get(ti).copied().unwrap_or(""), &c.header[ti], dc, st),
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };
-        let (vals, time) = match (parsed, time) {
-            (Ok(v), Ok(t)) => (v, t),
-            (Err(reason), _) | (_, Err(reason)) => {
+        let split = self.opts.missing == MissingCells::Split;
+        let cell_error = if split {
+            first_bad
+        } else {
+            first.as_ref().map(|e| match e {
+                CellError::Missing(m) => format!(
+                    "{m} (a sensor dropout: --missing split leaves such rows out and splits the run there)"
+                ),
+                CellError::Bad(b) => b.clone(),
+            })
+        };
+        let time = match (cell_error, time) {
+            (None, Ok(t)) => t,
+            (Some(reason), _) | (None, Err(reason)) => {
                 self.bad.push((fi, line, reason));
                 return;
             }
         };
+        if let (true, Some(CellError::Missing(m))) = (split, first) {
+            self.missing.push((fi, line, m));
+            st.split_pending = true;
+            return;
+        }
         if let Some(prev) = st.prev_t {
             if time <= prev {
                 self.bad.push((
@@ -832,6 +944,9 @@ impl Reader<'_> {
             }
         }
         st.prev_t = Some(time);
+        if std::mem::take(&mut st.split_pending) {
+            self.forced.push(self.t.time_s.len());
+        }
         self.t.time_s.push(time);
         for (c, v) in self.t.inputs.iter_mut().zip(&vals) {
             c.push(*v);
@@ -858,6 +973,45 @@ impl Reader<'_> {
         self.t.lines.push(line);
         self.t.file_of_row.push(fi);
     }
+}
+
+/// The time of a row from its time cell `s` (column `col`): seconds, or a time stamp
+/// (decided at the file's first non-empty time cell) converted to seconds since the run's
+/// first stamp. Stamps are instants when they carry an offset; a file may not mix stamps
+/// with and without one.
+fn time_cell(
+    s: &str,
+    col: &str,
+    decimal_comma: bool,
+    st: &mut RowState,
+) -> std::result::Result<f64, String> {
+    if st.stamps.is_none() && !s.is_empty() {
+        st.stamps = Some(dialect::is_timestamp(s, decimal_comma));
+    }
+    if st.stamps != Some(true) {
+        return dialect::parse_number(s, col, decimal_comma).map_err(|e| match e {
+            CellError::Bad(b) if b.ends_with("is not a number") => {
+                format!("{b}: expected {}", dialect::TIMESTAMP_FORMS)
+            }
+            CellError::Missing(m) | CellError::Bad(m) => m,
+        });
+    }
+    let Some(stamp) = dialect::parse_timestamp(s) else {
+        return Err(format!(
+            "{col} = {s:?} is not a time stamp: expected {}",
+            dialect::TIMESTAMP_FORMS
+        ));
+    };
+    let with = *st.has_offset.get_or_insert(stamp.has_offset);
+    if with != stamp.has_offset {
+        return Err(format!(
+            "{col} = {s:?} {} a UTC offset, the file's first time stamp {}: a log must give every stamp as an instant (Z or ±hh:mm) or every one as wall time",
+            if stamp.has_offset { "has" } else { "lacks" },
+            if with { "has one" } else { "has none" }
+        ));
+    }
+    let t0 = *st.t0.get_or_insert(stamp.nanos);
+    Ok(stamp.nanos.saturating_sub(t0) as f64 / 1e9)
 }
 
 #[cfg(test)]

@@ -30,6 +30,7 @@
 pub mod cluster;
 pub mod data;
 pub mod dendrogram;
+pub mod dialect;
 pub mod envelope;
 pub mod error;
 pub mod identify;

@@ -1,0 +1,314 @@
+//! CSV dialects of thermal logs as plants export them: the field delimiter (`,` `;` tab),
+//! the decimal separator (`20.125` or `20,125`), a UTF-8 byte-order mark, and a time column
+//! of wall-clock time stamps instead of seconds. [`crate::data`] reads every dialect into the
+//! same table: a log written in any dialect gives exactly the table of the same log written
+//! plainly (comma, decimal point, seconds since the run's first row).
+//!
+//! Time stamps (ISO 8601 / RFC 3339 date and time with `T` or a space, optional fractional
+//! seconds, optional `Z` or `±hh:mm` / `±hhmm` / `±hh` offset; or the day-first
+//! `dd.mm.yyyy hh:mm:ss[.fff]`) are parsed with `chrono` into instants: stamps with an offset
+//! are compared as instants (mixed offsets are fine), stamps without one as wall time, and a
+//! log may not mix both.
+
+use chrono::NaiveDateTime;
+
+/// What to do with a row whose used input or target cell is empty or NaN (a sensor
+/// dropout).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MissingCells {
+    /// The row is a bad row (an error unless bad rows are skipped).
+    #[default]
+    Error,
+    /// The row is left out, listed, and the run is split there: every model state restarts
+    /// at the next row.
+    Split,
+}
+
+/// The dialect of one file, detected from its header and first rows unless forced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dialect {
+    /// Field delimiter.
+    pub delimiter: u8,
+    /// Numbers are written with a decimal comma (`20,125`).
+    pub decimal_comma: bool,
+}
+
+impl Dialect {
+    /// The plain dialect: comma delimiter, decimal point.
+    pub const PLAIN: Dialect = Dialect {
+        delimiter: b',',
+        decimal_comma: false,
+    };
+}
+
+/// `text` without a leading UTF-8 byte-order mark.
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// Name of a delimiter for messages.
+pub fn delimiter_name(d: u8) -> &'static str {
+    match d {
+        b',' => "',' (comma)",
+        b';' => "';' (semicolon)",
+        b'\t' => "tab",
+        _ => "other",
+    }
+}
+
+/// The delimiter named by `--delimiter`: `,` `;` or tab (`tab` or `\t`).
+pub fn parse_delimiter(s: &str) -> crate::Result<u8> {
+    match s {
+        "," | "comma" => Ok(b','),
+        ";" | "semicolon" => Ok(b';'),
+        "\t" | "\\t" | "tab" => Ok(b'\t'),
+        _ => Err(crate::error::invalid(
+            "--delimiter",
+            s,
+            "',' ';' or 'tab' (the field delimiter of the log)",
+        )),
+    }
+}
+
+/// Counts of `,` `;` and tab outside double quotes in `line`.
+fn counts(line: &str) -> [usize; 3] {
+    let mut n = [0usize; 3];
+    let mut quoted = false;
+    for b in line.bytes() {
+        match b {
+            b'"' => quoted = !quoted,
+            b',' if !quoted => n[0] += 1,
+            b';' if !quoted => n[1] += 1,
+            b'\t' if !quoted => n[2] += 1,
+            _ => {}
+        }
+    }
+    n
+}
+
+/// The delimiter of a log: the one of `,` `;` tab that appears most often in the header
+/// line (outside quotes); on a tie or none, `,` before `;` before tab.
+pub fn detect_delimiter(text: &str) -> u8 {
+    let header = text.lines().next().unwrap_or("");
+    let n = counts(header);
+    let mut best = 0;
+    for k in 1..3 {
+        if n[k] > n[best] {
+            best = k;
+        }
+    }
+    [b',', b';', b'\t'][best]
+}
+
+/// Whether `s` is a number written with a decimal comma: optional sign, digits, one comma,
+/// digits, optional exponent (`20,125`, `-0,5`, `1,5E-3`).
+fn is_comma_decimal(s: &str) -> bool {
+    let s = s.trim();
+    let s = s.strip_prefix(['+', '-']).unwrap_or(s);
+    let (mant, exp) = match s.find(['e', 'E']) {
+        Some(p) => (&s[..p], Some(&s[p + 1..])),
+        None => (s, None),
+    };
+    let Some((a, b)) = mant.split_once(',') else {
+        return false;
+    };
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|c| c.is_ascii_digit());
+    let exp_ok = exp.is_none_or(|e| digits(e.strip_prefix(['+', '-']).unwrap_or(e)));
+    digits(a) && digits(b) && exp_ok
+}
+
+/// Whether a log with delimiter `delim` (`;` or tab) writes its numbers with a decimal
+/// comma: some cell of its first 50 data lines is a number with a decimal comma. Never for
+/// a comma delimiter.
+pub fn detect_decimal_comma(text: &str, delim: u8) -> bool {
+    if delim == b',' {
+        return false;
+    }
+    text.lines()
+        .skip(1)
+        .take(50)
+        .any(|l| l.split(delim as char).any(is_comma_decimal))
+}
+
+/// Why a cell is not a value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CellError {
+    /// Empty, or NaN: a missing sample.
+    Missing(String),
+    /// Anything else.
+    Bad(String),
+}
+
+/// A numeric cell of column `col`: a finite number in the file's decimal separator.
+pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, CellError> {
+    let parsed = if decimal_comma {
+        if s.contains('.') {
+            return Err(CellError::Bad(format!(
+                "{col} = {s:?} is not a number with a decimal comma (the log writes its numbers as 20,125; force the form with --decimal-comma or --delimiter)"
+            )));
+        }
+        s.replacen(',', ".", 1).parse::<f64>()
+    } else {
+        s.parse::<f64>()
+    };
+    match parsed {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) if v.is_nan() => Err(CellError::Missing(format!("{col} is NaN"))),
+        Ok(v) => Err(CellError::Bad(format!("{col} = {v} is not finite"))),
+        Err(_) if s.is_empty() => Err(CellError::Missing(format!("{col} is empty"))),
+        Err(_) if decimal_comma => Err(CellError::Bad(format!(
+            "{col} = {s:?} is not a number (expected a number with a decimal comma, e.g. 20,125)"
+        ))),
+        Err(_) => Err(CellError::Bad(format!("{col} = {s:?} is not a number"))),
+    }
+}
+
+/// The accepted time-stamp forms, for messages.
+pub const TIMESTAMP_FORMS: &str =
+    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' ') or 01.03.2024 08:00:00";
+
+/// A parsed time stamp: nanoseconds since 1970-01-01 00:00 of UTC (with an offset) or of
+/// the wall clock (without one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stamp {
+    /// Nanoseconds since the epoch.
+    pub nanos: i64,
+    /// The stamp carried a UTC offset (or `Z`): `nanos` is an instant.
+    pub has_offset: bool,
+}
+
+/// Offset in seconds of a trailing `Z`, `±hh:mm`, `±hhmm` or `±hh` of `s` (after its date),
+/// and the text before it.
+fn split_offset(s: &str) -> Option<(&str, Option<i64>)> {
+    if let Some(body) = s.strip_suffix(['Z', 'z']) {
+        return Some((body.trim_end(), Some(0)));
+    }
+    // The sign of an offset comes after the time part (past the date's own '-').
+    let p = match s.rfind(['+', '-']) {
+        Some(p) if p >= 11 => p,
+        _ => return Some((s, None)),
+    };
+    let (body, off) = s.split_at(p);
+    let sign = if off.starts_with('-') { -1 } else { 1 };
+    let digits: String = off[1..].chars().filter(|&c| c != ':').collect();
+    if !(digits.len() == 2 || digits.len() == 4) || !digits.bytes().all(|c| c.is_ascii_digit()) {
+        return None;
+    }
+    let h: i64 = digits[..2].parse().ok()?;
+    let m: i64 = if digits.len() == 4 {
+        digits[2..].parse().ok()?
+    } else {
+        0
+    };
+    if h > 23 || m > 59 {
+        return None;
+    }
+    Some((body.trim_end(), Some(sign * (h * 3600 + m * 60))))
+}
+
+/// Parses a time stamp (see [`TIMESTAMP_FORMS`]); `None` when it is not one.
+pub fn parse_timestamp(s: &str) -> Option<Stamp> {
+    let s = s.trim();
+    if s.len() < 16 || !s.as_bytes()[0].is_ascii_digit() {
+        return None;
+    }
+    let (body, offset) = split_offset(s)?;
+    // Day-first stamps may write fractional seconds with a comma.
+    let body = body.replacen(',', ".", 1);
+    const FORMS: [&str; 6] = [
+        "%Y-%m-%d %H:%M:%S%.f",
+        "%Y-%m-%dT%H:%M:%S%.f",
+        "%d.%m.%Y %H:%M:%S%.f",
+        "%Y-%m-%d %H:%M",
+        "%Y-%m-%dT%H:%M",
+        "%d.%m.%Y %H:%M",
+    ];
+    let naive = FORMS
+        .iter()
+        .find_map(|f| NaiveDateTime::parse_from_str(&body, f).ok())?;
+    let nanos = naive.and_utc().timestamp_nanos_opt()?;
+    let nanos = nanos.checked_sub(offset.unwrap_or(0).checked_mul(1_000_000_000)?)?;
+    Some(Stamp {
+        nanos,
+        has_offset: offset.is_some(),
+    })
+}
+
+/// Whether the cell looks like a time stamp rather than seconds: it is no number (in the
+/// file's decimal form) but parses as a time stamp.
+pub fn is_timestamp(s: &str, decimal_comma: bool) -> bool {
+    parse_number(s, "", decimal_comma).is_err() && parse_timestamp(s).is_some()
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delimiters_and_decimal_commas_are_detected() {
+        assert_eq!(detect_delimiter("time_s;a_c;b_c\n0;1,5;2\n"), b';');
+        assert_eq!(detect_delimiter("time_s\ta_c\n"), b'\t');
+        assert_eq!(detect_delimiter("time_s,a_c\n"), b',');
+        assert_eq!(detect_delimiter("\"a;b\",c\n"), b',');
+        assert!(detect_decimal_comma("t;a\n0;20,125\n", b';'));
+        assert!(!detect_decimal_comma("t;a\n0;20.125\n", b';'));
+        assert!(!detect_decimal_comma("t,a\n0,\"20,125\"\n", b','));
+        assert!(is_comma_decimal("-1,5E-3"));
+        assert!(!is_comma_decimal("1,5,3"));
+        assert!(!is_comma_decimal("a,5"));
+    }
+
+    /// Hand-computed instants: 2024-03-01 is day 54·365 + 13 (leap days 1972…2020) + 31 + 29
+    /// = 19783 after 1970-01-01.
+    #[test]
+    fn time_stamps_are_instants() {
+        let day = 19_783i64 * 86_400;
+        let at = |s: &str| parse_timestamp(s).unwrap().nanos;
+        let s8 = (day + 8 * 3600) * 1_000_000_000;
+        assert_eq!(at("2024-03-01 08:00:00"), s8);
+        assert_eq!(at("2024-03-01T08:00:00"), s8);
+        assert_eq!(at("01.03.2024 08:00:00"), s8);
+        assert_eq!(at("2024-03-01 08:00"), s8);
+        assert_eq!(at("2024-03-01T08:00:00.250Z"), s8 + 250_000_000);
+        assert_eq!(at("01.03.2024 08:00:00,5"), s8 + 500_000_000);
+        assert_eq!(at("2024-03-01T09:00:00+01:00"), s8);
+        assert_eq!(at("2024-03-01T09:00:00+0100"), s8);
+        assert_eq!(at("2024-03-01T03:30:00-04:30"), s8);
+        assert!(parse_timestamp("2024-03-01T08:00:00Z").unwrap().has_offset);
+        assert!(!parse_timestamp("2024-03-01 08:00:00").unwrap().has_offset);
+        for bad in [
+            "2024-13-01 08:00:00",
+            "2024-02-30 08:00:00",
+            "2024-03-01 25:00:00",
+            "2024-03-01 08:00:00+1:00",
+            "yesterday at noon",
+            "12.5",
+            "2024-03-01",
+        ] {
+            assert!(parse_timestamp(bad).is_none(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn numbers_in_both_decimal_forms() {
+        assert_eq!(parse_number("20,125", "a", true), Ok(20.125));
+        assert_eq!(parse_number("20.125", "a", false), Ok(20.125));
+        assert!(matches!(
+            parse_number("", "a", true),
+            Err(CellError::Missing(_))
+        ));
+        assert!(matches!(
+            parse_number("NaN", "a", false),
+            Err(CellError::Missing(_))
+        ));
+        assert!(matches!(
+            parse_number("1.234,5", "a", true),
+            Err(CellError::Bad(_))
+        ));
+        assert!(matches!(
+            parse_number("inf", "a", false),
+            Err(CellError::Bad(_))
+        ));
+    }
+}
