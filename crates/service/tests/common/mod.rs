@@ -89,6 +89,15 @@ impl Api {
             .clone()
     }
 
+    /// Waits (bounded) until `/api/alarms?active=true` lists an uncleared alarm `key`;
+    /// returns the list.
+    pub async fn wait_active(&self, token: &str, key: &str, secs: f64) -> serde_json::Value {
+        self.wait_for("/api/alarms?active=true", token, secs, |v| {
+            alarm_active(v, key)
+        })
+        .await
+    }
+
     pub async fn wait_for(
         &self,
         path: &str,
@@ -212,7 +221,9 @@ impl OpcUaStandIn {
 }
 
 /// The variable `ns=<ns>;s=<name>` (browse and display name `name`) of type `data_type`
-/// holding `value`, under the Objects folder; read-only for clients. Returns its node id.
+/// holding `value`, under the Objects folder; `writable` for an output node (offset,
+/// pulses, feed hold, heartbeat: the test logs the writes with a write callback on the
+/// returned id), else read-only for clients.
 #[cfg(feature = "opcua")]
 pub fn add_variable(
     space: &mut opcua::server::address_space::AddressSpace,
@@ -220,31 +231,7 @@ pub fn add_variable(
     name: &str,
     data_type: opcua::types::DataTypeId,
     value: impl Into<opcua::types::Variant>,
-) -> opcua::types::NodeId {
-    variable(ns, name, data_type, value, false, space)
-}
-
-/// As [`add_variable`], but clients may write it (an output node: offset, pulses, feed
-/// hold, heartbeat); the test logs the writes with a write callback on the returned id.
-#[cfg(feature = "opcua")]
-pub fn add_writable_variable(
-    space: &mut opcua::server::address_space::AddressSpace,
-    ns: u16,
-    name: &str,
-    data_type: opcua::types::DataTypeId,
-    value: impl Into<opcua::types::Variant>,
-) -> opcua::types::NodeId {
-    variable(ns, name, data_type, value, true, space)
-}
-
-#[cfg(feature = "opcua")]
-fn variable(
-    ns: u16,
-    name: &str,
-    data_type: opcua::types::DataTypeId,
-    value: impl Into<opcua::types::Variant>,
     writable: bool,
-    space: &mut opcua::server::address_space::AddressSpace,
 ) -> opcua::types::NodeId {
     let id = opcua::types::NodeId::new(ns, name);
     let mut b = opcua::server::address_space::VariableBuilder::new(&id, name, name)
@@ -264,6 +251,17 @@ pub fn alarm_active(v: &serde_json::Value, key: &str) -> bool {
         .unwrap()
         .iter()
         .any(|a| a["key"] == key && a["cleared_s"].is_null())
+}
+
+/// The message of the (last) uncleared alarm `key` in the alarm list `v`, empty if none.
+pub fn active_message(v: &serde_json::Value, key: &str) -> String {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .rev()
+        .find(|a| a["key"] == key && a["cleared_s"].is_null())
+        .map(|a| a["message"].as_str().unwrap().to_string())
+        .unwrap_or_default()
 }
 
 /// The head of an OPC UA machine file: `engine.toml`, a 0.1 s cycle, HTTP on a free port,

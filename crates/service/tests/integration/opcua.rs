@@ -15,8 +15,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::{
-    add_variable, add_writable_variable, alarm_active as active, engine_ab, free_port,
-    opcua_input_head, start_with, Api, OpcUaStandIn,
+    add_variable, alarm_active as active, engine_ab, free_port, opcua_input_head, start_with, Api,
+    OpcUaStandIn,
 };
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::server::ServerHandle;
@@ -62,10 +62,9 @@ impl Cnc {
                     Variant::Int32(_) => DataTypeId::Int32,
                     _ => DataTypeId::BaseDataType,
                 };
-                add_variable(&mut space, ns, name, dt, v.clone());
+                add_variable(&mut space, ns, name, dt, v.clone(), false);
             }
-            let comp =
-                add_writable_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64);
+            let comp = add_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64, true);
             let w = writes.clone();
             nm.inner()
                 .add_write_callback(comp, move |dv: DataValue, _| {
@@ -500,11 +499,10 @@ impl Plc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", 24.0), ("Temp.B", 20.0)] {
-                add_variable(&mut space, ns, name, DataTypeId::Double, v);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v, false);
             }
-            let hold =
-                add_writable_variable(&mut space, ns, "FeedHold", DataTypeId::Boolean, false);
-            let beat = add_writable_variable(&mut space, ns, "Heartbeat", DataTypeId::Int32, 0i32);
+            let hold = add_variable(&mut space, ns, "FeedHold", DataTypeId::Boolean, false, true);
+            let beat = add_variable(&mut space, ns, "Heartbeat", DataTypeId::Int32, 0i32, true);
             let h = holds.clone();
             nm.inner()
                 .add_write_callback(hold, move |dv: DataValue, _| match dv.value {

@@ -20,7 +20,7 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{alarm_active as active, free_port, start_with, Api};
+use common::{active_message, alarm_active as active, free_port, start_with, Api};
 
 const SCRIPT: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -147,16 +147,6 @@ impl Drop for PyCnc {
     }
 }
 
-fn message(v: &serde_json::Value, key: &str) -> String {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .rev()
-        .find(|a| a["key"] == key && a["cleared_s"].is_null())
-        .map(|a| a["message"].as_str().unwrap().to_string())
-        .unwrap_or_default()
-}
-
 /// Engine AB with two axes: Z = −3.75·(A − B) µm (JPH0761598B2's grinder law) and
 /// X = 2.5·(A − B) µm, no averaging, dead band or rate limit.
 fn engine_zx() -> String {
@@ -211,12 +201,8 @@ async fn opcua_asyncua_float_and_int16_outputs() {
         tokio::time::sleep(Duration::from_millis(30)).await;
     }
     // The stop node is a read-only Double: named at connect, never written.
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
-            active(v, "opcua.stop_output")
-        })
-        .await;
-    let m = message(&alarms, "opcua.stop_output");
+    let alarms = api.wait_active(&ro, "opcua.stop_output", 10.0).await;
+    let m = active_message(&alarms, "opcua.stop_output");
     assert!(
         m.contains("Comp.RO") && m.contains("Double") && m.contains("Boolean"),
         "{m}"
@@ -234,12 +220,8 @@ async fn opcua_asyncua_float_and_int16_outputs() {
     cnc.set("Temp.A", 35.0);
     cnc.wait_value("Comp.F", serde_json::json!(-56.25), "Float", 10.0)
         .await;
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
-            active(v, "opcua.offset_output.X")
-        })
-        .await;
-    let m = message(&alarms, "opcua.offset_output.X");
+    let alarms = api.wait_active(&ro, "opcua.offset_output.X", 10.0).await;
+    let m = active_message(&alarms, "opcua.offset_output.X");
     assert!(
         m.contains("Int16") && m.contains("32767") && m.contains("keeps its last value"),
         "{m}"
@@ -277,12 +259,8 @@ async fn opcua_asyncua_float_and_int16_outputs() {
     let run = start_with(dir.path(), &config).await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 20.0, |v| {
-            active(v, "opcua.offset_output.Z")
-        })
-        .await;
-    let m = message(&alarms, "opcua.offset_output.Z");
+    let alarms = api.wait_active(&ro, "opcua.offset_output.Z", 20.0).await;
+    let m = active_message(&alarms, "opcua.offset_output.Z");
     assert!(
         m.contains("Comp.F")
             && m.contains("has data type Float")
@@ -338,12 +316,8 @@ async fn opcua_asyncua_secure_logins_and_trust() {
     .await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.certificate")
-        })
-        .await;
-    let m = message(&alarms, "opcua.certificate");
+    let alarms = api.wait_active(&ro, "opcua.certificate", 30.0).await;
+    let m = active_message(&alarms, "opcua.certificate");
     assert!(
         m.contains("not trusted") && m.contains("rejected") && m.contains("trusted"),
         "{m}"
@@ -396,12 +370,8 @@ async fn opcua_asyncua_secure_logins_and_trust() {
     .await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.login")
-        })
-        .await;
-    let m = message(&alarms, "opcua.login");
+    let alarms = api.wait_active(&ro, "opcua.login", 30.0).await;
+    let m = active_message(&alarms, "opcua.login");
     assert!(m.contains("\"op\"") && m.contains("refused"), "{m}");
     let all = alarms.to_string();
     assert!(!all.contains("not-the-password") && !all.contains(PASSWORD));
@@ -415,12 +385,8 @@ async fn opcua_asyncua_secure_logins_and_trust() {
     .await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.security_policy")
-        })
-        .await;
-    let m = message(&alarms, "opcua.security_policy");
+    let alarms = api.wait_active(&ro, "opcua.security_policy", 30.0).await;
+    let m = active_message(&alarms, "opcua.security_policy");
     assert!(
         m.contains("requires a secure policy")
             && m.contains("Basic256Sha256/SignAndEncrypt")

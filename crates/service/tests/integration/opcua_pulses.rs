@@ -10,8 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crate::common::{
-    add_variable, add_writable_variable, free_port, opcua_input_head, start_with, Api,
-    OpcUaStandIn, PULSE_ENGINE,
+    add_variable, free_port, opcua_input_head, start_with, Api, OpcUaStandIn, PULSE_ENGINE,
 };
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::server::ServerHandle;
@@ -63,14 +62,14 @@ impl Plc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", temp_a), ("Temp.B", 20.0)] {
-                add_variable(&mut space, ns, name, DataTypeId::Double, v);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v, false);
             }
             let (dt, zero) = if double {
                 (DataTypeId::Double, Variant::Double(0.0))
             } else {
                 (DataTypeId::Int32, Variant::Int32(0))
             };
-            let pulses = add_writable_variable(&mut space, ns, "Pulses", dt, zero);
+            let pulses = add_variable(&mut space, ns, "Pulses", dt, zero, true);
             let (h, w, lose) = (held.clone(), writes.clone(), lose_status.clone());
             nm.inner()
                 .add_write_callback(pulses.clone(), move |dv: DataValue, _| {

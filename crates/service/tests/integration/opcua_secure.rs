@@ -15,8 +15,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::{
-    add_variable, add_writable_variable, alarm_active as active, free_port, opcua_input_head,
-    start_with, Api,
+    active_message, add_variable, alarm_active as active, free_port, opcua_input_head, start_with,
+    Api,
 };
 use opcua::crypto::{CertificateStore, SecurityPolicy, X509Data};
 use opcua::server::diagnostics::NamespaceMetadata;
@@ -113,10 +113,9 @@ impl SecureCnc {
         {
             let mut space = nm.address_space().write();
             for (name, v) in [("Temp.A", 24.0f64), ("Temp.B", 20.0)] {
-                add_variable(&mut space, ns, name, DataTypeId::Double, v);
+                add_variable(&mut space, ns, name, DataTypeId::Double, v, false);
             }
-            let comp =
-                add_writable_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64);
+            let comp = add_variable(&mut space, ns, "TempComp", DataTypeId::Double, 0.0f64, true);
             let w = writes.clone();
             nm.inner()
                 .add_write_callback(comp, move |dv: DataValue, _| match dv.value {
@@ -154,15 +153,6 @@ impl SecureCnc {
     }
 }
 
-fn message(v: &serde_json::Value, key: &str) -> String {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["key"] == key && a["cleared_s"].is_null())
-        .map(|a| a["message"].as_str().unwrap().to_string())
-        .unwrap_or_default()
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn opcua_secure_logins_against_async_opcua() {
     let dir = tempfile::tempdir().unwrap();
@@ -189,12 +179,8 @@ async fn opcua_secure_logins_against_async_opcua() {
     let run = start_with(dir.path(), &cfg("s1.db", "SignAndEncrypt", password_login)).await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.certificate")
-        })
-        .await;
-    let m = message(&alarms, "opcua.certificate");
+    let alarms = api.wait_active(&ro, "opcua.certificate", 30.0).await;
+    let m = active_message(&alarms, "opcua.certificate");
     assert!(m.contains("not trusted") && m.contains("rejected"), "{m}");
     assert!(cnc.writes.lock().unwrap().is_empty());
     // The documented trust step, under a file name of our own (not `CN [thumbprint].der`).
@@ -236,12 +222,8 @@ async fn opcua_secure_logins_against_async_opcua() {
     let run = start_with(dir.path(), &cfg("s3.db", "SignAndEncrypt", &login)).await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.login")
-        })
-        .await;
-    let m = message(&alarms, "opcua.login");
+    let alarms = api.wait_active(&ro, "opcua.login", 30.0).await;
+    let m = active_message(&alarms, "opcua.login");
     assert!(m.contains("stranger.der") && m.contains("refused"), "{m}");
     run.stop().await.unwrap();
     cnc.stop().await;
@@ -258,12 +240,8 @@ async fn opcua_secure_logins_against_async_opcua() {
     .await;
     let ro = run.generated.clone().unwrap().read_only;
     let api = Api::new(&run);
-    let alarms = api
-        .wait_for("/api/alarms?active=true", &ro, 30.0, |v| {
-            active(v, "opcua.certificate")
-        })
-        .await;
-    let m = message(&alarms, "opcua.certificate");
+    let alarms = api.wait_active(&ro, "opcua.certificate", 30.0).await;
+    let m = active_message(&alarms, "opcua.certificate");
     assert!(
         m.contains("does not trust this client's certificate") && m.contains("own/cert.der"),
         "{m}"
