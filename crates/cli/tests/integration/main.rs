@@ -4,6 +4,7 @@
 
 mod common;
 
+mod architecture;
 mod demo_cli;
 mod demo_props;
 mod dress_cli;
