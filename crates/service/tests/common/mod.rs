@@ -218,6 +218,48 @@ impl OpcUaStandIn {
             pki,
         }
     }
+
+    /// Spawns the server (once the test has added its variables to `nm`).
+    pub fn run(self) -> OpcUaRunning {
+        OpcUaRunning {
+            task: tokio::spawn(self.server.run_with(self.listener)),
+            handle: self.handle,
+            nm: self.nm,
+            ns: self.ns,
+            _pki: self.pki,
+        }
+    }
+}
+
+/// A running [`OpcUaStandIn`]: its variables are set by the test, it stops on request.
+#[cfg(feature = "opcua")]
+pub struct OpcUaRunning {
+    pub handle: opcua::server::ServerHandle,
+    pub task: tokio::task::JoinHandle<Result<(), String>>,
+    pub nm: std::sync::Arc<opcua::server::node_manager::memory::SimpleNodeManager>,
+    pub ns: u16,
+    _pki: tempfile::TempDir,
+}
+
+#[cfg(feature = "opcua")]
+impl OpcUaRunning {
+    /// Sets variable `ns=<ns>;s=<name>` to `value`, time-stamped now (subscribers see it).
+    pub fn set(&self, name: &str, value: impl Into<opcua::types::Variant>) {
+        self.nm
+            .set_value(
+                self.handle.subscriptions(),
+                &opcua::types::NodeId::new(self.ns, name),
+                None,
+                opcua::types::DataValue::new_now(value.into()),
+            )
+            .unwrap();
+    }
+
+    /// Cancels the server and waits (at most 10 s) for its task.
+    pub async fn stop(self) {
+        self.handle.cancel();
+        let _ = tokio::time::timeout(Duration::from_secs(10), self.task).await;
+    }
 }
 
 /// The variable `ns=<ns>;s=<name>` (browse and display name `name`) of type `data_type`

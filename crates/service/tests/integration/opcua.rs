@@ -16,35 +16,22 @@ use std::time::{Duration, Instant};
 
 use common::{
     add_variable, alarm_active as active, engine_ab, free_port, opcua_input_head, start_with, Api,
-    OpcUaStandIn,
+    OpcUaRunning, OpcUaStandIn,
 };
-use opcua::server::node_manager::memory::SimpleNodeManager;
-use opcua::server::ServerHandle;
-use opcua::types::{DataTypeId, DataValue, NodeId, StatusCode, UAString, Variant};
+use opcua::types::{DataTypeId, DataValue, StatusCode, UAString, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-cnc";
 
 /// The CNC stand-in: variables in namespace 2, the compensation node `TempComp` whose
 /// accepted writes are logged (that log is the node's value, read back by the test).
 struct Cnc {
-    handle: ServerHandle,
-    task: tokio::task::JoinHandle<Result<(), String>>,
-    nm: Arc<SimpleNodeManager>,
-    ns: u16,
+    ua: OpcUaRunning,
     writes: Arc<Mutex<Vec<f64>>>,
-    _pki: tempfile::TempDir,
 }
 
 impl Cnc {
     async fn start(port: u16, vars: &[(&str, Variant)], refuse: Arc<AtomicBool>) -> Cnc {
-        let OpcUaStandIn {
-            server,
-            listener,
-            handle,
-            nm,
-            ns,
-            pki,
-        } = OpcUaStandIn::bind(
+        let ua = OpcUaStandIn::bind(
             port,
             "gearcomp test CNC",
             "urn:gearcomp-test-cnc-server",
@@ -52,6 +39,7 @@ impl Cnc {
             NS_URI,
         )
         .await;
+        let (nm, ns) = (ua.nm.clone(), ua.ns);
         let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
         {
             let mut space = nm.address_space().write();
@@ -80,26 +68,10 @@ impl Cnc {
                     }
                 });
         }
-        let task = tokio::spawn(server.run_with(listener));
         Cnc {
-            handle,
-            task,
-            nm,
-            ns,
+            ua: ua.run(),
             writes,
-            _pki: pki,
         }
-    }
-
-    fn set(&self, name: &str, v: Variant) {
-        self.nm
-            .set_value(
-                self.handle.subscriptions(),
-                &NodeId::new(self.ns, name),
-                None,
-                DataValue::new_now(v),
-            )
-            .unwrap();
     }
 
     /// The compensation node's value (0 until the first accepted write).
@@ -109,11 +81,6 @@ impl Cnc {
 
     fn log(&self) -> Vec<f64> {
         self.writes.lock().unwrap().clone()
-    }
-
-    async fn stop(self) {
-        self.handle.cancel();
-        let _ = tokio::time::timeout(Duration::from_secs(10), self.task).await;
     }
 
     /// Waits (bounded) until the compensation node holds `want` (± 1e-9).
@@ -202,7 +169,10 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
         ]
     };
     let cnc = Cnc::start(port, &vars(24.0, 280.0), refuse.clone()).await;
-    assert_eq!(cnc.ns, 2, "the node ids of the configuration assume ns=2");
+    assert_eq!(
+        cnc.ua.ns, 2,
+        "the node ids of the configuration assume ns=2"
+    );
 
     // JPH0761598B2's grinder law Cz = −3.75·(A − B): A − B = 4 K → −15 µm, exact in binary.
     cnc.wait_comp(-15.0, 20.0).await;
@@ -221,7 +191,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     // P = 140 mm → 4 + 0.5·40 = 24 µm; P = 60 mm → 4 + 0.5·(−40) = −16 µm.
     for (node, p_mm, want_um) in [(280.0, 140.0, 24.0), (120.0, 60.0, -16.0)] {
         assert_eq!(position_law_um(24.0, p_mm), want_um);
-        cnc.set("Pos.X", Variant::Double(node));
+        cnc.ua.set("Pos.X", Variant::Double(node));
         let st = api
             .wait_for("/api/status", &ro, 10.0, |v| {
                 v["axes"][1]["offset_um"].as_f64() == Some(want_um)
@@ -233,7 +203,8 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
 
     // A String where a Double is expected: alarm naming node, type found and expected;
     // the axis freezes at −15.
-    cnc.set("Temp.A", Variant::String(UAString::from("24.4")));
+    cnc.ua
+        .set("Temp.A", Variant::String(UAString::from("24.4")));
     let key = "opcua.node.ns=2;s=Temp.A";
     let alarms = api
         .wait_for("/api/alarms?active=true", &ro, 10.0, |v| active(v, key))
@@ -252,7 +223,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     // The node a Double again at 24.4 °C, but the CNC refuses the write: alarm, retried.
     refuse.store(true, Ordering::SeqCst);
     let writes_before = cnc.log().len();
-    cnc.set("Temp.A", Variant::Double(24.4));
+    cnc.ua.set("Temp.A", Variant::Double(24.4));
     let alarms = api
         .wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
             active(v, "opcua.offset_output.Z") && !active(v, key)
@@ -276,7 +247,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
 
     // Server stopped: connection alarm, readings stale, the axis freezes at −16.5.
     let before = cnc.log();
-    cnc.stop().await;
+    cnc.ua.stop().await;
     api.wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
         active(v, "opcua.connection")
     })
@@ -314,7 +285,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     assert_eq!(st["axes"][0]["offset_um"].as_f64(), Some(want), "{st}");
 
     // A = 24.8 °C: resume to −18 µm straight from −16.5 (never through 0).
-    cnc.set("Temp.A", Variant::Double(24.8));
+    cnc.ua.set("Temp.A", Variant::Double(24.8));
     let want2 = -3.75 * (24.8 - 20.0);
     cnc.wait_comp(want2, 20.0).await;
     let log = cnc.log();
@@ -324,7 +295,7 @@ async fn opcua_in_offset_out_with_faults_and_restart() {
     );
     no_value_written_twice_in_a_row(&log);
     run.stop().await.unwrap();
-    cnc.stop().await;
+    cnc.ua.stop().await;
 }
 
 /// Engine AB sampling at the trigger input only, the axis moving only at safe points.
@@ -381,7 +352,7 @@ async fn opcua_cut_counter_and_program_state() {
     assert_eq!(cnc.comp(), 0.0);
 
     // One cut: a scan; the law says −15 µm but the program runs, so the axis waits.
-    cnc.set("CutCounter", Variant::UInt32(42));
+    cnc.ua.set("CutCounter", Variant::UInt32(42));
     api.wait_for("/api/status", &ro, 10.0, |v| {
         v["axes"][0]["status"] == "waiting_safe_point"
     })
@@ -394,12 +365,12 @@ async fn opcua_cut_counter_and_program_state() {
     assert_eq!(cnc.comp(), 0.0);
 
     // Program stopped (a safe point): the offset goes out.
-    cnc.set("ProgStatus", Variant::Int32(2));
+    cnc.ua.set("ProgStatus", Variant::Int32(2));
     cnc.wait_comp(-15.0, 10.0).await;
     no_value_written_twice_in_a_row(&cnc.log());
 
     // A trigger node of the wrong type: alarm naming node, type found and expected.
-    cnc.set("CutCounter", Variant::Double(43.0));
+    cnc.ua.set("CutCounter", Variant::Double(43.0));
     let key = "opcua.node.ns=2;s=CutCounter";
     let alarms = api
         .wait_for("/api/alarms?active=true", &ro, 10.0, |v| active(v, key))
@@ -410,7 +381,7 @@ async fn opcua_cut_counter_and_program_state() {
         "{m}"
     );
     run.stop().await.unwrap();
-    cnc.stop().await;
+    cnc.ua.stop().await;
 }
 
 /// Issue 14 item 1 over OPC UA: the service restarted four times against a CNC that
@@ -462,31 +433,20 @@ async fn opcua_service_restarts_never_write_zero() {
             &log[before..]
         );
     }
-    cnc.stop().await;
+    cnc.ua.stop().await;
 }
 
 /// A PLC-like OPC UA server: Temp.A and Temp.B, a writable Boolean `FeedHold` and a
 /// writable Int32 `Heartbeat`, every accepted write logged.
 struct Plc {
-    handle: ServerHandle,
-    task: tokio::task::JoinHandle<Result<(), String>>,
-    nm: Arc<SimpleNodeManager>,
-    ns: u16,
+    ua: OpcUaRunning,
     holds: Arc<Mutex<Vec<bool>>>,
     beats: Arc<Mutex<Vec<i32>>>,
-    _pki: tempfile::TempDir,
 }
 
 impl Plc {
     async fn start(port: u16) -> Plc {
-        let OpcUaStandIn {
-            server,
-            listener,
-            handle,
-            nm,
-            ns,
-            pki,
-        } = OpcUaStandIn::bind(
+        let ua = OpcUaStandIn::bind(
             port,
             "gearcomp test PLC",
             "urn:gearcomp-test-plc",
@@ -494,6 +454,7 @@ impl Plc {
             NS_URI,
         )
         .await;
+        let (nm, ns) = (ua.nm.clone(), ua.ns);
         let holds: Arc<Mutex<Vec<bool>>> = Arc::default();
         let beats: Arc<Mutex<Vec<i32>>> = Arc::default();
         {
@@ -522,27 +483,11 @@ impl Plc {
                     _ => StatusCode::BadTypeMismatch,
                 });
         }
-        let task = tokio::spawn(server.run_with(listener));
         Plc {
-            handle,
-            task,
-            nm,
-            ns,
+            ua: ua.run(),
             holds,
             beats,
-            _pki: pki,
         }
-    }
-
-    fn set(&self, name: &str, v: f64) {
-        self.nm
-            .set_value(
-                self.handle.subscriptions(),
-                &NodeId::new(self.ns, name),
-                None,
-                DataValue::new_now(Variant::Double(v)),
-            )
-            .unwrap();
     }
 
     fn hold(&self) -> Option<bool> {
@@ -577,7 +522,7 @@ async fn opcua_feed_hold_and_heartbeat() {
     std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
     let port = free_port();
     let plc = Plc::start(port).await;
-    assert_eq!(plc.ns, 2);
+    assert_eq!(plc.ua.ns, 2);
     let run = start_with(
         dir.path(),
         &format!(
@@ -594,9 +539,9 @@ async fn opcua_feed_hold_and_heartbeat() {
     })
     .await;
     wait("heartbeat counts", 20.0, || plc.beats().len() >= 3).await;
-    plc.set("Temp.A", 35.0);
+    plc.ua.set("Temp.A", 35.0);
     wait("feed hold set", 10.0, || plc.hold() == Some(true)).await;
-    plc.set("Temp.A", 24.0);
+    plc.ua.set("Temp.A", 24.0);
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(plc.hold(), Some(true), "released without acknowledgement");
     let r = api
@@ -614,6 +559,5 @@ async fn opcua_feed_hold_and_heartbeat() {
     assert_eq!(beats, (1..=beats.len() as i32).collect::<Vec<_>>());
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(plc.beats().len(), beats.len(), "heartbeat after the stop");
-    plc.handle.cancel();
-    let _ = tokio::time::timeout(Duration::from_secs(10), plc.task).await;
+    plc.ua.stop().await;
 }

@@ -10,11 +10,10 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crate::common::{
-    add_variable, free_port, opcua_input_head, start_with, Api, OpcUaStandIn, PULSE_ENGINE,
+    add_variable, free_port, opcua_input_head, start_with, Api, OpcUaRunning, OpcUaStandIn,
+    PULSE_ENGINE,
 };
-use opcua::server::node_manager::memory::SimpleNodeManager;
-use opcua::server::ServerHandle;
-use opcua::types::{DataTypeId, DataValue, NodeId, StatusCode, Variant};
+use opcua::types::{DataTypeId, DataValue, StatusCode, Variant};
 
 const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
 
@@ -22,16 +21,12 @@ const NS_URI: &str = "urn:gearcomp-test-pulse-plc-vars";
 /// Double with `double`) whose accepted writes are logged and held (a read returns the
 /// last accepted write, 0 after a start: the server keeps nothing across its restart).
 struct Plc {
-    handle: ServerHandle,
-    task: tokio::task::JoinHandle<Result<(), String>>,
-    nm: Arc<SimpleNodeManager>,
-    ns: u16,
+    ua: OpcUaRunning,
     held: Arc<Mutex<f64>>,
     writes: Arc<Mutex<Vec<f64>>>,
     /// While set, a write is stored (it lands) but answered BadTimeout: the status of a
     /// write that arrived is lost.
     lose_status: Arc<AtomicBool>,
-    _pki: tempfile::TempDir,
 }
 
 impl Plc {
@@ -41,14 +36,7 @@ impl Plc {
 
     /// `held`: the node's value at start (0 for a server that keeps nothing).
     async fn start_typed(port: u16, temp_a: f64, double: bool, held: f64) -> Plc {
-        let OpcUaStandIn {
-            server,
-            listener,
-            handle,
-            nm,
-            ns,
-            pki,
-        } = OpcUaStandIn::bind(
+        let ua = OpcUaStandIn::bind(
             port,
             "gearcomp test pulse PLC",
             "urn:gearcomp-test-pulse-plc",
@@ -56,6 +44,7 @@ impl Plc {
             NS_URI,
         )
         .await;
+        let (nm, ns) = (ua.nm.clone(), ua.ns);
         let held: Arc<Mutex<f64>> = Arc::new(Mutex::new(held));
         let lose_status = Arc::new(AtomicBool::new(false));
         let writes: Arc<Mutex<Vec<f64>>> = Arc::default();
@@ -96,28 +85,12 @@ impl Plc {
                 }))
             });
         }
-        let task = tokio::spawn(server.run_with(listener));
         Plc {
-            handle,
-            task,
-            nm,
-            ns,
+            ua: ua.run(),
             held,
             writes,
             lose_status,
-            _pki: pki,
         }
-    }
-
-    fn set(&self, name: &str, v: f64) {
-        self.nm
-            .set_value(
-                self.handle.subscriptions(),
-                &NodeId::new(self.ns, name),
-                None,
-                DataValue::new_now(Variant::Double(v)),
-            )
-            .unwrap();
     }
 
     /// The total held (every value written here is a whole number: checked).
@@ -131,11 +104,6 @@ impl Plc {
         let w = self.writes.lock().unwrap();
         assert!(w.iter().all(|x| x.fract() == 0.0), "{w:?}");
         w.iter().map(|x| *x as i64).collect()
-    }
-
-    async fn stop(self) {
-        self.handle.cancel();
-        let _ = tokio::time::timeout(Duration::from_secs(10), self.task).await;
     }
 }
 
@@ -156,7 +124,7 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     let port = free_port();
     // A = 24 °C, B = 20 °C: target −3.75·4 = −15 µm, ramped 0.25 µm per 0.1 s cycle.
     let plc1 = Plc::start(port, 24.0).await;
-    let ns = plc1.ns;
+    let ns = plc1.ua.ns;
     let config = format!(
         "{}pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\" }}]\n",
         opcua_input_head(port, "path = \"op.db\"\ncommit_interval_s = 0.05", ns, 0.2)
@@ -168,9 +136,9 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     // The server restarts mid-ramp: its node comes back holding 0.
     let w1_len = plc1.writes().len();
     let w1 = plc1.writes();
-    plc1.stop().await;
+    plc1.ua.stop().await;
     let plc2 = Plc::start(port, 24.0).await;
-    assert_eq!(plc2.ns, ns);
+    assert_eq!(plc2.ua.ns, ns);
     wait("pulses after the server restart", 30.0, || {
         plc2.held() <= -8
     })
@@ -190,7 +158,7 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     run.stop().await.unwrap();
     let run = start_with(dir.path(), &config).await;
     let api = Api::new(&run);
-    plc2.set("Temp.A", 25.5);
+    plc2.ua.set("Temp.A", 25.5);
     let st = api
         .wait_for("/api/status", &ro, 60.0, |v| {
             v["axes"][0]["offset_um"].as_f64() == Some(-20.625)
@@ -232,7 +200,7 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
     assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
-    plc2.stop().await;
+    plc2.ua.stop().await;
 }
 
 /// A Double (LREAL) pulse node: refused at connect while the configuration says Int32 (the
@@ -245,7 +213,7 @@ async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
     std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
     let port = free_port();
     let plc = Plc::start_typed(port, 24.0, true, 0.0).await;
-    let ns = plc.ns;
+    let ns = plc.ua.ns;
     let config = |ty: &str| {
         format!(
             "{}pulse_outputs = [{{ axis = \"Z\", node = \"ns={ns};s=Pulses\"{ty} }}]\n",
@@ -294,7 +262,7 @@ async fn opcua_pulses_to_a_double_node_and_a_wrong_type_named() {
     let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
     assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
-    plc.stop().await;
+    plc.ua.stop().await;
 }
 
 /// A write that landed but whose status was lost (the server stores the total, answers
@@ -309,7 +277,7 @@ async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
     std::fs::write(dir.path().join("engine.toml"), engine).unwrap();
     let port = free_port();
     let plc1 = Plc::start(port, 24.0).await;
-    let ns = plc1.ns;
+    let ns = plc1.ua.ns;
     let run = start_with(
         dir.path(),
         &format!(
@@ -332,7 +300,7 @@ async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
     // The session ends; the server comes back holding what it was last written.
     let w1 = plc1.writes();
     let kept = *plc1.held.lock().unwrap();
-    plc1.stop().await;
+    plc1.ua.stop().await;
     let plc2 = Plc::start_typed(port, 24.0, false, kept).await;
     let st = api
         .wait_for("/api/status", &ro, 60.0, |v| {
@@ -371,5 +339,5 @@ async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
     let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
     assert_eq!((st.pulse_total[0], st.pulses_acked[0]), (want, want));
-    plc2.stop().await;
+    plc2.ua.stop().await;
 }
