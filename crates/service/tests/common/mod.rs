@@ -38,6 +38,25 @@ pub async fn start_with(dir: &std::path::Path, toml: &str) -> Running {
     start(cfg).await.unwrap()
 }
 
+/// Starts the service on a replay of `log.csv` in `dir` (engine `engine.toml`, record
+/// `r.db`, `speedup` times real time, no HTTP port of its own) and waits (at most `secs`)
+/// until the replay has ended. Returns the running service and its read-only token.
+pub async fn replay_to_end(dir: &std::path::Path, speedup: &str, secs: f64) -> (Running, String) {
+    let run = start_with(
+        dir,
+        &format!(
+            "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
+             [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = {speedup}\n"
+        ),
+    )
+    .await;
+    let ro = run.generated.clone().unwrap().read_only;
+    Api::new(&run)
+        .wait_alarm("/api/alarms", &ro, "replay.ended", secs)
+        .await;
+    (run, ro)
+}
+
 /// An HTTP client for the service.
 pub struct Api {
     pub base: String,

@@ -4,7 +4,7 @@
 //! follow the law, nothing frozen, no stop).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use crate::common::{start_with, Api};
+use crate::common::{replay_to_end, Api};
 
 const MODEL: &str = "format = \"gearcomp-thermal-model/1\"\nname = \"env\"\n[[axes]]\naxis = \"Z\"\n\
     [axes.machine]\nintercept = 1.0\n[[axes.machine.terms]]\nchannel = \"A\"\ncoefficient = 2.0\n\
@@ -26,16 +26,8 @@ async fn envelope_warning_is_an_active_alarm_and_the_offsets_go_on() {
         "time_s,A\n0,20\n1,22\n2,35\n3,36\n",
     )
     .unwrap();
-    let run = start_with(
-        dir.path(),
-        "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
-         [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = 100\n",
-    )
-    .await;
-    let ro = run.generated.clone().unwrap().read_only;
+    let (run, ro) = replay_to_end(dir.path(), "100", 30.0).await;
     let api = Api::new(&run);
-    api.wait_alarm("/api/alarms", &ro, "replay.ended", 30.0)
-        .await;
     let a = api
         .wait_alarm("/api/alarms?active=true", &ro, "engine.envelope", 10.0)
         .await;

@@ -3,7 +3,7 @@
 //! for the rest of the log, with an `ack_stop` row it resumes there.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use crate::common::{engine_ab, start_with, Api};
+use crate::common::{engine_ab, replay_to_end};
 
 /// (offset_um, status) of every stored offset of axis 0, in order.
 fn stored(db: &std::path::Path) -> Vec<(f64, String)> {
@@ -42,16 +42,7 @@ async fn replay(ack: bool) -> Vec<(f64, String)> {
         log += &format!("{k},{a},20{ack_cell}\n");
     }
     std::fs::write(dir.path().join("log.csv"), log).unwrap();
-    let run = start_with(
-        dir.path(),
-        "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
-         [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = 100\n",
-    )
-    .await;
-    let ro = run.generated.clone().unwrap().read_only;
-    Api::new(&run)
-        .wait_alarm("/api/alarms", &ro, "replay.ended", 30.0)
-        .await;
+    let (run, _) = replay_to_end(dir.path(), "100", 30.0).await;
     let db = run.db.clone();
     run.stop().await.unwrap();
     stored(&db)

@@ -3,7 +3,7 @@
 //! offset equals the law worked by hand at that row's position.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use crate::common::{position_law_um, start_with, Api, POSITION_ENGINE};
+use crate::common::{position_law_um, replay_to_end, POSITION_ENGINE};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn replayed_positions_reach_the_position_law() {
@@ -22,16 +22,7 @@ async fn replayed_positions_reach_the_position_law() {
         log += &format!("{k},{a},{p}\n");
     }
     std::fs::write(dir.path().join("log.csv"), log).unwrap();
-    let run = start_with(
-        dir.path(),
-        "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
-         [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = 100\n",
-    )
-    .await;
-    let ro = run.generated.clone().unwrap().read_only;
-    Api::new(&run)
-        .wait_alarm("/api/alarms", &ro, "replay.ended", 30.0)
-        .await;
+    let (run, _) = replay_to_end(dir.path(), "100", 30.0).await;
     let db = run.db.clone();
     run.stop().await.unwrap();
     let conn = rusqlite::Connection::open(&db).unwrap();

@@ -5,7 +5,7 @@
 //! irregular time steps, empty cells ("no new reading"), boundary constants and rate limits.
 //! A fixed seed (reproducible) and a fresh one.
 
-use crate::common::{start_with, Api};
+use crate::common::replay_to_end;
 use gearcomp_thermal::{Engine, EngineConfig};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
@@ -133,16 +133,7 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         .build()
         .unwrap();
     let (db, committed) = rt.block_on(async {
-        let run = start_with(
-            dir.path(),
-            "[engine]\nfile = \"engine.toml\"\n[http]\nport = 0\n[storage]\npath = \"r.db\"\n\
-             [input]\nkind = \"replay\"\npath = \"log.csv\"\nspeedup = 1e5\n",
-        )
-        .await;
-        let ro = run.generated.clone().unwrap().read_only;
-        let api = Api::new(&run);
-        api.wait_alarm("/api/alarms", &ro, "replay.ended", 60.0)
-            .await;
+        let (run, _) = replay_to_end(dir.path(), "1e5", 60.0).await;
         let db = run.db.clone();
         let n = run.stop().await.unwrap();
         (db, n)
