@@ -7,7 +7,8 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use gearcomp_core::model::{ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink};
-use gearcomp_identify::data::{read_runs, ReadOptions, Selection, Table};
+use gearcomp_identify::data::{read_runs, MissingCells, ReadOptions, Selection, Table};
+use gearcomp_identify::dialect::parse_delimiter;
 use gearcomp_identify::identify::{
     identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
     Split, TargetModel,
@@ -64,6 +65,15 @@ impl From<FamilyArg> for Family {
             FamilyArg::Tf2 => Family::Tf2,
         }
     }
+}
+
+/// Rows with an empty or NaN cell in a used column (`--missing`).
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum MissingArg {
+    /// Such a row is a bad row: the fit stops (or drops it with --skip-bad-rows).
+    Error,
+    /// Such a row is left out and listed, and the run is split there (filters restart).
+    Split,
 }
 
 /// Class formation (`--grouping`).
@@ -183,6 +193,15 @@ pub struct Args {
     /// Drop bad rows (they are still listed) instead of stopping at them.
     #[arg(long)]
     pub skip_bad_rows: bool,
+    /// Field delimiter of the CSV log(s): "," ";" or "tab". Default: detected from the header.
+    #[arg(long)]
+    pub delimiter: Option<String>,
+    /// Numbers use a decimal comma (20,125). Default: detected on the data of ';' or tab logs.
+    #[arg(long)]
+    pub decimal_comma: bool,
+    /// Rows with an empty or NaN cell in a used input or target column (sensor dropouts).
+    #[arg(long, value_enum, default_value = "error")]
+    pub missing: MissingArg,
     /// Axis name of each target's model, in target order (default: the target's name).
     #[arg(long, num_args = 1..)]
     pub axis: Vec<String>,
@@ -233,17 +252,22 @@ pub struct Args {
     pub shrink_method: ShrinkMethodArg,
 }
 
-fn load(
-    paths: &[PathBuf],
-    sel: &Selection,
-    skip: bool,
-    sample_interval_s: Option<f64>,
-) -> anyhow::Result<(Table, String)> {
-    let opts = ReadOptions {
-        skip_bad_rows: skip,
-        sample_interval_s,
+/// The reading options of the command line.
+fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
+    Ok(ReadOptions {
+        skip_bad_rows: args.skip_bad_rows,
+        sample_interval_s: args.sample_interval_s,
+        delimiter: args.delimiter.as_deref().map(parse_delimiter).transpose()?,
+        decimal_comma: args.decimal_comma.then_some(true),
+        missing: match args.missing {
+            MissingArg::Error => MissingCells::Error,
+            MissingArg::Split => MissingCells::Split,
+        },
         ..ReadOptions::default()
-    };
+    })
+}
+
+fn load(paths: &[PathBuf], sel: &Selection, opts: ReadOptions) -> anyhow::Result<(Table, String)> {
     let files: Vec<(String, String)> = if paths.is_empty() {
         vec![(
             gearcomp_datasets::fl_thermal_csv()
@@ -347,12 +371,7 @@ fn workpiece_model(
         targets: vec![args.workpiece_target.clone().unwrap_or_default()],
         run: None,
     };
-    let (wt, _) = load(
-        std::slice::from_ref(path),
-        &wsel,
-        args.skip_bad_rows,
-        args.sample_interval_s,
-    )?;
+    let (wt, _) = load(std::slice::from_ref(path), &wsel, read_options(args)?)?;
     let wid = identify(
         &wt,
         &IdentifyOptions {
@@ -395,7 +414,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         targets: args.target.clone(),
         run: args.run_column.clone(),
     };
-    let (table, data_name) = load(&args.data, &sel, args.skip_bad_rows, args.sample_interval_s)?;
+    let (table, data_name) = load(&args.data, &sel, read_options(&args)?)?;
     let (split, split_note) = split_of(&args, &table)?;
     let opts = options(&args, &split);
     let id = identify(&table, &opts)?;

@@ -164,6 +164,20 @@ impl Table {
         out
     }
 
+    /// Rows left out of the table (bad rows skipped, rows with missing cells under
+    /// [`MissingCells::Split`]): their count and the lines of the first ten, in file order.
+    pub fn rows_left_out(&self) -> (usize, Vec<u64>) {
+        let lines: Vec<u64> = self
+            .issues
+            .iter()
+            .filter_map(|i| match i {
+                DataIssue::BadRow { line, .. } | DataIssue::Missing { line, .. } => Some(*line),
+                DataIssue::Gap { .. } => None,
+            })
+            .collect();
+        (lines.len(), lines.into_iter().take(10).collect())
+    }
+
     /// Number of runs (1 without run information).
     pub fn run_count(&self) -> usize {
         self.runs.as_ref().map_or(1, |_| self.run_names.len())

@@ -104,6 +104,12 @@ pub fn detect_delimiter(text: &str) -> u8 {
 /// digits, optional exponent (`20,125`, `-0,5`, `1,5E-3`).
 fn is_comma_decimal(s: &str) -> bool {
     let s = s.trim();
+    // A quoted cell ("20,125") as the csv reader will read it.
+    let s = s
+        .strip_prefix('"')
+        .and_then(|q| q.strip_suffix('"'))
+        .unwrap_or(s)
+        .trim();
     let s = s.strip_prefix(['+', '-']).unwrap_or(s);
     let (mant, exp) = match s.find(['e', 'E']) {
         Some(p) => (&s[..p], Some(&s[p + 1..])),
@@ -255,6 +261,7 @@ mod tests {
         assert!(!detect_decimal_comma("t;a\n0;20.125\n", b';'));
         assert!(!detect_decimal_comma("t,a\n0,\"20,125\"\n", b','));
         assert!(is_comma_decimal("-1,5E-3"));
+        assert!(is_comma_decimal("\"20,125\""));
         assert!(!is_comma_decimal("1,5,3"));
         assert!(!is_comma_decimal("a,5"));
     }

@@ -241,6 +241,19 @@ impl FitReport<'_> {
                 table.issues.len() - MAX_LISTED_ISSUES
             );
         }
+        let (left_out, first) = table.rows_left_out();
+        if left_out > 0 {
+            let _ = writeln!(
+                out,
+                "  rows left out: {left_out} (first at line(s) {}{})",
+                first
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if left_out > first.len() { ", …" } else { "" }
+            );
+        }
         let _ = writeln!(out, "method: {}", id.method);
         out
     }
@@ -333,6 +346,9 @@ impl FitReport<'_> {
             "runs": table.run_names,
             "inputs": id.input_names,
             "notes": id.notes,
+            "data_issues": table.issues.iter().map(|i| i.to_string()).collect::<Vec<_>>(),
+            "rows_left_out": table.rows_left_out().0,
+            "rows_left_out_first_lines": table.rows_left_out().1,
             "method": id.method,
             "targets": targets,
             "model_file": serde_json::to_value(self.file)?,

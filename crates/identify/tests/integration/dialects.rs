@@ -1,0 +1,465 @@
+//! Logs as plants export them (issue 12 item 1): random valid logs written in random
+//! dialects (delimiter, decimal comma, BOM, CRLF, quoting, time stamps in every accepted form
+//! with mixed UTC offsets) read into exactly the table of the same log written plainly, and
+//! the same fitted model; random invalid logs (bad time stamps, a row with another
+//! delimiter, text in a numeric cell) refused naming the column, value and line; missing
+//! cells left out and splitting the run (`MissingCells::Split`), checked against a table
+//! built directly from the generated values.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use chrono::DateTime;
+use gearcomp_identify::data::{read_csv, DataIssue, MissingCells, ReadOptions, Selection, Table};
+use gearcomp_identify::identify::{identify, IdentifyOptions, ModelKind, Split};
+use proptest::prelude::*;
+
+/// xorshift64: the generated log's content.
+struct Rng(u64);
+impl Rng {
+    fn new(seed: u64) -> Self {
+        Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1)
+    }
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    /// A number in [lo, hi) with all 53 bits random.
+    fn real(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+/// The generated values: time in s since the first row (steps of 0.25 s), two inputs and a
+/// target.
+struct Log {
+    t: Vec<f64>,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    d: Vec<f64>,
+}
+
+fn random_log(seed: u64, rows: usize, fixed_step: bool) -> Log {
+    let mut r = Rng::new(seed);
+    let mut log = Log {
+        t: Vec::new(),
+        a: Vec::new(),
+        b: Vec::new(),
+        d: Vec::new(),
+    };
+    let mut t = 0.0;
+    for k in 0..rows {
+        if k > 0 {
+            t += if fixed_step {
+                60.0
+            } else {
+                (1 + r.next() % 40) as f64 * 0.25
+            };
+        }
+        let a = 20.0 + 5.0 * (t / 300.0).sin() + r.real(-0.5, 0.5);
+        let b = 22.0 + 3.0 * (t / 700.0).cos() + r.real(-0.5, 0.5);
+        log.t.push(t);
+        log.a.push(a);
+        log.b.push(b);
+        log.d.push(1.5 * a - 0.75 * b + r.real(-0.1, 0.1));
+    }
+    log
+}
+
+/// The log written plainly: comma, decimal point, seconds; `note` is an unused text column.
+fn plain(log: &Log) -> String {
+    let mut s = String::from("time_s,a_c,note,b_c,d_um\n");
+    for k in 0..log.t.len() {
+        s += &format!("{},{},n,{},{}\n", log.t[k], log.a[k], log.b[k], log.d[k]);
+    }
+    s
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum TimeForm {
+    Seconds,
+    IsoSpace,
+    IsoT,
+    Zulu,
+    /// `T` and a random `±hh:mm` offset on every row (the same instants).
+    MixedOffsets,
+    DayFirst,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Dialect {
+    delim: char,
+    decimal_comma: bool,
+    bom: bool,
+    crlf: bool,
+    /// 0: no quotes, 1: some cells quoted, 2: every cell quoted.
+    quoting: u8,
+    time: TimeForm,
+    /// Instant of the first row, s since 1970.
+    start_s: i64,
+}
+
+fn dialect_strategy() -> impl Strategy<Value = Dialect> {
+    (
+        prop_oneof![Just(','), Just(';'), Just('\t')],
+        any::<bool>(),
+        any::<bool>(),
+        any::<bool>(),
+        0u8..3,
+        prop_oneof![
+            Just(TimeForm::Seconds),
+            Just(TimeForm::IsoSpace),
+            Just(TimeForm::IsoT),
+            Just(TimeForm::Zulu),
+            Just(TimeForm::MixedOffsets),
+            Just(TimeForm::DayFirst),
+        ],
+        // 2001 … 2037, any second.
+        978_307_200i64..2_100_000_000,
+    )
+        .prop_map(|(delim, dc, bom, crlf, quoting, time, start_s)| Dialect {
+            delim,
+            decimal_comma: dc && delim != ',',
+            bom,
+            crlf,
+            quoting,
+            time,
+            start_s,
+        })
+}
+
+/// The time cell of a row at `t` s after the first, in form `d.time`.
+fn time_text(d: &Dialect, t: f64, r: &mut Rng) -> String {
+    let num = |v: f64| {
+        let s = format!("{v}");
+        if d.decimal_comma {
+            s.replace('.', ",")
+        } else {
+            s
+        }
+    };
+    if d.time == TimeForm::Seconds {
+        return num(t);
+    }
+    let ms = (t * 1000.0).round() as i64;
+    // Wall-clock offset of this row in minutes (instants stay the same).
+    let off_min: i64 = match d.time {
+        TimeForm::MixedOffsets => (r.next() % 105) as i64 * 15 - 720,
+        _ => 0,
+    };
+    let wall_ms = d.start_s * 1000 + ms + off_min * 60_000;
+    let wall = DateTime::from_timestamp_millis(wall_ms)
+        .unwrap()
+        .naive_utc();
+    let offset = || {
+        let m = off_min.abs();
+        format!(
+            "{}{:02}:{:02}",
+            if off_min < 0 { '-' } else { '+' },
+            m / 60,
+            m % 60
+        )
+    };
+    match d.time {
+        TimeForm::IsoSpace => wall.format("%Y-%m-%d %H:%M:%S%.3f").to_string(),
+        TimeForm::IsoT => wall.format("%Y-%m-%dT%H:%M:%S%.3f").to_string(),
+        TimeForm::Zulu => wall.format("%Y-%m-%dT%H:%M:%S%.3fZ").to_string(),
+        TimeForm::MixedOffsets => format!("{}{}", wall.format("%Y-%m-%dT%H:%M:%S%.3f"), offset()),
+        TimeForm::DayFirst => {
+            let s = wall.format("%d.%m.%Y %H:%M:%S%.3f").to_string();
+            if d.decimal_comma {
+                // 01.03.2024 08:00:00,250
+                let p = s.rfind('.').unwrap();
+                format!("{},{}", &s[..p], &s[p + 1..])
+            } else {
+                s
+            }
+        }
+        TimeForm::Seconds => unreachable!(),
+    }
+}
+
+/// The log written in dialect `d` (cell content and quoting from `seed`).
+fn written(log: &Log, d: &Dialect, seed: u64) -> String {
+    let mut r = Rng::new(seed ^ 0x5555);
+    let end = if d.crlf { "\r\n" } else { "\n" };
+    let sep = d.delim.to_string();
+    let quote = |s: String, r: &mut Rng| -> String {
+        let q = match d.quoting {
+            0 => false,
+            1 => r.next() % 3 == 0,
+            _ => true,
+        };
+        if q {
+            format!("\"{s}\"")
+        } else {
+            s
+        }
+    };
+    let num = |v: f64| {
+        let s = format!("{v}");
+        if d.decimal_comma {
+            s.replace('.', ",")
+        } else {
+            s
+        }
+    };
+    let mut out = String::new();
+    if d.bom {
+        out.push('\u{feff}');
+    }
+    let header: Vec<String> = ["time_s", "a_c", "note", "b_c", "d_um"]
+        .iter()
+        .map(|h| quote(h.to_string(), &mut r))
+        .collect();
+    out += &header.join(&sep);
+    out += end;
+    for k in 0..log.t.len() {
+        let time = time_text(d, log.t[k], &mut r);
+        // The unused column: text holding the delimiter (quoted), empty, or NaN.
+        let note = match r.next() % 4 {
+            0 if d.quoting > 0 => format!("\"op{sep}x \"\"y\"\"\""),
+            1 => String::new(),
+            2 => "NaN".to_string(),
+            _ => "text".to_string(),
+        };
+        let cells = [
+            quote(time, &mut r),
+            quote(num(log.a[k]), &mut r),
+            note,
+            quote(num(log.b[k]), &mut r),
+            quote(num(log.d[k]), &mut r),
+        ];
+        out += &cells.join(&sep);
+        out += end;
+    }
+    out
+}
+
+fn sel() -> Selection {
+    Selection {
+        time: "time_s".into(),
+        inputs: vec!["*_c".into()],
+        targets: vec!["d_um".into()],
+        run: None,
+    }
+}
+
+fn read(text: &str, opts: ReadOptions) -> Result<Table, String> {
+    read_csv(text, "log.csv", &sel(), opts).map_err(|e| e.to_string())
+}
+
+/// Intercept and coefficients of the static model of `t`.
+fn fitted(t: &Table) -> Vec<f64> {
+    let opts = IdentifyOptions {
+        model: ModelKind::Static,
+        classes: Some(2),
+        split: Split::None,
+        ..Default::default()
+    };
+    let id = identify(t, &opts).unwrap();
+    let m = &id.targets[0].model;
+    std::iter::once(m.intercept)
+        .chain(m.terms.iter().map(|c| c.coefficient))
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Any dialect gives the plain log's table (times, values, lines, segments) exactly,
+    /// and so the same fitted model.
+    #[test]
+    fn every_dialect_reads_as_the_plain_log(d in dialect_strategy(), seed in any::<u64>(), rows in 5usize..80) {
+        let log = random_log(seed, rows, false);
+        let want = read(&plain(&log), ReadOptions::default()).unwrap();
+        let text = written(&log, &d, seed);
+        let got = read(&text, ReadOptions::default());
+        prop_assert_eq!(got.as_ref(), Ok(&want), "{:?}\n{}", d, text);
+        // Forcing the dialect that detection found changes nothing.
+        let forced = read(&text, ReadOptions {
+            delimiter: Some(d.delim as u8),
+            decimal_comma: d.decimal_comma.then_some(true),
+            ..ReadOptions::default()
+        });
+        prop_assert_eq!(forced.as_ref(), Ok(&want));
+        if rows >= 20 && seed % 4 == 0 {
+            let (p, q) = (fitted(&want), fitted(got.as_ref().unwrap()));
+            for (x, y) in p.iter().zip(&q) {
+                prop_assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{p:?} {q:?}");
+            }
+        }
+    }
+
+    /// Broken logs are refused with the column, the value and the line.
+    #[test]
+    fn invalid_logs_name_the_line(d in dialect_strategy(), seed in any::<u64>(), rows in 5usize..40, kind in 0u8..3, pick in any::<u64>()) {
+        let log = random_log(seed, rows, false);
+        let text = written(&log, &d, seed);
+        let mut lines: Vec<String> = text.split_inclusive('\n').map(String::from).collect();
+        // Data row r (not the first, which decides the time form) on line r + 2.
+        let r = 1 + (pick % (rows as u64 - 1)) as usize;
+        let end = if d.crlf { "\r\n" } else { "\n" };
+        let sep = d.delim.to_string();
+        let num = |v: f64| if d.decimal_comma { format!("{v}").replace('.', ",") } else { format!("{v}") };
+        let mut rng = Rng::new(pick);
+        let (bad_cell, expect): (String, String) = match kind {
+            0 => {
+                let garbage = ["2024-13-01 08:00:00", "2024-02-30 10:00:00", "31.02.2024 08:00:00",
+                    "08:00:00", "2024-03-01 08:00:00+25:00", "soon", "2024/03/01 08:00:00", "1.5.3"];
+                let g = garbage[(pick % garbage.len() as u64) as usize];
+                let expect = if d.time == TimeForm::Seconds {
+                    format!("time_s = \"{g}\" is not a number")
+                } else {
+                    format!("time_s = \"{g}\" is not a time stamp")
+                };
+                (format!("{g}{sep}{}{sep}n{sep}{}{sep}{}", num(log.a[r]), num(log.b[r]), num(log.d[r])), expect)
+            }
+            1 => {
+                // The row written with another delimiter.
+                let other = if d.delim == ';' { "\t" } else { ";" };
+                let t = time_text(&d, log.t[r], &mut rng);
+                (format!("{t}{other}{}{other}n{other}{}{other}{}", num(log.a[r]), num(log.b[r]), num(log.d[r])),
+                    "1 fields, header has 5".to_string())
+            }
+            _ => {
+                let words = ["abc", "12a", "--5", "1e", "0x10"];
+                let w = words[(pick % words.len() as u64) as usize];
+                let t = time_text(&d, log.t[r], &mut rng);
+                (format!("{t}{sep}{}{sep}n{sep}{w}{sep}{}", num(log.a[r]), num(log.d[r])),
+                    format!("b_c = \"{w}\" is not a number"))
+            }
+        };
+        lines[r + 1] = format!("{bad_cell}{end}");
+        let text: String = lines.concat();
+        let e = read(&text, ReadOptions::default()).unwrap_err();
+        prop_assert!(e.contains(&format!("1 bad row(s) at line(s) {}:", r + 2)), "{e}\n{text}");
+        prop_assert!(e.contains(&expect), "{e}\nexpected {expect}");
+    }
+
+    /// Rows with an empty or NaN used cell: an error naming `--missing split` by default;
+    /// with `MissingCells::Split`, left out, listed, and the run split after each, exactly
+    /// the table built here from the generated values. Empty or NaN cells of the unused
+    /// column never matter.
+    #[test]
+    fn missing_cells_split_the_run(seed in any::<u64>(), rows in 8usize..60, holes in proptest::collection::vec((any::<u64>(), 0u8..4), 1..6)) {
+        let log = random_log(seed, rows, true);
+        let mut cells: Vec<Vec<String>> = (0..rows).map(|k| vec![
+            format!("{}", log.t[k]), format!("{}", log.a[k]), "NaN".into(), format!("{}", log.b[k]), format!("{}", log.d[k]),
+        ]).collect();
+        let mut left_out: Vec<usize> = Vec::new();
+        for (p, how) in &holes {
+            let k = (p % rows as u64) as usize;
+            let col = [1, 3, 4][(p >> 32) as usize % 3];
+            cells[k][col] = if how % 2 == 0 { String::new() } else { "NaN".into() };
+            if how >= &2 {
+                cells[k][2] = String::new();
+            }
+            if !left_out.contains(&k) {
+                left_out.push(k);
+            }
+        }
+        left_out.sort_unstable();
+        let text = format!("time_s,a_c,note,b_c,d_um\n{}",
+            cells.iter().map(|c| c.join(",") + "\n").collect::<String>());
+        let e = read(&text, ReadOptions::default()).unwrap_err();
+        prop_assert!(e.contains("--missing split"), "{e}");
+        let sep = if left_out.len() > 1 { "," } else { ":" };
+        prop_assert!(e.contains(&format!("at line(s) {}{sep}", left_out[0] + 2)), "{e}");
+        let kept: Vec<usize> = (0..rows).filter(|k| !left_out.contains(k)).collect();
+        let got = read(&text, ReadOptions { missing: MissingCells::Split, ..ReadOptions::default() });
+        if kept.len() < 3 {
+            prop_assert!(got.is_err());
+            return Ok(());
+        }
+        let t = got.unwrap();
+        prop_assert_eq!(&t.time_s, &kept.iter().map(|&k| log.t[k]).collect::<Vec<_>>());
+        prop_assert_eq!(&t.inputs[0], &kept.iter().map(|&k| log.a[k]).collect::<Vec<_>>());
+        prop_assert_eq!(&t.inputs[1], &kept.iter().map(|&k| log.b[k]).collect::<Vec<_>>());
+        prop_assert_eq!(&t.targets[0], &kept.iter().map(|&k| log.d[k]).collect::<Vec<_>>());
+        prop_assert_eq!(&t.lines, &kept.iter().map(|&k| k as u64 + 2).collect::<Vec<_>>());
+        // A segment starts at the first kept row and at every kept row after a hole.
+        let segments: Vec<usize> = (0..kept.len()).filter(|&j| j == 0 || kept[j - 1] + 1 != kept[j]).collect();
+        prop_assert_eq!(&t.segments, &segments);
+        let listed: Vec<u64> = t.issues.iter().filter_map(|i| match i {
+            DataIssue::Missing { line, .. } => Some(*line),
+            _ => None,
+        }).collect();
+        prop_assert_eq!(&listed, &left_out.iter().map(|&k| k as u64 + 2).collect::<Vec<_>>());
+        prop_assert_eq!(t.rows_left_out().0, left_out.len());
+    }
+}
+
+/// Local wall time without an offset going back (the DST fall-back hour, or a repeated row)
+/// is a bad row naming its line, as any time that does not increase; with offsets the same
+/// wall times are distinct instants and read fine.
+#[test]
+fn dst_fall_back_is_refused_without_offsets_and_read_with_them() {
+    let rows = [
+        ("2024-10-27 02:30:00", "+02:00"),
+        ("2024-10-27 02:45:00", "+02:00"),
+        ("2024-10-27 02:00:00", "+01:00"),
+        ("2024-10-27 02:15:00", "+01:00"),
+    ];
+    let body = |with: bool| {
+        rows.iter()
+            .enumerate()
+            .map(|(k, (w, o))| {
+                format!(
+                    "{w}{},{},{}\n",
+                    if with { o } else { &"" },
+                    20.0 + k as f64,
+                    k
+                )
+            })
+            .collect::<String>()
+    };
+    let s = Selection {
+        targets: vec!["d_um".into()],
+        ..sel()
+    };
+    let head = "time_s,a_c,d_um\n";
+    let e = read_csv(
+        &format!("{head}{}", body(false)),
+        "log.csv",
+        &s,
+        ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("line(s) 4") && e.contains("does not increase"),
+        "{e}"
+    );
+    let t = read_csv(
+        &format!("{head}{}", body(true)),
+        "log.csv",
+        &s,
+        ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(t.time_s, vec![0.0, 900.0, 1800.0, 2700.0]);
+    // Mixing stamps with and without an offset is refused.
+    let mixed = format!(
+        "{head}2024-10-27T00:00:00Z,1,1\n2024-10-27T00:01:00,1,1\n2024-10-27T00:02:00Z,1,1\n2024-10-27T00:03:00Z,1,1\n"
+    );
+    let e = read_csv(&mixed, "log.csv", &s, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line(s) 3") && e.contains("UTC offset"), "{e}");
+}
+
+/// Runs restart their clock: with a run column, each run's time stamps count from its own
+/// first row.
+#[test]
+fn time_stamps_restart_per_run() {
+    let text = "run;time_s;a_c;d_um\n1;01.03.2024 08:00:00;20,5;1\n1;01.03.2024 08:01:00;21;2\n2;02.03.2024 09:00:00;20;1\n2;02.03.2024 09:00:30;21,25;2\n";
+    let s = Selection {
+        run: Some("run".into()),
+        ..sel()
+    };
+    let t = read_csv(text, "log.csv", &s, ReadOptions::default()).unwrap();
+    assert_eq!(t.time_s, vec![0.0, 60.0, 0.0, 30.0]);
+    assert_eq!(t.inputs[0], vec![20.5, 21.0, 20.0, 21.25]);
+    assert_eq!(t.segments, vec![0, 2]);
+}
