@@ -231,3 +231,184 @@ fn fit_refuses_unknown_test_runs_and_a_split_past_the_end() {
     assert!(err.contains("--train-before-h = 100 h"), "{err}");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// `fit --json` of the log `text` (written to `name`) with `extra` options: the parsed
+/// document, or the error text.
+fn fit_json(
+    d: &std::path::Path,
+    name: &str,
+    text: &str,
+    extra: &[&str],
+) -> Result<serde_json::Value, String> {
+    let p = d.join(name);
+    std::fs::write(&p, text).unwrap();
+    let out = bin()
+        .args(["fit", "--target", "y_um", "--no-test", "--json", "--data"])
+        .arg(&p)
+        .args(extra)
+        .output()
+        .unwrap();
+    if out.status.success() {
+        Ok(serde_json::from_str(&String::from_utf8_lossy(&out.stdout)).unwrap())
+    } else {
+        Err(String::from_utf8_lossy(&out.stderr).into_owned())
+    }
+}
+
+/// The cells of `run_csv(0, true)` (time in s first).
+fn plain_rows() -> Vec<Vec<String>> {
+    run_csv(0, true)
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
+}
+
+/// hh:mm:00 of `minutes` after midnight.
+fn clock(minutes: i64) -> String {
+    format!("{:02}:{:02}:00", minutes / 60, minutes % 60)
+}
+
+/// A German Excel/PLC export of the plain log (BOM, `;`, decimal comma, CRLF, day-first
+/// time stamps from 01.03.2024 08:00) fits exactly the model of the plain log.
+#[test]
+fn fit_reads_a_german_export_as_the_plain_log() {
+    let d = tmp("german");
+    let plain = fit_json(&d, "plain.csv", &run_csv(0, true), &[]).unwrap();
+    let mut text = String::from("\u{feff}time_s;a_c;b_c;y_um\r\n");
+    for r in plain_rows() {
+        let minutes = r[0].parse::<f64>().unwrap() as i64 / 60;
+        let mut cells = vec![format!("01.03.2024 {}", clock(8 * 60 + minutes))];
+        cells.extend(r[1..].iter().map(|c| c.replace('.', ",")));
+        text += &cells.join(";");
+        text += "\r\n";
+    }
+    let german = fit_json(&d, "german.csv", &text, &[]).unwrap();
+    assert_eq!(german["rows"], plain["rows"]);
+    assert_eq!(german["targets"], plain["targets"], "the same model");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// ISO 8601 stamps with alternating offsets (Z and +01:00 for the same instants) give the
+/// plain log's model; wall time going back without an offset is refused naming the line.
+#[test]
+fn fit_reads_iso_time_stamps_as_instants() {
+    let d = tmp("iso");
+    let plain = fit_json(&d, "plain.csv", &run_csv(0, true), &[]).unwrap();
+    let mut text = String::from("time_s,a_c,b_c,y_um\n");
+    let mut naive = text.clone();
+    for (i, r) in plain_rows().iter().enumerate() {
+        let minutes = r[0].parse::<f64>().unwrap() as i64 / 60;
+        let stamp = if i % 2 == 0 {
+            format!("2024-03-01T{}Z", clock(8 * 60 + minutes))
+        } else {
+            format!("2024-03-01T{}+01:00", clock(9 * 60 + minutes))
+        };
+        text += &format!("{stamp},{}\n", r[1..].join(","));
+        // Local time that falls back one hour at row 120 (line 122).
+        let local = 8 * 60 + minutes - if i >= 120 { 60 } else { 0 };
+        naive += &format!("2024-10-27 {},{}\n", clock(local), r[1..].join(","));
+    }
+    let iso = fit_json(&d, "iso.csv", &text, &[]).unwrap();
+    assert_eq!(iso["targets"], plain["targets"], "the same model");
+    let e = fit_json(&d, "naive.csv", &naive, &[]).unwrap_err();
+    assert!(
+        e.contains("at line(s) 122,") && e.contains("does not increase"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A sensor dropout (empty cell, line 102; NaN, line 152): refused naming `--missing
+/// split`; with it, both rows are left out, counted and named, and the run splits there.
+#[test]
+fn fit_missing_cells_error_or_split() {
+    let d = tmp("missing");
+    let mut rows = plain_rows();
+    rows[100][1] = String::new();
+    rows[150][2] = "NaN".into();
+    let text = format!(
+        "time_s,a_c,b_c,y_um\n{}",
+        rows.iter().map(|r| r.join(",") + "\n").collect::<String>()
+    );
+    let e = fit_json(&d, "m.csv", &text, &[]).unwrap_err();
+    assert!(
+        e.contains("2 bad row(s) at line(s) 102, 152") && e.contains("--missing split"),
+        "{e}"
+    );
+    let v = fit_json(&d, "m.csv", &text, &["--missing", "split"]).unwrap();
+    assert_eq!(v["rows"].as_u64(), Some(238));
+    assert_eq!(v["rows_left_out"].as_u64(), Some(2));
+    assert_eq!(
+        v["rows_left_out_first_lines"],
+        serde_json::json!([102, 152])
+    );
+    let notes = v["data_issues"].to_string();
+    assert!(
+        notes.contains("line 102: left out (a_c is empty"),
+        "{notes}"
+    );
+    let out = bin()
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "--no-test",
+            "--missing",
+            "split",
+            "--data",
+        ])
+        .arg(d.join("m.csv"))
+        .output()
+        .unwrap();
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        summary.contains("rows left out: 2 (first at line(s) 102, 152)"),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `--delimiter` and `--decimal-comma` force the dialect; bad values and a row with another
+/// delimiter are refused naming the option.
+#[test]
+fn fit_delimiter_and_decimal_comma_options() {
+    let d = tmp("delim");
+    let plain = fit_json(&d, "plain.csv", &run_csv(0, true), &[]).unwrap();
+    let mut text = String::from("time_s\ta_c\tb_c\ty_um\n");
+    for r in plain_rows() {
+        text += &r.join("\t").replace('.', ",");
+        text += "\n";
+    }
+    let v = fit_json(
+        &d,
+        "tab.csv",
+        &text,
+        &["--delimiter", "tab", "--decimal-comma"],
+    )
+    .unwrap();
+    assert_eq!(v["targets"], plain["targets"]);
+    let e = fit_json(&d, "tab.csv", &text, &["--delimiter", "|"]).unwrap_err();
+    assert!(e.contains("invalid --delimiter = |: expected"), "{e}");
+    let e = fit_json(&d, "plain.csv", &run_csv(0, true), &["--decimal-comma"]).unwrap_err();
+    assert!(e.contains("--decimal-comma"), "{e}");
+    // Line 3 written with semicolons in a comma log.
+    let line = 3;
+    let mixed: String = run_csv(0, true)
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k + 1 == line {
+                l.replace(',', ";") + "\n"
+            } else {
+                l.to_string() + "\n"
+            }
+        })
+        .collect();
+    let e = fit_json(&d, "mixed.csv", &mixed, &[]).unwrap_err();
+    assert!(
+        e.contains(&format!("at line(s) {line}:")) && e.contains("--delimiter"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
