@@ -149,6 +149,21 @@ pub const PULSE_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"
     max_offset_um = 100.0\nmax_step_um = 0.1\n\
     [[axes.terms]]\nkind = \"difference\"\na = \"A\"\nb = \"B\"\nkz_um_per_c = -3.75\n";
 
+/// What a PLC applies from a pulse-total output: each written total minus the total it
+/// applied last (0 at first, kept in retained memory across power cycles), one step per
+/// write. The sum of the steps is the distance it moved.
+pub fn plc_steps<'a>(totals: impl IntoIterator<Item = &'a i64>) -> Vec<i64> {
+    let mut last = 0i64;
+    totals
+        .into_iter()
+        .map(|t| {
+            let step = t - last;
+            last = *t;
+            step
+        })
+        .collect()
+}
+
 /// Channel A (°C) and axis Z with the SINUMERIK/TwinCAT position law: K0 = 2 + 0.5·(T − 20)
 /// µm, tanβ = 0.25 + 0.0625·(T − 20) µm/mm, P0 = 100 mm.
 pub const POSITION_ENGINE: &str = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\n\

@@ -7,7 +7,9 @@
 
 use std::time::Duration;
 
-use crate::common::{free_port, position_law_um, start_with, Api, POSITION_ENGINE, PULSE_ENGINE};
+use crate::common::{
+    free_port, plc_steps, position_law_um, start_with, Api, POSITION_ENGINE, PULSE_ENGINE,
+};
 use crate::modbus_output::{wait_until, Device, Module};
 
 /// Counter registers: high word at 12, low word at 13.
@@ -102,14 +104,8 @@ async fn pulse_counter_exactly_once_across_device_power_cycle_and_service_restar
     // The PLC applies each written total minus the total it last applied, keeping that
     // in retained memory across its own power cycle.
     let (w1, w2) = (counter_writes(&m1), counter_writes(&m2));
-    let mut last = 0i64;
-    let mut moved = 0i64;
-    let mut steps = Vec::new();
-    for t in w1.iter().chain(&w2) {
-        moved += t - last;
-        steps.push(t - last);
-        last = *t;
-    }
+    let steps = plc_steps(w1.iter().chain(&w2));
+    let moved: i64 = steps.iter().sum();
     println!(
         "modbus pulses: final offset {y} µm → {want} pulses; device writes {w1:?} then {w2:?}; PLC moved {moved}"
     );

@@ -10,8 +10,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crate::common::{
-    add_variable, free_port, opcua_input_head, start_with, Api, OpcUaRunning, OpcUaStandIn,
-    PULSE_ENGINE,
+    add_variable, free_port, opcua_input_head, plc_steps, start_with, Api, OpcUaRunning,
+    OpcUaStandIn, PULSE_ENGINE,
 };
 use opcua::types::{DataTypeId, DataValue, StatusCode, Variant};
 
@@ -178,14 +178,8 @@ async fn opcua_pulses_exactly_once_across_server_and_service_restarts() {
     // The PLC applies each written total minus the total it last applied, keeping that
     // in retained memory across the server's restart.
     let w2 = plc2.writes();
-    let mut last = 0i64;
-    let mut moved = 0i64;
-    let mut steps = Vec::new();
-    for t in w1.iter().chain(&w2) {
-        moved += t - last;
-        steps.push(t - last);
-        last = *t;
-    }
+    let steps = plc_steps(w1.iter().chain(&w2));
+    let moved: i64 = steps.iter().sum();
     println!(
         "opcua pulses: final offset {y} µm → {want} pulses; server writes {w1:?} then {w2:?}; PLC moved {moved}"
     );
@@ -329,12 +323,7 @@ async fn opcua_pulse_write_landed_with_status_lost_counts_once() {
     // The total that landed is not written again: the second server's writes go on
     // from it.
     assert!(w2.iter().all(|t| (*t as f64) < kept), "{kept} {w2:?}");
-    let mut last = 0i64;
-    let mut moved = 0i64;
-    for t in w1.iter().chain(&w2) {
-        moved += t - last;
-        last = *t;
-    }
+    let moved: i64 = plc_steps(w1.iter().chain(&w2)).iter().sum();
     assert_eq!(moved, want);
     let text = tokio::task::block_in_place(|| store.resume_state().unwrap().unwrap());
     let st = gearcomp_service::cycle::ResumeState::decode(&text).unwrap();
