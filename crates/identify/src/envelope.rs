@@ -8,7 +8,7 @@
 
 use crate::data::Table;
 use crate::error::{IdentifyError, Result};
-use crate::identify::select_rows;
+use crate::fit::select_rows;
 use crate::transform::transform_segments;
 use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
 use nalgebra::DMatrix;

@@ -33,6 +33,7 @@ pub mod dendrogram;
 pub mod dialect;
 pub mod envelope;
 pub mod error;
+pub mod fit;
 pub mod identify;
 pub mod regress;
 pub mod report;

@@ -33,86 +33,12 @@
 use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
-use crate::identify::{
-    predict, rmse_where, select_rows, Identification, IdentifyOptions, TargetModel,
-};
+use crate::fit::{predict, rmse_where, select_rows, Identification, IdentifyOptions, TargetModel};
+pub use crate::fit::{Family, FamilyScore};
 use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use nalgebra::{DMatrix, DVector};
-
-/// A model family of the automatic comparison.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Family {
-    /// Current values, ordinary least squares, sensors by forward selection.
-    Static,
-    /// Current values, ridge (α by validation), on the static family's sensor order.
-    Ridge,
-    /// Current values, principal-component regression (components by validation).
-    Pcr,
-    /// Value + first-order lag per sensor, one τ shared by all sensors.
-    LeadLag,
-    /// First-order transfer function per sensor: value + lag, τ chosen per sensor.
-    Tf1,
-    /// Second-order transfer function per sensor: value + two lags, τ pair per sensor.
-    Tf2,
-    /// Pure delay per sensor (delay chosen per sensor, 0 included).
-    Delay,
-    /// Static least squares on single sensors and sensor differences A − B.
-    Differences,
-    /// Convex combination of the other families' best models, weights fitted on their
-    /// out-of-fold predictions ([`stack`]); not in [`Family::ALL`]: compared by
-    /// default, or when named beside the families it combines.
-    Stacked,
-}
-
-impl Family {
-    /// Every family, in order of simplicity (ties keep the earlier).
-    pub const ALL: [Family; 8] = [
-        Family::Static,
-        Family::Ridge,
-        Family::Pcr,
-        Family::Differences,
-        Family::Delay,
-        Family::LeadLag,
-        Family::Tf1,
-        Family::Tf2,
-    ];
-
-    /// Name used in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Static => "static least squares",
-            Family::Ridge => "ridge",
-            Family::Pcr => "principal-component regression",
-            Family::LeadLag => "lead-lag (value + lag, shared τ)",
-            Family::Tf1 => "1st-order transfer function",
-            Family::Tf2 => "2nd-order transfer function",
-            Family::Delay => "pure delay",
-            Family::Differences => "sensor differences (A − B)",
-            Family::Stacked => "stacked families (convex weights)",
-        }
-    }
-}
-
-/// One family's result in the comparison.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FamilyScore {
-    /// Family name.
-    pub family: String,
-    /// Number of sensors of the family's best model.
-    pub sensors: usize,
-    /// Pooled validation RMSE (target unit).
-    pub cv_rmse: f64,
-    /// Validation RMSE per fold.
-    pub fold_rmse: Vec<f64>,
-    /// Hyper-parameters chosen (τ, α, components, delays) or why the family is out.
-    pub detail: String,
-    /// Whether the family may be kept (false: e.g. over the sensor cap).
-    pub eligible: bool,
-    /// Whether this family's model was kept.
-    pub kept: bool,
-}
 
 /// A candidate regressor: a transform of one sensor, or the difference of two sensors.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,7 +4,7 @@
 
 use crate::data::Table;
 use crate::error::{invalid, Result};
-use crate::identify::predict;
+use crate::fit::predict;
 use gearcomp_core::model::{
     AxisModel, LinearModel, ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink,
 };
@@ -12,10 +12,8 @@ use gearcomp_geometry::shrink::{
     shrink_offset_exact_um, shrink_offset_first_order_um, ShrinkInput, ShrinkReference,
 };
 
-/// Degrees (interfaces) to radians (internal): the one conversion of this crate.
-pub fn deg_to_rad(deg: f64) -> f64 {
-    deg.to_radians()
-}
+/// Degrees (interfaces) to radians (internal), from the geometry crate's units module.
+pub use gearcomp_geometry::units::deg_to_rad;
 
 /// Radial offset δT in µm for a workpiece cut at `ta_c` (°C).
 ///

@@ -929,16 +929,7 @@ fn describe_cycle(root: &Path, cycle: &Cycle) -> String {
 /// Import cycles left in files other work owns while issue 15 is under way: (the files of
 /// the group, why it is still here). A group not listed fails the test; an entry whose
 /// cycle is gone is reported, so the list only shrinks.
-const KNOWN_CYCLES: [(&[&str], &str); 2] = [
-    (
-        &[
-            "crates/identify/src/envelope.rs",
-            "crates/identify/src/identify.rs",
-            "crates/identify/src/select.rs",
-        ],
-        "envelope.rs uses identify::select_rows, identify.rs uses envelope::training_envelope; \
-         crates/identify is being reorganised by another helper (issue 15)",
-    ),
+const KNOWN_CYCLES: [(&[&str], &str); 1] = [
     (
         &[
             "crates/service/src/storage/postgres/connect.rs",
@@ -1662,19 +1653,7 @@ fn unit_conversion_claims(src: &str) -> Vec<(usize, String)> {
 
 /// Second homes of unit conversion left in files other work owns while issue 15 is under
 /// way: (file, text on the line, why it is still here). Delete an entry when it is fixed.
-const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 2] = [
-    (
-        "crates/identify/src/workpiece.rs",
-        "the one conversion of this crate",
-        "crates/identify is being reorganised by another helper (issue 15); the fix is \
-         `pub use gearcomp_geometry::units::deg_to_rad;`",
-    ),
-    (
-        "crates/identify/src/workpiece.rs",
-        "pub fn deg_to_rad(",
-        "the same",
-    ),
-];
+const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 0] = [];
 
 #[test]
 fn architecture_one_module_of_unit_conversion() {
