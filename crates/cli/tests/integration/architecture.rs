@@ -929,19 +929,17 @@ fn describe_cycle(root: &Path, cycle: &Cycle) -> String {
 /// Import cycles left in files other work owns while issue 15 is under way: (the files of
 /// the group, why it is still here). A group not listed fails the test; an entry whose
 /// cycle is gone is reported, so the list only shrinks.
-const KNOWN_CYCLES: [(&[&str], &str); 1] = [
-    (
-        &[
-            "crates/service/src/storage/postgres/connect.rs",
-            "crates/service/src/storage/postgres/mod.rs",
-            "crates/service/src/storage/postgres/schema.rs",
-            "crates/service/src/storage/postgres/writer.rs",
-        ],
-        "the PostgreSQL rooms take mod.rs's helpers (`describe`, …) through `use super::*` \
+const KNOWN_CYCLES: [(&[&str], &str); 1] = [(
+    &[
+        "crates/service/src/storage/postgres/connect.rs",
+        "crates/service/src/storage/postgres/mod.rs",
+        "crates/service/src/storage/postgres/schema.rs",
+        "crates/service/src/storage/postgres/writer.rs",
+    ],
+    "the PostgreSQL rooms take mod.rs's helpers (`describe`, …) through `use super::*` \
          while mod.rs takes theirs through `use connect::*` etc.; crates/service/src/storage \
          is being split by another helper (issue 15)",
-    ),
-];
+)];
 
 fn read_disk(p: &Path) -> Option<String> {
     fs::read_to_string(p).ok()
@@ -1653,7 +1651,12 @@ fn unit_conversion_claims(src: &str) -> Vec<(usize, String)> {
 
 /// Second homes of unit conversion left in files other work owns while issue 15 is under
 /// way: (file, text on the line, why it is still here). Delete an entry when it is fixed.
-const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 0] = [];
+const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 1] = [(
+    "crates/dressing/src/report.rs",
+    "const UM_PER_MM: f64 = 1e3;",
+    "the dressing report moved out of the CLI during issue 15 by another helper; the fix is \
+     `use gearcomp_geometry::units::UM_PER_MM;`",
+)];
 
 #[test]
 fn architecture_one_module_of_unit_conversion() {
@@ -1668,6 +1671,14 @@ fn architecture_one_module_of_unit_conversion() {
         .map(str::to_string)
         .collect();
     assert!(names.len() >= 6, "{home} declares {names:?}");
+    // and its factors (`UM_PER_MM`, …)
+    let consts: Vec<String> = home_src
+        .lines()
+        .filter_map(|l| l.trim_start().strip_prefix("pub const "))
+        .filter_map(|l| l.split(':').next())
+        .map(str::to_string)
+        .collect();
+    assert!(consts.len() >= 2, "{home} declares {consts:?}");
     assert!(
         !unit_conversion_claims(&home_src).is_empty() || home_src.contains("the one place"),
         "{home} no longer says it is the place of unit conversion"
@@ -1702,6 +1713,21 @@ fn architecture_one_module_of_unit_conversion() {
             for name in &names {
                 let decl = format!("fn {name}(");
                 if line.contains(&decl) && !known(n + 1) {
+                    failures.push(format!(
+                        "{file}:{}: declares `{name}` again; use gearcomp_geometry::units::{name}",
+                        n + 1
+                    ));
+                }
+            }
+            for name in &consts {
+                let words: Vec<&str> = line
+                    .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .filter(|w| !w.is_empty())
+                    .collect();
+                let declared = words
+                    .windows(2)
+                    .any(|w| (w[0] == "const" || w[0] == "static") && w[1] == name);
+                if declared && !known(n + 1) {
                     failures.push(format!(
                         "{file}:{}: declares `{name}` again; use gearcomp_geometry::units::{name}",
                         n + 1
