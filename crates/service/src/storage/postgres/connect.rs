@@ -3,7 +3,21 @@
 //! checking, `verify-full` checks the chain to `storage.ca_file` and the host name), and
 //! messages that never show a password.
 
-use super::*;
+use std::str::FromStr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use postgres::config::SslMode;
+use postgres::{Client, Config, NoTls};
+use rustls::client::danger::{HandshakeSignatureValid, ServerCertVerified, ServerCertVerifier};
+use rustls::crypto::{verify_tls12_signature, verify_tls13_signature, CryptoProvider};
+use rustls::pki_types::pem::PemObject;
+use rustls::pki_types::{CertificateDer, ServerName, UnixTime};
+use rustls::{ClientConfig, DigitallySignedStruct, RootCertStore, SignatureScheme};
+use tokio_postgres_rustls::MakeRustlsConnect;
+
+use crate::config::{split_sslmode, ServiceConfig, TlsMode};
+use crate::error::{invalid, Result, ServiceError};
 
 /// How to reach the server: the parsed settings and the TLS connector they need.
 #[derive(Clone)]

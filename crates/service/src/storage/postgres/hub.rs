@@ -15,11 +15,24 @@
 //! and its session.
 
 use std::collections::HashMap;
+use std::collections::VecDeque;
 use std::sync::atomic::AtomicU64;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::Receiver;
 use std::sync::mpsc::{channel, Sender, TryRecvError};
 use std::sync::OnceLock;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
-use super::*;
+use postgres::Client;
+
+use super::connect::Connection;
+use super::schema::LOCK_CLASS;
+use super::writer::{busy, write_chunks, Attempt, Part, Writer, CHUNK_RECORDS, SHUTDOWN_RETRY};
+use crate::config::Backoff;
+use crate::error::{Result, ServiceError};
+use crate::storage::Record;
 
 /// How often the collector empties the record queues into the inboxes.
 pub const COLLECT_EVERY: Duration = Duration::from_millis(2);

@@ -28,70 +28,45 @@
 //!   encrypts without checking the certificate (libpq's `require`), `verify-full` checks
 //!   the chain to `storage.ca_file` and the host name.
 //!
-//! Rooms: [`connect`] (settings, TLS, messages without passwords), [`schema`] (version,
-//! migrations), [`writer`] (the writer thread's state machine), [`spill`] (the local
-//! spill file); this file holds the store: registration and every read.
+//! Rooms: [`connect`] (settings, TLS, messages without passwords), [`common`] (the
+//! connection target the store and the writer share), [`schema`] (version, migrations),
+//! [`writer`] (the writer's state machine), [`hub`] (the shared writer of the process),
+//! [`spill`] (the local spill file); this file holds the store: registration and every
+//! read. Each room imports what it uses by name, never from this file.
 
 mod spill;
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::str::FromStr;
-use std::sync::atomic::Ordering;
 use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use postgres::binary_copy::BinaryCopyInWriter;
-use postgres::config::SslMode;
-use postgres::types::{ToSql, Type};
-use postgres::{Client, Config, NoTls};
-use rustls::client::danger::{HandshakeSignatureValid, ServerCertVerified, ServerCertVerifier};
-use rustls::crypto::{verify_tls12_signature, verify_tls13_signature, CryptoProvider};
-use rustls::pki_types::pem::PemObject;
-use rustls::pki_types::{CertificateDer, ServerName, UnixTime};
-use rustls::{ClientConfig, DigitallySignedStruct, RootCertStore, SignatureScheme};
-use tokio_postgres_rustls::MakeRustlsConnect;
+use postgres::Client;
 
-use super::{
+use crate::config::{Backoff, ServiceConfig};
+use crate::error::{invalid, Result};
+use crate::storage::{
     unix_now_s, AlarmRow, AuditRow, ExportData, IndexedRow, OffsetRow, Point, Range, Record,
     SeriesKind, Store, StoreStats, WriterParams,
 };
-use crate::config::{split_sslmode, Backoff, ServiceConfig, TlsMode};
-use crate::error::{invalid, Result, ServiceError};
+use common::Target;
+use connect::{connect_error, describe_connection, ConnectWith};
+use schema::LOCK_CLASS;
 use spill::Spill;
+use writer::{lock_machine, Writer};
 
+mod common;
 mod connect;
 mod hub;
 mod schema;
 mod writer;
 
-use connect::*;
 pub use connect::{connection_config, Connection};
 pub use hub::{COLLECT_EVERY, INBOX_RECORDS};
-use schema::*;
 pub use schema::{migrate, SCHEMA_VERSION};
 pub use writer::SHUTDOWN_RETRY;
-use writer::*;
-
-/// Connection settings and the machine's key, shared by the readers and the writer.
-#[derive(Clone)]
-struct Target {
-    conn: Connection,
-    describe: String,
-    machine: String,
-    machine_id: i32,
-    /// Which shared writer the machine joins: the settings its session depends on (kept
-    /// in memory only; it may hold the password's variable name, never shown).
-    hub_key: String,
-}
-
-impl Target {
-    fn connect(&self) -> Result<Client> {
-        self.conn.connect()
-    }
-}
 
 /// The PostgreSQL record of one machine.
 pub struct PgStore {
@@ -581,7 +556,9 @@ pub const RECORD_HANDOFF: usize = 1 << 12;
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
-    use super::*;
+    use super::connect::{describe_config, redact};
+    use postgres::Config;
+    use std::str::FromStr;
 
     #[test]
     fn passwords_never_appear_in_messages() {

@@ -1,7 +1,10 @@
 //! The plant schema: versioned in `gearcomp_schema`, migrations run once each under a
 //! transaction-level advisory lock so machines starting together do not race.
 
-use super::*;
+use postgres::Client;
+
+use crate::error::{invalid, Result};
+use crate::storage::unix_now_s;
 
 /// Schema version this build writes.
 pub const SCHEMA_VERSION: i32 = 2;

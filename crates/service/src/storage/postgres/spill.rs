@@ -21,8 +21,8 @@ use std::time::Instant;
 
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 
-use super::Record;
 use crate::error::{invalid, Result};
+use crate::storage::Record;
 
 const SCHEMA: &str = "
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);

@@ -4,7 +4,21 @@
 //! reconnection with back-off belong to the process's shared writer ([`super::hub`]), which
 //! drives one `Writer` per machine.
 
-use super::*;
+use std::collections::VecDeque;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use postgres::binary_copy::BinaryCopyInWriter;
+use postgres::types::{ToSql, Type};
+use postgres::Client;
+
+use super::common::Target;
+use super::schema::LOCK_CLASS;
+use super::spill::Spill;
+use crate::config::Backoff;
+use crate::error::{invalid, Result, ServiceError};
+use crate::storage::{unix_now_s, Record, StoreStats, WriterParams};
 
 /// Most records written in one transaction when catching up after an outage.
 pub(super) const CHUNK_RECORDS: usize = 100_000;
