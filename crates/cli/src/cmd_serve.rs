@@ -1,6 +1,6 @@
 //! `gearcomp serve`: the compensation service (see `docs/service.md`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use gearcomp_service::{serve_many, MachineEntry, Overrides, ServiceConfig};
@@ -63,21 +63,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", gearcomp_service::auth::hash_token(t));
         return Ok(());
     }
-    let machines = match args.config.as_slice() {
-        [] => vec![MachineEntry {
-            source: "(default)".into(),
-            config: ServiceConfig::default(),
-        }],
-        paths => paths
-            .iter()
-            .map(|p| {
-                Ok(MachineEntry {
-                    source: p.display().to_string(),
-                    config: ServiceConfig::load(p)?,
-                })
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?,
-    };
+    let machines = load_machines(&args.config)?;
     if args.export_csv.is_some() && machines.len() > 1 {
         anyhow::bail!(
             "invalid --export-csv with {} --config: expected one machine's configuration",
@@ -92,59 +78,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 machines.len()
             );
         }
-        let mut cfg = cfg.clone();
-        if let Some(db) = &args.db {
-            cfg.storage.path = db.clone();
-        }
-        let store = gearcomp_service::storage::open_store(&cfg)?;
-        use gearcomp_service::auth;
-        auth::secure_record(&cfg, None)?;
-        if let Some(role) = &args.issue_token {
-            let role = gearcomp_service::config::Role::from_name(role).ok_or_else(|| {
-                anyhow::anyhow!("invalid --issue-token = {role:?}: expected operator or read_only")
-            })?;
-            let file = args.token_file.clone().unwrap_or_default();
-            let id = auth::issue_token(&*store, role, &file)?;
-            println!(
-                "issued {} token {id} in {}; written to {} (owner-only)",
-                role.name(),
-                store.describe(),
-                file.display()
-            );
-        }
-        if let Some(id) = &args.revoke_token {
-            let n = auth::revoke_token(&*store, id)?;
-            println!("revoked {n} token(s) with id {id} in {}", store.describe());
-        }
-        if args.list_tokens {
-            for (id, role) in auth::list_tokens(&*store)? {
-                println!("{id} {}", role.name());
-            }
-        }
-        return Ok(());
-    }
-    if let (Some(out), None, gearcomp_service::config::StorageBackend::Postgres) =
-        (&args.export_csv, &args.db, cfg.storage.backend)
-    {
-        // The record is this machine's rows in the PostgreSQL database of the config.
-        let store = gearcomp_service::storage::open_store(cfg)?;
-        let rows = gearcomp_service::storage::export_csv_from(&*store, out)
-            .with_context(|| format!("export {} to {}", store.describe(), out.display()))?;
-        println!("wrote {} ({rows} rows)", out.display());
-        return Ok(());
+        return token_commands(&args, cfg);
     }
     if let Some(out) = &args.export_csv {
-        let db = args.db.clone().unwrap_or_else(|| cfg.storage.path.clone());
-        if !db.exists() {
-            anyhow::bail!(
-                "invalid --db = {}: expected an existing record",
-                db.display()
-            );
-        }
-        let rows = gearcomp_service::storage::export_csv(&db, out)
-            .with_context(|| format!("export {} to {}", db.display(), out.display()))?;
-        println!("wrote {} ({rows} rows)", out.display());
-        return Ok(());
+        return export_csv(out, args.db.as_ref(), cfg);
     }
     serve_many(
         machines,
@@ -155,5 +92,82 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             db: args.db,
         },
     )?;
+    Ok(())
+}
+
+/// The machines of the `--config` files, or the embedded default without one.
+fn load_machines(config: &[PathBuf]) -> anyhow::Result<Vec<MachineEntry>> {
+    Ok(match config {
+        [] => vec![MachineEntry {
+            source: "(default)".into(),
+            config: ServiceConfig::default(),
+        }],
+        paths => paths
+            .iter()
+            .map(|p| {
+                Ok(MachineEntry {
+                    source: p.display().to_string(),
+                    config: ServiceConfig::load(p)?,
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?,
+    })
+}
+
+/// `--issue-token`, `--revoke-token`, `--list-tokens` on the record of `cfg` (or `--db`).
+fn token_commands(args: &Args, cfg: &ServiceConfig) -> anyhow::Result<()> {
+    let mut cfg = cfg.clone();
+    if let Some(db) = &args.db {
+        cfg.storage.path = db.clone();
+    }
+    let store = gearcomp_service::storage::open_store(&cfg)?;
+    use gearcomp_service::auth;
+    auth::secure_record(&cfg, None)?;
+    if let Some(role) = &args.issue_token {
+        let role = gearcomp_service::config::Role::from_name(role).ok_or_else(|| {
+            anyhow::anyhow!("invalid --issue-token = {role:?}: expected operator or read_only")
+        })?;
+        let file = args.token_file.clone().unwrap_or_default();
+        let id = auth::issue_token(&*store, role, &file)?;
+        println!(
+            "issued {} token {id} in {}; written to {} (owner-only)",
+            role.name(),
+            store.describe(),
+            file.display()
+        );
+    }
+    if let Some(id) = &args.revoke_token {
+        let n = auth::revoke_token(&*store, id)?;
+        println!("revoked {n} token(s) with id {id} in {}", store.describe());
+    }
+    if args.list_tokens {
+        for (id, role) in auth::list_tokens(&*store)? {
+            println!("{id} {}", role.name());
+        }
+    }
+    Ok(())
+}
+
+/// `--export-csv`: the machine's rows of the PostgreSQL database of `cfg` (without `--db`),
+/// else the SQLite record `--db` or `storage.path`.
+fn export_csv(out: &Path, db: Option<&PathBuf>, cfg: &ServiceConfig) -> anyhow::Result<()> {
+    if let (None, gearcomp_service::config::StorageBackend::Postgres) = (db, cfg.storage.backend) {
+        // The record is this machine's rows in the PostgreSQL database of the config.
+        let store = gearcomp_service::storage::open_store(cfg)?;
+        let rows = gearcomp_service::storage::export_csv_from(&*store, out)
+            .with_context(|| format!("export {} to {}", store.describe(), out.display()))?;
+        println!("wrote {} ({rows} rows)", out.display());
+        return Ok(());
+    }
+    let db = db.cloned().unwrap_or_else(|| cfg.storage.path.clone());
+    if !db.exists() {
+        anyhow::bail!(
+            "invalid --db = {}: expected an existing record",
+            db.display()
+        );
+    }
+    let rows = gearcomp_service::storage::export_csv(&db, out)
+        .with_context(|| format!("export {} to {}", db.display(), out.display()))?;
+    println!("wrote {} ({rows} rows)", out.display());
     Ok(())
 }

@@ -1771,7 +1771,7 @@ fn function_lengths(src: &str) -> Vec<(String, usize, usize)> {
 /// The longest function allowed in `crates/cli/src` (lines from `fn` to its closing
 /// brace): the largest left after the domain code moved into the library crates (issue
 /// 15); lower it as functions are split, never raise it.
-const MAX_CLI_FN_LINES: usize = 99;
+const MAX_CLI_FN_LINES: usize = 58;
 
 /// Functions longer than this are listed in the test output.
 const REPORT_CLI_FN_LINES: usize = 60;
