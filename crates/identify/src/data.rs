@@ -664,9 +664,20 @@ impl Reader<'_> {
     fn file(&mut self, fi: usize, text: &str, name: &str, many: bool) -> Result<()> {
         let sel = self.sel;
         let text = dialect::strip_bom(text);
+        // Excel's `sep=;` first line: its delimiter, and the line read as a blank one (line
+        // numbers stay those of the file; the header is line 2).
+        let hinted;
+        let (text, hint) = match dialect::excel_sep_hint(text) {
+            Some((d, rest)) => {
+                hinted = format!("\n{rest}");
+                (hinted.as_str(), Some(d))
+            }
+            None => (text, None),
+        };
         let delimiter = self
             .opts
             .delimiter
+            .or(hint)
             .unwrap_or_else(|| dialect::detect_delimiter(text));
         let dialect = Dialect {
             delimiter,

@@ -70,6 +70,20 @@ pub fn parse_delimiter(s: &str) -> crate::Result<u8> {
     }
 }
 
+/// Excel's delimiter line: a first line `sep=X` (X one of `,` `;` tab): X and the text after
+/// that line.
+pub fn excel_sep_hint(text: &str) -> Option<(u8, &str)> {
+    let (first, rest) = text.split_once('\n').unwrap_or((text, ""));
+    let first = first.strip_suffix('\r').unwrap_or(first);
+    let d = first
+        .strip_prefix("sep=")
+        .or_else(|| first.strip_prefix("SEP="))?;
+    match d.as_bytes() {
+        [c @ (b',' | b';' | b'\t')] => Some((*c, rest)),
+        _ => None,
+    }
+}
+
 /// Counts of `,` `;` and tab outside double quotes in `line`.
 fn counts(line: &str) -> [usize; 3] {
     let mut n = [0usize; 3];
@@ -260,6 +274,9 @@ mod tests {
         assert!(detect_decimal_comma("t;a\n0;20,125\n", b';'));
         assert!(!detect_decimal_comma("t;a\n0;20.125\n", b';'));
         assert!(!detect_decimal_comma("t,a\n0,\"20,125\"\n", b','));
+        assert_eq!(excel_sep_hint("sep=;\r\na;b\r\n"), Some((b';', "a;b\r\n")));
+        assert_eq!(excel_sep_hint("sep=|\na|b\n"), None);
+        assert_eq!(excel_sep_hint("time_s;a\n"), None);
         assert!(is_comma_decimal("-1,5E-3"));
         assert!(is_comma_decimal("\"20,125\""));
         assert!(!is_comma_decimal("1,5,3"));

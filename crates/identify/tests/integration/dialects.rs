@@ -463,3 +463,32 @@ fn time_stamps_restart_per_run() {
     assert_eq!(t.inputs[0], vec![20.5, 21.0, 20.0, 21.25]);
     assert_eq!(t.segments, vec![0, 2]);
 }
+
+/// Excel's `sep=;` first line names the delimiter; line numbers stay the file's (header on
+/// line 2, so the first data row is line 3).
+#[test]
+fn excel_sep_line_names_the_delimiter() {
+    let body = "time_s;a_c;d_um\r\n0;20,5;1\r\n60;21;2\r\n120;x;3\r\n180;22;4\r\n";
+    let s = Selection {
+        targets: vec!["d_um".into()],
+        ..sel()
+    };
+    let text = format!("\u{feff}sep=;\r\n{body}");
+    let e = read_csv(&text, "log.csv", &s, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("at line(s) 5: a_c = \"x\""), "{e}");
+    let t = read_csv(
+        &text,
+        "log.csv",
+        &s,
+        ReadOptions {
+            skip_bad_rows: true,
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(t.time_s, vec![0.0, 60.0, 180.0]);
+    assert_eq!(t.inputs[0], vec![20.5, 21.0, 22.0]);
+    assert_eq!(t.lines, vec![3, 4, 6]);
+}
