@@ -8,21 +8,7 @@ use crate::common;
 
 use common::{engine_ab, free_port, start_with, Api};
 // The temperature module stand-in of `modbus_output` (registers, coils, a write log).
-use crate::modbus_output::Module;
-use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
-
-async fn serve_module(port: u16, m: Module) {
-    let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
-        .await
-        .unwrap();
-    let server = Server::new(listener);
-    let new_service = move |_addr| Ok(Some(m.clone()));
-    let on_connected = |stream, addr| {
-        let ns = new_service.clone();
-        async move { accept_tcp_connection(stream, addr, ns) }
-    };
-    let _ = server.serve(&on_connected, |_e| {}).await;
-}
+use crate::modbus_output::{serve_module, Module};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn modbus_module_in_offset_register_out() {

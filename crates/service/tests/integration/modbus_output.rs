@@ -83,6 +83,21 @@ impl tokio_modbus::server::Service for Module {
     }
 }
 
+/// Serves the module on 127.0.0.1:`port` (Modbus TCP, every connection to the same
+/// registers) until the task ends.
+pub async fn serve_module(port: u16, m: Module) {
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
+        .await
+        .unwrap();
+    let server = Server::new(listener);
+    let new_service = move |_addr| Ok(Some(m.clone()));
+    let on_connected = |stream, addr| {
+        let ns = new_service.clone();
+        async move { accept_tcp_connection(stream, addr, ns) }
+    };
+    let _ = server.serve(&on_connected, |_e| {}).await;
+}
+
 /// A device on its own runtime: dropping it closes every connection, as a power cycle
 /// does.
 pub struct Device {
@@ -96,18 +111,7 @@ impl Device {
             .enable_all()
             .build()
             .unwrap();
-        rt.spawn(async move {
-            let listener = tokio::net::TcpListener::bind(("127.0.0.1", port))
-                .await
-                .unwrap();
-            let server = Server::new(listener);
-            let new_service = move |_addr| Ok(Some(m.clone()));
-            let on_connected = |stream, addr| {
-                let ns = new_service.clone();
-                async move { accept_tcp_connection(stream, addr, ns) }
-            };
-            let _ = server.serve(&on_connected, |_e| {}).await;
-        });
+        rt.spawn(serve_module(port, m));
         Self { rt: Some(rt) }
     }
 }
