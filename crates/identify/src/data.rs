@@ -956,8 +956,15 @@ impl Reader<'_> {
                     fi,
                     line,
                     format!(
-                        "{} = {time} does not increase (previous {prev}){}",
+                        "{} = {} does not increase (previous {prev}{}){}",
                         sel.time,
+                        // A time stamp: the text as written, and s since the run's first.
+                        match (st.stamps, c.time_idx.and_then(|ti| rec.get(ti))) {
+                            (Some(true), Some(s)) =>
+                                format!("{s:?} ({time} s after the run's first stamp)"),
+                            _ => time.to_string(),
+                        },
+                        if st.stamps == Some(true) { " s" } else { "" },
                         if c.run_idx.is_some() {
                             " within the run"
                         } else {
