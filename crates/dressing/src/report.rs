@@ -25,8 +25,7 @@ use crate::topological_request::TopologicalOutcome;
 use crate::worm::{Flank, Worm};
 use crate::{DressError, Result};
 
-/// Micrometres per millimetre.
-const UM_PER_MM: f64 = 1e3;
+use gearcomp_geometry::units::UM_PER_MM;
 
 /// Points of the dresser axial profile in the design summary (201, end points included).
 const PROFILE_STEPS: u32 = 200;

@@ -1641,12 +1641,7 @@ fn unit_conversion_claims(src: &str) -> Vec<(usize, String)> {
 
 /// Second homes of unit conversion left in files other work owns while issue 15 is under
 /// way: (file, text on the line, why it is still here). Delete an entry when it is fixed.
-const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 1] = [(
-    "crates/dressing/src/report.rs",
-    "const UM_PER_MM: f64 = 1e3;",
-    "the dressing report moved out of the CLI during issue 15 by another helper; the fix is \
-     `use gearcomp_geometry::units::UM_PER_MM;`",
-)];
+const UNIT_CONVERSION_KNOWN: [(&str, &str, &str); 0] = [];
 
 #[test]
 fn architecture_one_module_of_unit_conversion() {
