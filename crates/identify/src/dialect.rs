@@ -138,15 +138,15 @@ fn is_comma_decimal(s: &str) -> bool {
 }
 
 /// Whether a log with delimiter `delim` (`;` or tab) writes its numbers with a decimal
-/// comma: some cell of its first 50 data lines is a number with a decimal comma. Never for
-/// a comma delimiter.
+/// comma: some cell of a data line is a number with a decimal comma (the scan stops at the
+/// first; a log whose first hours are whole numbers is still found). Never for a comma
+/// delimiter.
 pub fn detect_decimal_comma(text: &str, delim: u8) -> bool {
     if delim == b',' {
         return false;
     }
     text.lines()
         .skip(1)
-        .take(50)
         .any(|l| l.split(delim as char).any(is_comma_decimal))
 }
 
@@ -178,6 +178,9 @@ pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, Cell
         Err(_) if s.is_empty() => Err(CellError::Missing(format!("{col} is empty"))),
         Err(_) if decimal_comma => Err(CellError::Bad(format!(
             "{col} = {s:?} is not a number (expected a number with a decimal comma, e.g. 20,125)"
+        ))),
+        Err(_) if is_comma_decimal(s) => Err(CellError::Bad(format!(
+            "{col} = {s:?} is not a number (written with a decimal comma: the log's delimiter must be ';' or tab, force the form with --decimal-comma)"
         ))),
         Err(_) => Err(CellError::Bad(format!("{col} = {s:?} is not a number"))),
     }
@@ -273,6 +276,12 @@ mod tests {
         assert_eq!(detect_delimiter("\"a;b\",c\n"), b',');
         assert!(detect_decimal_comma("t;a\n0;20,125\n", b';'));
         assert!(!detect_decimal_comma("t;a\n0;20.125\n", b';'));
+        let late = format!("t;a\n{}1000;20,5\n", "0;20\n".repeat(500));
+        assert!(detect_decimal_comma(&late, b';'));
+        assert!(matches!(
+            parse_number("20,5", "a_c", false),
+            Err(CellError::Bad(m)) if m.contains("--decimal-comma")
+        ));
         assert!(!detect_decimal_comma("t,a\n0,\"20,125\"\n", b','));
         assert_eq!(excel_sep_hint("sep=;\r\na;b\r\n"), Some((b';', "a;b\r\n")));
         assert_eq!(excel_sep_hint("sep=|\na|b\n"), None);
