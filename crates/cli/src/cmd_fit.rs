@@ -133,7 +133,8 @@ pub struct Args {
     /// Input (temperature) columns: names or glob patterns. Default: every "*_c" column.
     #[arg(long, num_args = 1.., default_value = "*_c")]
     pub inputs: Vec<String>,
-    /// Name of the time column (seconds, strictly increasing).
+    /// Name of the time column: seconds, or time stamps (ISO 8601 or dd.mm.yyyy hh:mm:ss),
+    /// increasing within each run; DATE+TIME names a date and a time-of-day column.
     #[arg(long, default_value = "time_s")]
     pub time_column: String,
     /// Column naming the run of each row (time restarts in each run): validation by

@@ -246,6 +246,9 @@ pub fn read_csv(text: &str, name: &str, sel: &Selection, opts: ReadOptions) -> R
 struct Cols<'a> {
     header: &'a [String],
     time_idx: Option<usize>,
+    /// Time-of-day column when the time is a date column and a time column
+    /// (`--time-column DATE+TIME`): the row's stamp is "date time".
+    time2_idx: Option<usize>,
     run_idx: Option<usize>,
     input_idx: Vec<usize>,
     target_idx: Vec<usize>,
@@ -705,6 +708,13 @@ impl Reader<'_> {
             .iter()
             .map(str::to_string)
             .collect();
+        // `DATE+TIME`: a date column and a time-of-day column (when no column has that name).
+        let date_time = sel.time.split_once('+').filter(|(d, t)| {
+            !header.contains(&sel.time)
+                && header.iter().any(|h| h == d)
+                && header.iter().any(|h| h == t)
+        });
+        let mut time2_idx = None;
         let time_idx = match self.opts.sample_interval_s {
             Some(dt) => {
                 if header.contains(&sel.time) {
@@ -718,6 +728,11 @@ impl Reader<'_> {
                     ));
                 }
                 None
+            }
+            None if date_time.is_some() => {
+                let (d, t) = date_time.unwrap_or_default();
+                time2_idx = header.iter().position(|h| h == t);
+                header.iter().position(|h| h == d)
             }
             None => {
                 if !header.contains(&sel.time) {
@@ -737,7 +752,11 @@ impl Reader<'_> {
             Some(r) => Some(resolve(std::slice::from_ref(r), &header, &[])?[0]),
             None => None,
         };
-        let mut excl: Vec<usize> = time_idx.into_iter().chain(run_idx).collect();
+        let mut excl: Vec<usize> = time_idx
+            .into_iter()
+            .chain(time2_idx)
+            .chain(run_idx)
+            .collect();
         let target_idx = resolve(&sel.targets, &header, &excl)?;
         excl.extend(target_idx.iter().copied());
         let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)?
@@ -783,6 +802,7 @@ impl Reader<'_> {
         let c = Cols {
             header: &header,
             time_idx,
+            time2_idx,
             run_idx,
             input_idx,
             target_idx,
@@ -922,8 +942,18 @@ impl Reader<'_> {
                 }
             }
         }
+        let time_text: std::borrow::Cow<str> = match (c.time_idx, c.time2_idx) {
+            (Some(ti), Some(t2)) => format!(
+                "{} {}",
+                rec.get(ti).copied().unwrap_or(""),
+                rec.get(t2).copied().unwrap_or("")
+            )
+            .into(),
+            (Some(ti), None) => rec.get(ti).copied().unwrap_or("").into(),
+            _ => "".into(),
+        };
         let time = match (c.time_idx, self.opts.sample_interval_s) {
-            (Some(ti), _) => time_cell(rec.get(ti).copied().unwrap_or(""), &c.header[ti], dc, st),
+            (Some(_), _) => time_cell(time_text.trim(), &sel.time, dc, st),
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };
@@ -959,10 +989,10 @@ impl Reader<'_> {
                         "{} = {} does not increase (previous {prev}{}){}",
                         sel.time,
                         // A time stamp: the text as written, and s since the run's first.
-                        match (st.stamps, c.time_idx.and_then(|ti| rec.get(ti))) {
-                            (Some(true), Some(s)) =>
-                                format!("{s:?} ({time} s after the run's first stamp)"),
-                            _ => time.to_string(),
+                        if st.stamps == Some(true) {
+                            format!("{time_text:?} ({time} s after the run's first stamp)")
+                        } else {
+                            time.to_string()
                         },
                         if st.stamps == Some(true) { " s" } else { "" },
                         if c.run_idx.is_some() {

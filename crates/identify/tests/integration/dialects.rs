@@ -492,3 +492,35 @@ fn excel_sep_line_names_the_delimiter() {
     assert_eq!(t.inputs[0], vec![20.5, 21.0, 22.0]);
     assert_eq!(t.lines, vec![3, 4, 6]);
 }
+
+/// A date column and a time-of-day column (`--time-column Datum+Uhrzeit`, as Siemens and
+/// Heidenhain exports write them) are one time stamp; neither is taken as an input.
+#[test]
+fn date_and_time_columns_make_one_stamp() {
+    let text = "Datum;Uhrzeit;a_c;d_um\n29.02.2024;23:59:00;20,5;1\n01.03.2024;00:00:30;21;2\n01.03.2024;00:01:30;22;3\n01.03.2024;00:01:30;23;4\n";
+    let s = Selection {
+        time: "Datum+Uhrzeit".into(),
+        inputs: vec!["*".into()],
+        targets: vec!["d_um".into()],
+        run: None,
+    };
+    let e = read_csv(text, "log.csv", &s, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("at line(s) 5: Datum+Uhrzeit = \"01.03.2024 00:01:30\" (150 s after the run's first stamp) does not increase (previous 150 s)"),
+        "{e}"
+    );
+    let t = read_csv(
+        text,
+        "log.csv",
+        &s,
+        ReadOptions {
+            skip_bad_rows: true,
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(t.input_names, vec!["a_c"]);
+    assert_eq!(t.time_s, vec![0.0, 90.0, 150.0]);
+}
