@@ -9,13 +9,13 @@ use anyhow::Context as _;
 use gearcomp_core::model::{ReferenceRadius, ShrinkGear, ShrinkMethod, WorkpieceShrink};
 use gearcomp_identify::data::{read_runs, MissingCells, ReadOptions, Selection, Table};
 use gearcomp_identify::dialect::parse_delimiter;
-use gearcomp_identify::identify::{
-    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
-    Split, TargetModel,
-};
 use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::workpiece_shrink;
+use gearcomp_identify::{
+    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
+    Split, TargetModel,
+};
 
 /// Model kind (`--model`).
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]

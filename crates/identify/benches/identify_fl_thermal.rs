@@ -12,8 +12,8 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use gearcomp_core::model::Transform;
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection};
-use gearcomp_identify::identify::{identify, IdentifyOptions};
 use gearcomp_identify::transform::TransformState;
+use gearcomp_identify::{identify, IdentifyOptions};
 
 fn bench(c: &mut Criterion) {
     let text = gearcomp_datasets::fl_thermal_csv().unwrap();
@@ -33,7 +33,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| identify(black_box(&table), &opts).unwrap())
     });
     let dynamic = IdentifyOptions {
-        model: gearcomp_identify::identify::ModelKind::Dynamic,
+        model: gearcomp_identify::ModelKind::Dynamic,
         ..IdentifyOptions::default()
     };
     g.bench_function("identify_dynamic-16sensors-5targets-11115rows", |b| {
@@ -76,7 +76,7 @@ fn bench(c: &mut Criterion) {
         })
     });
     let static_opts = IdentifyOptions {
-        model: gearcomp_identify::identify::ModelKind::Static,
+        model: gearcomp_identify::ModelKind::Static,
         classes: Some(6),
         ..IdentifyOptions::default()
     };
@@ -85,8 +85,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             let id = identify(black_box(&static_table), &static_opts).unwrap();
             let base =
-                gearcomp_identify::identify::plain_least_squares(&static_table, &static_opts.split)
-                    .unwrap();
+                gearcomp_identify::plain_least_squares(&static_table, &static_opts.split).unwrap();
             (id, base)
         })
     });

@@ -6,8 +6,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection};
-use gearcomp_identify::identify::{identify, plain_least_squares, IdentifyOptions, Split};
 use gearcomp_identify::select::Family;
+use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 
 fn main() {
     let text = gearcomp_datasets::fl_thermal_csv().unwrap();

@@ -1,7 +1,7 @@
 //! What an identification takes and gives: the options, the model families compared, the
 //! identified models and the model file they make, and the row helpers (row selection by a
 //! mask, RMSE over a mask, a model's prediction over a table) that both the fixed model
-//! kinds ([`crate::identify`]) and the family comparison ([`crate::select`]) use. It imports
+//! kinds ([`crate::pipeline`]) and the family comparison ([`crate::select`]) use. It imports
 //! neither of them, so they and [`crate::envelope`] import from here and not from each other.
 
 use crate::cluster::Dendrogram;

@@ -2,13 +2,13 @@
 //!
 //! Reads a thermal-test log ([`data`]), groups the temperature sensors by fuzzy-equivalence
 //! clustering of their correlation ([`cluster`]), keeps one representative per class, fits
-//! static or dynamic least-squares models ([`regress`], [`identify`]) validated on held-out
+//! static or dynamic least-squares models ([`regress`], [`pipeline`], [`identify()`]) validated on held-out
 //! data, adds the dry-hobbing workpiece shrink ([`workpiece`]), and produces the thermal
 //! model file of `gearcomp_core::model` that the compensation engine runs; [`report`]
 //! renders a fit as text, JSON and HTML.
 //!
 //! ```
-//! use gearcomp_identify::{data, identify};
+//! use gearcomp_identify::{data, identify, IdentifyOptions, ModelKind, Split};
 //! let csv = "time_s,a_c,b_c,c_c,d_um\n".to_string()
 //!     + &(0..60).map(|k| {
 //!         let t = k as f64 * 60.0;
@@ -19,11 +19,11 @@
 //!     }).collect::<String>();
 //! let sel = data::Selection { targets: vec!["d_um".into()], ..Default::default() };
 //! let table = data::read_csv(&csv, "example", &sel, Default::default()).unwrap();
-//! let opts = identify::IdentifyOptions {
-//!     model: identify::ModelKind::Static, classes: Some(3), split: identify::Split::None,
+//! let opts = IdentifyOptions {
+//!     model: ModelKind::Static, classes: Some(3), split: Split::None,
 //!     ..Default::default()
 //! };
-//! let id = identify::identify(&table, &opts).unwrap();
+//! let id = identify(&table, &opts).unwrap();
 //! assert!(id.targets[0].train_rmse < 1e-9);
 //! ```
 
@@ -34,7 +34,7 @@ pub mod dialect;
 pub mod envelope;
 pub mod error;
 pub mod fit;
-pub mod identify;
+pub mod pipeline;
 pub mod regress;
 pub mod report;
 pub mod select;
@@ -43,3 +43,9 @@ pub mod transform;
 pub mod workpiece;
 
 pub use error::{IdentifyError, Result};
+
+pub use fit::{
+    predict, Grouping, Identification, IdentifyOptions, ModelKind, Origin, RepresentativeBy, Split,
+    TargetModel,
+};
+pub use pipeline::{drop_degenerate_inputs, folds, identify, plain_least_squares, train_mask};

@@ -18,8 +18,8 @@ use thiserror::Error;
 use crate::cluster::Dendrogram;
 use crate::data::Table;
 use crate::dendrogram::dendrogram_svg;
-use crate::identify::{Identification, Split, TargetModel};
 use crate::workpiece::{combined_offsets_um, shrink_offset_um};
+use crate::{Identification, Split, TargetModel};
 
 /// Most points drawn per line series of a chart.
 const MAX_LINE_POINTS: usize = 2500;
@@ -151,7 +151,7 @@ pub struct FitReport<'a> {
     /// The identification.
     pub id: &'a Identification,
     /// Per target: train and test RMSE (µm) of plain least squares on every input
-    /// (`identify::plain_least_squares`).
+    /// (`pipeline::plain_least_squares`).
     pub plain_ls: &'a [(f64, Option<f64>)],
     /// The train/test split used.
     pub split: &'a Split,
@@ -648,7 +648,7 @@ mod tests {
     use super::*;
     use crate::cluster::Merge;
     use crate::data::{read_csv, Selection};
-    use crate::identify::{identify, plain_least_squares, IdentifyOptions, ModelKind, Origin};
+    use crate::{identify, plain_least_squares, IdentifyOptions, ModelKind, Origin};
 
     #[test]
     fn figures_print_dash_for_non_finite_values() {

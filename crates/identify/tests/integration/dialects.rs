@@ -9,7 +9,7 @@
 
 use chrono::DateTime;
 use gearcomp_identify::data::{read_csv, DataIssue, MissingCells, ReadOptions, Selection, Table};
-use gearcomp_identify::identify::{identify, IdentifyOptions, ModelKind, Split};
+use gearcomp_identify::{identify, IdentifyOptions, ModelKind, Split};
 use proptest::prelude::*;
 
 /// xorshift64: the generated log's content.

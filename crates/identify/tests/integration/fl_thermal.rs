@@ -7,9 +7,9 @@
 
 use gearcomp_core::model::Transform;
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
-use gearcomp_identify::identify::{identify, plain_least_squares, IdentifyOptions, Split};
 use gearcomp_identify::regress::ols;
 use gearcomp_identify::transform::transform_series;
+use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 
 fn table() -> Table {
     let text = gearcomp_datasets::fl_thermal_csv().unwrap();
@@ -175,7 +175,7 @@ fn ols_coefficients_match_numpy_for_seed_vector_and_a_fixed_fl_thermal_case() {
 /// The lead–lag family with the 3-block cross-validation the numpy reference implements.
 fn dynamic() -> IdentifyOptions {
     IdentifyOptions {
-        model: gearcomp_identify::identify::ModelKind::Dynamic,
+        model: gearcomp_identify::ModelKind::Dynamic,
         ..IdentifyOptions::default()
     }
 }

@@ -7,8 +7,8 @@
 
 use gearcomp_core::model::Transform;
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
-use gearcomp_identify::identify::{train_mask, Split};
 use gearcomp_identify::select::{evaluate_fixed, FitSpec, FixedTerm};
+use gearcomp_identify::{train_mask, Split};
 
 fn table(runs: bool) -> Table {
     let text = gearcomp_datasets::fl_thermal_csv().unwrap();

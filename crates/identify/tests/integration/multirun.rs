@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
-use gearcomp_identify::identify::{identify, plain_least_squares, IdentifyOptions, Split};
+use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 use gearcomp_thermal::presets::hobbing;
 use gearcomp_thermal::Simulator;
 
@@ -130,7 +130,7 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
 #[test]
 #[allow(clippy::needless_range_loop)]
 fn every_family_runs_in_the_engine_as_fitted() {
-    use gearcomp_identify::identify::predict;
+    use gearcomp_identify::predict;
     use gearcomp_identify::select::Family;
     use gearcomp_thermal::config::{TimeFilterConfig, Trigger};
     use gearcomp_thermal::presets::HOBBING_MODEL_KEY;

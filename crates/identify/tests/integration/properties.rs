@@ -94,7 +94,7 @@ proptest! {
         c0 in -20.0..20.0f64, a in 0.5..5.0f64, b in 0.5..5.0f64,
         ti in 0usize..8, seed in 0u64..1000,
     ) {
-        use gearcomp_identify::identify::{identify, IdentifyOptions, Split};
+        use gearcomp_identify::{identify, IdentifyOptions, Split};
         let tau = IdentifyOptions::default().taus_s[ti];
         let text = lagged_runs(c0, a, b, tau, seed);
         let sel = Selection { targets: vec!["y_um".into()], run: Some("run".into()), ..Selection::default() };
@@ -109,7 +109,7 @@ proptest! {
     fn invalid_splits_and_inputs_give_clear_errors(
         which in 0usize..4, run in "[a-z]{1,4}", hours in 1.0e3..1.0e5f64, seed in 0u64..100,
     ) {
-        use gearcomp_identify::identify::{identify, IdentifyOptions, Split};
+        use gearcomp_identify::{identify, IdentifyOptions, Split};
         let text = lagged_runs(1.0, 1.0, 1.0, 600.0, seed);
         let sel = Selection { targets: vec!["y_um".into()], run: Some("run".into()), ..Selection::default() };
         let t = read_csv(&text, "lagged", &sel, ReadOptions::default()).unwrap();

@@ -5,7 +5,7 @@
 
 use gearcomp_core::model::{LinearModel, Term, Transform};
 use gearcomp_identify::data::{read_csv, read_runs, ReadOptions, Selection};
-use gearcomp_identify::identify::{identify, predict, IdentifyOptions, ModelKind, Split};
+use gearcomp_identify::{identify, predict, IdentifyOptions, ModelKind, Split};
 
 fn sel(run: Option<&str>) -> Selection {
     Selection {
@@ -263,7 +263,7 @@ fn constant_and_duplicated_sensors_are_dropped_with_a_note() {
 #[test]
 fn model_file_of_an_identification() {
     use gearcomp_core::model::ModelFile;
-    use gearcomp_identify::identify::Origin;
+    use gearcomp_identify::Origin;
     let mut rows = run_rows(0, 300, 60.0);
     rows.extend(
         run_rows(1, 300, 60.0)

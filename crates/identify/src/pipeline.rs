@@ -5,8 +5,8 @@
 use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
-pub use crate::fit::{
-    predict, Grouping, Identification, IdentifyOptions, ModelKind, Origin, RepresentativeBy, Split,
+use crate::fit::{
+    predict, Grouping, Identification, IdentifyOptions, ModelKind, RepresentativeBy, Split,
     TargetModel,
 };
 use crate::fit::{rmse_where, select_rows};
