@@ -79,6 +79,10 @@ pub enum DressError {
     /// the TOML keys, the values and what is allowed.
     #[error("{0}")]
     Request(String),
+    /// The TOML text cannot be read as the expected tables and keys (syntax, a missing or
+    /// unknown key, a wrong type); the message names the key and its line.
+    #[error("{0}")]
+    Toml(String),
     /// `source` happened while doing `what` (a TOML key or a step of the computation).
     #[error("{what}")]
     During {

@@ -42,6 +42,7 @@
 //! ```
 
 pub mod campaign;
+pub mod config;
 pub mod dresser;
 pub mod envelope;
 pub mod error;
