@@ -296,4 +296,52 @@ mod tests {
         assert!(options.zero_stretch);
         assert!((options.alpha_search_rad - 2.0 * std::f64::consts::PI / 180.0).abs() < 1e-15);
     }
+
+    /// The file as `grind simulate --dress` reads it: `[dressing]` defaults to the uncorrected
+    /// worm, `[solve]`/`[plan]` are skipped unread, other tables are refused by name, and a bad
+    /// `[worm]` / `[dresser]` value is reported during that table.
+    #[test]
+    fn grind_dress_config_schema() {
+        use crate::request::{DressingInput, GrindDressConfig};
+        let cfg = GrindDressConfig::from_toml_str(&format!(
+            "{WORM_DRESSER}[solve]\nanything = 1\n[plan]\nx = [1]\n"
+        ))
+        .unwrap();
+        assert_eq!(cfg.dressing, DressingInput::default());
+        assert_eq!(cfg.dresser.jacket_width_mm, 0.8);
+        let (worm, _dresser) = cfg.design().unwrap();
+        assert_eq!(worm.z_s, 1);
+        assert_eq!(worm.d_s0_mm, 280.0);
+        assert!((worm.alpha_n_rad - 20.0 * std::f64::consts::PI / 180.0).abs() < 1e-15);
+
+        let e = GrindDressConfig::from_toml_str(&format!("{WORM_DRESSER}[foo]\n")).unwrap_err();
+        assert!(e.to_string().contains("unknown field `foo`"), "{e}");
+        let e =
+            GrindDressConfig::from_toml_str(&format!("{WORM_DRESSER}[dressing]\ncrowning = 3\n"))
+                .unwrap_err();
+        assert!(e.to_string().contains("unknown field `crowning`"), "{e}");
+
+        let cfg =
+            GrindDressConfig::from_toml_str(&WORM_DRESSER.replace("starts = 1", "starts = 0"))
+                .unwrap();
+        match cfg.design().unwrap_err() {
+            DressError::During { what, source } => {
+                assert_eq!(what, "[worm]");
+                assert_eq!(
+                    source.to_string(),
+                    "z_s = 0 is outside the allowed range 1 ..= 20"
+                );
+            }
+            e => panic!("unexpected {e:?}"),
+        }
+        // Half the axial pitch of this worm is π·m_n/(2 cos γ) > 4.71 mm: 50 mm is refused.
+        let cfg = GrindDressConfig::from_toml_str(
+            &WORM_DRESSER.replace("jacket_width_mm = 0.8", "jacket_width_mm = 50"),
+        )
+        .unwrap();
+        match cfg.design().unwrap_err() {
+            DressError::During { what, .. } => assert_eq!(what, "[dresser]"),
+            e => panic!("unexpected {e:?}"),
+        }
+    }
 }

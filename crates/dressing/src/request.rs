@@ -294,6 +294,39 @@ impl<'de> Deserialize<'de> for IgnoredTable {
     }
 }
 
+impl GrindDressConfig {
+    /// Parses the TOML text of a `gearcomp dress` file as `grind simulate --dress` reads it.
+    /// A syntax error, a missing key, an unknown table or key is a [`DressError::Toml`] whose
+    /// message names the key and its line.
+    pub fn from_toml_str(text: &str) -> Result<GrindDressConfig> {
+        toml::from_str(text).map_err(|e: toml::de::Error| DressError::Toml(e.to_string()))
+    }
+
+    /// The new worm of `[worm]` and its dresser of `[dresser]`, designed by [`Worm::design`]
+    /// and [`Dresser::design`]; an error is the library's, caused during `[worm]` or
+    /// `[dresser]` ([`DressError::During`]).
+    pub fn design(&self) -> Result<(Worm, Dresser)> {
+        let wc = &self.worm;
+        let design = Worm::design(
+            wc.starts,
+            wc.diameter_mm,
+            wc.normal_module_mm,
+            wc.profile_angle_deg.to_radians(),
+        )
+        .map_err(|e| e.during("[worm]"))?;
+        let dresser = Dresser::design(
+            &design,
+            DresserSpec {
+                d_a_mm: self.dresser.diameter_mm,
+                jacket_width_mm: self.dresser.jacket_width_mm,
+                clearance_mm: self.dresser.clearance_mm,
+            },
+        )
+        .map_err(|e| e.during("[dresser]"))?;
+        Ok((design, dresser))
+    }
+}
+
 /// Solve method of `[solve] method`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

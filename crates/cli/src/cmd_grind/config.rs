@@ -295,25 +295,9 @@ pub(super) fn dress_worm(
 ) -> Result<(DressWorm, DressedProfile, DressedReport)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let cfg: GrindDressConfig =
-        toml::from_str(&text).with_context(|| format!("invalid TOML in {}", path.display()))?;
-    let wc = &cfg.worm;
-    let design = DressWorm::design(
-        wc.starts,
-        wc.diameter_mm,
-        wc.normal_module_mm,
-        deg_to_rad(wc.profile_angle_deg),
-    )
-    .context("[worm]")?;
-    let dresser = Dresser::design(
-        &design,
-        DresserSpec {
-            d_a_mm: cfg.dresser.diameter_mm,
-            jacket_width_mm: cfg.dresser.jacket_width_mm,
-            clearance_mm: cfg.dresser.clearance_mm,
-        },
-    )
-    .context("[dresser]")?;
+    let cfg = GrindDressConfig::from_toml_str(&text)
+        .with_context(|| format!("invalid TOML in {}", path.display()))?;
+    let (design, dresser) = cfg.design()?;
     let t = cfg.dressing.dress(&design, &dresser, flank)?;
     let worm = t.worm;
     let profile = DressedProfile::new(

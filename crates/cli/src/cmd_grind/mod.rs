@@ -34,7 +34,6 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Subcommand;
-use gearcomp_dressing::dresser::{Dresser, DresserSpec};
 use gearcomp_dressing::request::{DressedWormTable, GrindDressConfig};
 use gearcomp_dressing::worm::Worm as DressWorm;
 use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
