@@ -302,27 +302,12 @@ impl GrindDressConfig {
         toml::from_str(text).map_err(|e: toml::de::Error| DressError::Toml(e.to_string()))
     }
 
-    /// The new worm of `[worm]` and its dresser of `[dresser]`, designed by [`Worm::design`]
-    /// and [`Dresser::design`]; an error is the library's, caused during `[worm]` or
-    /// `[dresser]` ([`DressError::During`]).
+    /// The new worm of `[worm]` and its dresser of `[dresser]`, every key checked first
+    /// exactly as `gearcomp dress` checks them ([`WormInput::build`], [`DresserInput::build`]),
+    /// so an error names the key the user wrote (`[worm] starts`), its value and range.
     pub fn design(&self) -> Result<(Worm, Dresser)> {
-        let wc = &self.worm;
-        let design = Worm::design(
-            wc.starts,
-            wc.diameter_mm,
-            wc.normal_module_mm,
-            wc.profile_angle_deg.to_radians(),
-        )
-        .map_err(|e| e.during("[worm]"))?;
-        let dresser = Dresser::design(
-            &design,
-            DresserSpec {
-                d_a_mm: self.dresser.diameter_mm,
-                jacket_width_mm: self.dresser.jacket_width_mm,
-                clearance_mm: self.dresser.clearance_mm,
-            },
-        )
-        .map_err(|e| e.during("[dresser]"))?;
+        let design = self.worm.build()?;
+        let dresser = self.dresser.build(&design)?;
         Ok((design, dresser))
     }
 }

@@ -218,6 +218,13 @@ fn dressed_input_errors_name_the_field() {
         &format!("{G1}\n[dressing]\ncrowning_um = 1.0\ndd_mm = 0.1\n"),
     );
     let bad = write_config_here("f3", &format!("{G1}\n[dressing]\ndd_mm = 7.0\n"));
+    // [worm] and [dresser] are checked as `gearcomp dress` checks them: the key as written,
+    // its value and range (not the library's symbol).
+    let no_starts = write_config_here("f4", &G1.replace("starts = 1", "starts = 0"));
+    let wide_jacket = write_config_here(
+        "f5",
+        &G1.replace("jacket_width_mm = 0.8", "jacket_width_mm = 9.0"),
+    );
     for (cfg, args, needle) in [
         (&g1, vec!["--module-mm", "2"], "normal_module_mm"),
         (
@@ -228,6 +235,16 @@ fn dressed_input_errors_name_the_field() {
         (&both, vec![], "not both"),
         (&bad, vec![], "dd_mm"),
         (&g1, vec!["--worm-hand", "left"], "right-hand"),
+        (
+            &no_starts,
+            vec![],
+            "[worm] starts = 0 is outside the allowed range 1 ..= 20",
+        ),
+        (
+            &wide_jacket,
+            vec![],
+            "[dresser] jacket_width_mm = 9 mm is outside the allowed range 0 < jacket_width_mm",
+        ),
     ] {
         let out = run(cfg, &args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
