@@ -1121,14 +1121,16 @@ fn text_files(root: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-/// Words that cite files which are not in the repository.
+/// Words that cite files which are not in the repository. Spelled in pieces (`concat!`) so
+/// that a plain text search of the repository for these words finds only real citations,
+/// not this list.
 const FOREIGN_CITATIONS: [&str; 6] = [
-    "digest",
-    "errata",
-    "research/",
-    "seed_formulas",
-    "../shared",
-    "shared/seeds",
+    concat!("dig", "est"),
+    concat!("err", "ata"),
+    concat!("re", "search/"),
+    concat!("seed", "_formulas"),
+    concat!("../", "shared"),
+    concat!("shared", "/seeds"),
 ];
 
 /// Lines that contain one of those words without citing anything: (file, text on the
@@ -1361,9 +1363,9 @@ fn architecture_markdown_links_resolve_inside_the_repository() {
 #[test]
 fn architecture_markdown_link_parser() {
     let md = "See [a](docs/a.md#x) and [b](https://x.org/y) and `[c](nope.md)`.\n\
-              ```\n[d](in/code.md)\n```\n[ref]: ../shared/x.md\n[e](<sp ace.md> \"t\")\n";
+              ```\n[d](in/code.md)\n```\n[ref]: ../outside/x.md\n[e](<sp ace.md> \"t\")\n";
     let links: Vec<String> = markdown_links(md).into_iter().map(|(_, t)| t).collect();
-    assert_eq!(links, ["docs/a.md", "../shared/x.md", "sp"]);
+    assert_eq!(links, ["docs/a.md", "../outside/x.md", "sp"]);
 }
 
 // ---------------------------------------------------------------------------------------
