@@ -108,11 +108,51 @@ pub fn invalid(
     }
 }
 
+/// The index of the engine axis `name` among `axes`, or the error naming the config key
+/// `field`, the value written and the axes there are.
+pub fn engine_axis(field: impl Into<String>, name: &str, axes: &[String]) -> Result<usize> {
+    axes.iter()
+        .position(|a| a == name)
+        .ok_or_else(|| invalid(field, name, format!("an engine axis: {}", axes.join(", "))))
+}
+
 /// Checks `lo ≤ v ≤ hi` (and finiteness), naming the field on failure.
 pub fn check_range(field: &str, v: f64, lo: f64, hi: f64, expected: &str) -> Result<()> {
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {
         Err(invalid(field, v, expected))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{engine_axis, ServiceError};
+
+    #[test]
+    fn engine_axis_finds_the_index_or_names_key_value_and_axes() {
+        let axes = vec!["Z".to_string(), "X".to_string()];
+        assert_eq!(
+            engine_axis("input.positions[0].axis", "X", &axes).ok(),
+            Some(1)
+        );
+        assert_eq!(
+            engine_axis("input.positions[0].axis", "Z", &axes).ok(),
+            Some(0)
+        );
+        match engine_axis("input.pulse_outputs[2].axis", "Y", &axes) {
+            Err(ServiceError::Invalid {
+                field,
+                value,
+                expected,
+            }) => {
+                assert_eq!(field, "input.pulse_outputs[2].axis");
+                assert_eq!(value, "Y");
+                assert_eq!(expected, "an engine axis: Z, X");
+            }
+            other => panic!("expected an Invalid error, got {other:?}"),
+        }
+        // Names are matched exactly (no case folding).
+        assert!(engine_axis("k", "z", &axes).is_err());
     }
 }

@@ -150,31 +150,13 @@ pub fn resolve(
         out.push(v);
     }
     if let Some(o) = &cfg.offset_output {
-        if !axes.contains(&o.axis) {
-            return Err(crate::error::invalid(
-                "input.offset_output.axis",
-                &o.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            ));
-        }
+        crate::error::engine_axis("input.offset_output.axis", &o.axis, axes)?;
     }
     if let Some(o) = &cfg.pulse_output {
-        if !axes.contains(&o.axis) {
-            return Err(crate::error::invalid(
-                "input.pulse_output.axis",
-                &o.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            ));
-        }
+        crate::error::engine_axis("input.pulse_output.axis", &o.axis, axes)?;
     }
     for (i, p) in cfg.positions.iter().enumerate() {
-        if !axes.contains(&p.axis) {
-            return Err(crate::error::invalid(
-                format!("input.positions[{i}].axis"),
-                &p.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            ));
-        }
+        crate::error::engine_axis(format!("input.positions[{i}].axis"), &p.axis, axes)?;
     }
     Ok(out)
 }

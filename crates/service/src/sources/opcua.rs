@@ -460,13 +460,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
     }
     let mut positions = Vec::new();
     for (i, p) in cfg.positions.iter().enumerate() {
-        let axis = axes.iter().position(|a| a == &p.axis).ok_or_else(|| {
-            invalid(
-                format!("input.positions[{i}].axis"),
-                &p.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            )
-        })?;
+        let axis = crate::error::engine_axis(format!("input.positions[{i}].axis"), &p.axis, axes)?;
         positions.push(PositionNode {
             node: parse_node(&format!("input.positions[{i}].node"), &p.node)?,
             name: p.axis.clone(),
@@ -489,13 +483,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
     };
     let mut outputs = Vec::new();
     for (field, o) in cfg.outputs() {
-        let axis = axes.iter().position(|a| a == &o.axis).ok_or_else(|| {
-            invalid(
-                format!("{field}.axis"),
-                &o.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            )
-        })?;
+        let axis = crate::error::engine_axis(format!("{field}.axis"), &o.axis, axes)?;
         outputs.push(OutSpec {
             node: parse_node(&format!("{field}.node"), &o.node)?,
             axis,
@@ -520,13 +508,7 @@ pub fn resolve(cfg: &OpcUaInput, channels: &[String], axes: &[String]) -> Result
     let mut pulses = Vec::new();
     for (i, o) in cfg.pulse_outputs.iter().enumerate() {
         let field = format!("input.pulse_outputs[{i}]");
-        let axis = axes.iter().position(|a| a == &o.axis).ok_or_else(|| {
-            invalid(
-                format!("{field}.axis"),
-                &o.axis,
-                format!("an engine axis: {}", axes.join(", ")),
-            )
-        })?;
+        let axis = crate::error::engine_axis(format!("{field}.axis"), &o.axis, axes)?;
         pulses.push(PulseSpec {
             node: parse_node(&format!("{field}.node"), &o.node)?,
             axis,
