@@ -57,6 +57,9 @@ pub struct ReadOptions {
     pub decimal_comma: Option<bool>,
     /// Rows with an empty or NaN used cell: an error, or left out with the run split there.
     pub missing: MissingCells,
+    /// The first row is data, not a header: columns are named by position, `c1` … `cN`
+    /// ([`positional_name`]).
+    pub no_header: bool,
 }
 
 impl Default for ReadOptions {
@@ -68,7 +71,32 @@ impl Default for ReadOptions {
             delimiter: None,
             decimal_comma: None,
             missing: MissingCells::Error,
+            no_header: false,
         }
+    }
+}
+
+/// The name of the column at 0-based position `k` of a log read with
+/// [`ReadOptions::no_header`]: `c1` for the first column.
+pub fn positional_name(k: usize) -> String {
+    format!("c{}", k + 1)
+}
+
+/// The hint added to a column that was not found when the header row holds numbers only:
+/// the log seems to have no header row (`--no-header`).
+pub(crate) fn no_header_hint(name: &str, header: &[String], decimal_comma: bool) -> String {
+    let numeric = !header.is_empty()
+        && header
+            .iter()
+            .all(|h| dialect::parse_number(h, "", decimal_comma).is_ok());
+    if numeric {
+        format!(
+            " (the first row of {name} holds numbers only: it seems to have no header row; read it with --no-header, its columns are then named {} … {})",
+            positional_name(0),
+            positional_name(header.len() - 1)
+        )
+    } else {
+        String::new()
     }
 }
 
@@ -697,7 +725,7 @@ impl Reader<'_> {
             ));
         }
         let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(true)
+            .has_headers(!self.opts.no_header)
             .delimiter(delimiter)
             .flexible(true)
             .trim(csv::Trim::All)
@@ -706,8 +734,13 @@ impl Reader<'_> {
             .headers()
             .map_err(|e| invalid("CSV header", name, &format!("a header row ({e})")))?
             .iter()
-            .map(str::to_string)
+            .enumerate()
+            .map(|(k, h)| match self.opts.no_header {
+                true => positional_name(k),
+                false => h.to_string(),
+            })
             .collect();
+        let hint = no_header_hint(name, &header, dialect.decimal_comma);
         // `DATE+TIME`: a date column and a time-of-day column (when no column has that name).
         let date_time = sel.time.split_once('+').filter(|(d, t)| {
             !header.contains(&sel.time)
@@ -740,7 +773,7 @@ impl Reader<'_> {
                         "--time-column",
                         &sel.time,
                         &format!(
-                            "a column of {name} (columns: {}); a log without a time column needs --sample-interval-s",
+                            "a column of {name} (columns: {}); a log without a time column needs --sample-interval-s{hint}",
                             header.join(", ")
                         ),
                     ));
@@ -757,9 +790,17 @@ impl Reader<'_> {
             .chain(time2_idx)
             .chain(run_idx)
             .collect();
-        let target_idx = resolve(&sel.targets, &header, &excl)?;
+        let with_hint = |e: IdentifyError| match e {
+            IdentifyError::ColumnNotFound { pattern, available } => IdentifyError::ColumnNotFound {
+                pattern,
+                available: format!("{available}{hint}"),
+            },
+            e => e,
+        };
+        let target_idx = resolve(&sel.targets, &header, &excl).map_err(with_hint)?;
         excl.extend(target_idx.iter().copied());
-        let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)?
+        let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)
+            .map_err(with_hint)?
             .into_iter()
             .filter(|i| !excl.contains(i))
             .collect();
@@ -816,7 +857,10 @@ impl Reader<'_> {
         };
         // Quote-free text (the usual sensor log) is split directly: the same records as the
         // csv crate's, several times faster on large logs; anything else goes through it.
-        let start = usize::try_from(rdr.position().byte()).unwrap_or(usize::MAX);
+        let start = match self.opts.no_header {
+            true => 0,
+            false => usize::try_from(rdr.position().byte()).unwrap_or(usize::MAX),
+        };
         // A clean single-run log (every row complete, finite, time increasing) is parsed
         // on every core at once; any irregular line sends the file down the row-by-row path
         // below, which reports it exactly as before.
