@@ -6,6 +6,7 @@
 mod dialects;
 mod fl_auto;
 mod fl_thermal;
+mod generalise;
 mod golden_families;
 mod multirun;
 mod properties;
