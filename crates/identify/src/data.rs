@@ -537,6 +537,8 @@ struct Reader<'a> {
     missing: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
     forced: Vec<usize>,
+    /// Run name of each file (its stem when not given): the sheets of one workbook.
+    file_runs: &'a [String],
 }
 
 /// Reads one or several CSV files (`(text, name)` pairs) into one [`Table`]; with several
@@ -544,6 +546,17 @@ struct Reader<'a> {
 ///
 /// Every file must hold the same selected columns (by name; column order may differ).
 pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> Result<Table> {
+    read_named_runs(files, &[], sel, opts)
+}
+
+/// [`read_runs`] with the run name of each file given (`file_runs[k]` instead of file k's
+/// stem; the sheets of a workbook share its file name).
+pub(crate) fn read_named_runs(
+    files: &[(&str, &str)],
+    file_runs: &[String],
+    sel: &Selection,
+    opts: ReadOptions,
+) -> Result<Table> {
     if !(opts.gap_factor.is_finite() && opts.gap_factor > 1.0) {
         return Err(invalid("gap_factor", opts.gap_factor, "a factor > 1"));
     }
@@ -567,6 +580,7 @@ pub fn read_runs(files: &[(&str, &str)], sel: &Selection, opts: ReadOptions) -> 
         run_label: Vec::new(),
         missing: Vec::new(),
         forced: Vec::new(),
+        file_runs,
     };
     for (fi, (text, name)) in files.iter().enumerate() {
         r.t.files.push(name.to_string());
@@ -837,9 +851,12 @@ impl Reader<'_> {
         if many || run_idx.is_some() {
             self.t.runs.get_or_insert_with(Vec::new);
         }
-        let stem = std::path::Path::new(name)
-            .file_stem()
-            .map_or(name.to_string(), |s| s.to_string_lossy().into_owned());
+        let stem = match self.file_runs.get(fi) {
+            Some(run) => run.clone(),
+            None => std::path::Path::new(name)
+                .file_stem()
+                .map_or(name.to_string(), |s| s.to_string_lossy().into_owned()),
+        };
         let c = Cols {
             header: &header,
             time_idx,

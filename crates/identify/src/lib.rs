@@ -38,6 +38,7 @@ pub mod pipeline;
 pub mod regress;
 pub mod report;
 pub mod select;
+pub mod spreadsheet;
 pub mod stack;
 pub mod transform;
 pub mod workpiece;

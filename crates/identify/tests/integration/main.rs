@@ -12,4 +12,5 @@ mod multirun;
 mod properties;
 mod runs;
 mod seed003;
+mod spreadsheets;
 mod stack;

@@ -1,0 +1,552 @@
+//! Workbooks as logs (issue 12 item 1, `identify::spreadsheet`): the workbooks are written by
+//! independent writers (rust_xlsxwriter here; openpyxl and pandas/odfpy for the committed
+//! fixtures of `tests/data/workbooks/make_workbooks.py`, with the CSV logs of the same
+//! values), and every reading is compared with the CSV reading of the same values, or with
+//! values computed here.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use std::path::PathBuf;
+
+use gearcomp_identify::data::{
+    read_csv, read_runs, DataIssue, MissingCells, ReadOptions, Selection, Table,
+};
+use gearcomp_identify::spreadsheet::{read_paths, SheetChoice};
+use gearcomp_identify::{identify, IdentifyError, IdentifyOptions, ModelKind, Split};
+use proptest::prelude::*;
+use rust_xlsxwriter::Workbook;
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/workbooks")
+        .join(name)
+}
+
+fn cli_fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../cli/tests/fixtures")
+        .join(name)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gearcomp-spreadsheets-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn sel(time: &str, inputs: &[&str], targets: &[&str]) -> Selection {
+    Selection {
+        time: time.into(),
+        inputs: inputs.iter().map(|s| s.to_string()).collect(),
+        targets: targets.iter().map(|s| s.to_string()).collect(),
+        run: None,
+    }
+}
+
+fn sheets(names: &[&str], all: bool) -> SheetChoice {
+    SheetChoice {
+        sheets: names.iter().map(|s| s.to_string()).collect(),
+        all,
+    }
+}
+
+fn bits(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// The same data to the last bit: times, values, lines, segments and runs (not the file
+/// names, nor the column names when `names` is false).
+fn assert_same_data(a: &Table, b: &Table, names: bool) {
+    assert_eq!(bits(&a.time_s), bits(&b.time_s));
+    assert_eq!(a.inputs.len(), b.inputs.len());
+    for (x, y) in a
+        .inputs
+        .iter()
+        .zip(&b.inputs)
+        .chain(a.targets.iter().zip(&b.targets))
+    {
+        assert_eq!(bits(x), bits(y));
+    }
+    assert_eq!(a.targets.len(), b.targets.len());
+    if names {
+        assert_eq!(a.input_names, b.input_names);
+        assert_eq!(a.target_names, b.target_names);
+    }
+    assert_eq!(a.lines, b.lines);
+    assert_eq!(a.segments, b.segments);
+    assert_eq!(a.runs, b.runs);
+    assert_eq!(a.run_names, b.run_names);
+}
+
+/// xorshift: reproducible values with every mantissa bit used.
+fn values(seed: u64, n: usize) -> Vec<f64> {
+    let mut x = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+    (0..n)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 5.0
+        })
+        .collect()
+}
+
+/// A random log of `rows` rows (time, five inputs, two targets) as a CSV text (numbers in
+/// exponent form, `{:e}`) and as a workbook written by rust_xlsxwriter.
+fn random_log(seed: u64, rows: usize, book: &PathBuf) -> String {
+    let header = ["time_s", "a_c", "b_c", "c_c", "d_c", "e_c", "x_um", "y_um"];
+    let v = values(seed, rows * header.len());
+    let mut wb = Workbook::new();
+    let ws = wb.add_worksheet();
+    let mut csv = header.join(",") + "\n";
+    for (c, h) in header.iter().enumerate() {
+        ws.write_string(0, c as u16, *h).unwrap();
+    }
+    for r in 0..rows {
+        let mut cells = Vec::new();
+        for c in 0..header.len() {
+            let x = if c == 0 {
+                r as f64 * 60.0 + v[r * header.len()].abs()
+            } else {
+                v[r * header.len() + c]
+            };
+            ws.write_number(r as u32 + 1, c as u16, x).unwrap();
+            cells.push(format!("{x:e}"));
+        }
+        csv += &(cells.join(",") + "\n");
+    }
+    wb.save(book).unwrap();
+    csv
+}
+
+/// A workbook of random values reads to the CSV's table to the last bit, and the static fit
+/// on it equals the CSV's.
+#[test]
+fn workbook_of_random_values_equals_the_csv_to_the_last_bit() {
+    let book = tmp("random.xlsx");
+    let csv = random_log(7, 120, &book);
+    let s = sel("time_s", &["*_c"], &["*_um"]);
+    let want = read_csv(&csv, "random.csv", &s, ReadOptions::default()).unwrap();
+    let got = read_paths(
+        std::slice::from_ref(&book),
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap();
+    assert_same_data(&got, &want, true);
+    assert_eq!(got.files, vec![book.display().to_string()]);
+    let opts = IdentifyOptions {
+        model: ModelKind::Static,
+        classes: Some(3),
+        split: Split::None,
+        ..Default::default()
+    };
+    let a = identify(&got, &opts).unwrap();
+    let b = identify(&want, &opts).unwrap();
+    assert_eq!(format!("{:?}", a.targets), format!("{:?}", b.targets));
+}
+
+/// Date-time cells are the time column in seconds since the run's first stamp, with the
+/// 1900 and the 1904 epoch (the same instants written by openpyxl both ways), across
+/// midnight into a leap day; the values equal the CSV of ISO stamps written by the same
+/// script.
+#[test]
+fn excel_serial_dates_of_both_epochs_are_seconds() {
+    let s = sel("stamp", &["*_c"], &["d_um"]);
+    let csv_text = std::fs::read_to_string(fixture("dates.csv")).unwrap();
+    let want = read_csv(&csv_text, "dates.csv", &s, ReadOptions::default()).unwrap();
+    let expected: Vec<f64> = (0..8).map(|k| k as f64 * 37.25).collect();
+    assert_eq!(want.time_s, expected);
+    for book in ["dates.xlsx", "dates_1904.xlsx"] {
+        let got = read_paths(
+            &[fixture(book)],
+            &s,
+            ReadOptions::default(),
+            &SheetChoice::default(),
+        )
+        .unwrap();
+        assert_eq!(got.time_s, expected, "{book}");
+        assert_same_data(&got, &want, true);
+    }
+}
+
+/// The OpenDocument file pandas/odfpy wrote equals the CSV of the same day.
+#[test]
+fn an_ods_workbook_equals_its_csv() {
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let csv = std::fs::read_to_string(cli_fixture("day 1.csv")).unwrap();
+    let want = read_csv(&csv, "day 1.csv", &s, ReadOptions::default()).unwrap();
+    let got = read_paths(
+        &[cli_fixture("day 1.ods")],
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap();
+    assert_same_data(&got, &want, true);
+}
+
+/// Error, empty and text cells are named by sheet and cell; a number written as text is a
+/// number.
+#[test]
+fn bad_cells_name_the_sheet_and_the_cell() {
+    let path = fixture("cells.xlsx");
+    let s = sel("time_s", &["a_c", "b_c"], &["d_um"]);
+    let read = |opts: ReadOptions| {
+        read_paths(
+            std::slice::from_ref(&path),
+            &s,
+            opts,
+            &SheetChoice::default(),
+        )
+    };
+    let e = read(ReadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "{}: 3 bad row(s) at line(s) 10, 12, 17: Sheet 'day 3' cell B10: a_c is empty",
+            path.display()
+        )),
+        "{e}"
+    );
+    assert!(e.ends_with("(the cell holds the error #DIV/0!)"), "{e}");
+    let t = read(ReadOptions {
+        skip_bad_rows: true,
+        ..ReadOptions::default()
+    })
+    .unwrap();
+    let issues: Vec<String> = t.issues.iter().map(|i| i.to_string()).collect();
+    assert_eq!(issues.len(), 3, "{issues:?}");
+    assert!(
+        issues[1].starts_with("line 12: bad row: Sheet 'day 3' cell D12: d_um is empty"),
+        "{issues:?}"
+    );
+    assert_eq!(
+        issues[2],
+        "line 17: bad row: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number"
+    );
+    // Row 5's b_c is the text "21.5"; the value of row k (sheet row k + 2) is 21 + 0.05 k².
+    let row5 = t.lines.iter().position(|&l| l == 5).unwrap();
+    assert_eq!(t.inputs[1][row5], 21.5);
+    assert_eq!(t.inputs[1][0], 21.0);
+    assert_eq!(t.time_s.len(), 17);
+    // --missing split: the error and the empty cell split the run; the text cell is still a
+    // bad row.
+    let e = read(ReadOptions {
+        missing: MissingCells::Split,
+        ..ReadOptions::default()
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with(
+            "1 bad row(s) at line(s) 17: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number"
+        ),
+        "{e}"
+    );
+    let t = read(ReadOptions {
+        missing: MissingCells::Split,
+        skip_bad_rows: true,
+        ..ReadOptions::default()
+    })
+    .unwrap();
+    let missing: Vec<String> = t
+        .issues
+        .iter()
+        .filter(|i| matches!(i, DataIssue::Missing { .. }))
+        .map(|i| i.to_string())
+        .collect();
+    assert_eq!(missing.len(), 2, "{missing:?}");
+    assert!(missing[0].starts_with("line 10: left out (Sheet 'day 3' cell B10: a_c is empty (the cell holds the error #DIV/0!);"), "{missing:?}");
+    assert!(
+        missing[1].starts_with("line 12: left out (Sheet 'day 3' cell D12: d_um is empty;"),
+        "{missing:?}"
+    );
+}
+
+/// `--no-header`: a header-less CSV and a header-less sheet read as the CSV with a header,
+/// columns named c1 … c5; `c*` as inputs leaves out the time and the target. Without
+/// `--no-header`, an unmatched column says the file seems to have no header row.
+#[test]
+fn header_less_logs_are_read_by_position() {
+    let with = sel("time_s", &["*_c"], &["d_um"]);
+    let csv = std::fs::read_to_string(cli_fixture("day 1.csv")).unwrap();
+    let want = read_csv(&csv, "day 1.csv", &with, ReadOptions::default()).unwrap();
+    let bare = sel("c1", &["c*"], &["c5"]);
+    let no_header = ReadOptions {
+        no_header: true,
+        ..ReadOptions::default()
+    };
+    let text = std::fs::read_to_string(cli_fixture("day 1 noheader.csv")).unwrap();
+    let got = read_csv(&text, "day 1 noheader.csv", &bare, no_header).unwrap();
+    assert_eq!(got.input_names, vec!["c2", "c3", "c4"]);
+    assert_eq!(got.target_names, vec!["c5"]);
+    assert_eq!(bits(&got.time_s), bits(&want.time_s));
+    // One line less (no header line): the same rows.
+    assert_eq!(
+        got.lines,
+        want.lines.iter().map(|l| l - 1).collect::<Vec<_>>()
+    );
+    for (a, b) in got.inputs.iter().zip(&want.inputs) {
+        assert_eq!(bits(a), bits(b));
+    }
+    let book = read_paths(
+        &[cli_fixture("days_noheader.xlsx")],
+        &bare,
+        no_header,
+        &sheets(&["day 1"], false),
+    )
+    .unwrap();
+    assert_same_data(&book, &got, true);
+    // Without --no-header: the hint.
+    let e = read_csv(
+        &text,
+        "day 1 noheader.csv",
+        &sel("c1", &["c*"], &["c5"]),
+        ReadOptions {
+            sample_interval_s: None,
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("seems to have no header row; read it with --no-header"),
+        "{e}"
+    );
+    let e = read_paths(
+        &[cli_fixture("days_noheader.xlsx")],
+        &sel("time_s", &["*_c"], &["d_um"]),
+        ReadOptions::default(),
+        &sheets(&["day 1"], false),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--no-header"), "{e}");
+    let e = read_csv(
+        "time_s,a_c,d_um\n0,1,2\n",
+        "x.csv",
+        &sel("time_s", &["q_c"], &["d_um"]),
+        ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(!e.contains("--no-header"), "{e}");
+}
+
+/// Every sheet a run equals one CSV file per run (run names, segments, values); a sheet by
+/// number; a workbook of several sheets with data needs a choice; a sheet without the
+/// columns is named.
+#[test]
+fn sheets_as_runs_equal_one_file_per_run() {
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let texts: Vec<(String, String)> = (1..=3)
+        .map(|d| {
+            let n = format!("day {d}.csv");
+            (std::fs::read_to_string(cli_fixture(&n)).unwrap(), n)
+        })
+        .collect();
+    let refs: Vec<(&str, &str)> = texts
+        .iter()
+        .map(|(t, n)| (t.as_str(), n.as_str()))
+        .collect();
+    let want = read_runs(&refs, &s, ReadOptions::default()).unwrap();
+    assert_eq!(want.run_names, vec!["day 1", "day 2", "day 3"]);
+    let book = cli_fixture("days.xlsx");
+    let got = read_paths(
+        std::slice::from_ref(&book),
+        &s,
+        ReadOptions::default(),
+        &sheets(&["day 1", "day 2", "4"], true),
+    )
+    .unwrap();
+    assert_same_data(&got, &want, true);
+    // The header-less workbook holds the same three days as its only sheets.
+    let bare = read_paths(
+        &[cli_fixture("days_noheader.xlsx")],
+        &sel("c1", &["c*"], &["c5"]),
+        ReadOptions {
+            no_header: true,
+            ..ReadOptions::default()
+        },
+        &sheets(&[], true),
+    )
+    .unwrap();
+    assert_eq!(bare.run_names, want.run_names);
+    assert_eq!(bits(&bare.targets[0]), bits(&want.targets[0]));
+    // No choice on a workbook of four sheets with data: refused, listing them.
+    let e = read_paths(
+        std::slice::from_ref(&book),
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("has 4 sheets with data ('notes', 'day 1', 'day 2', 'day 3'); name one or several with --sheet"),
+        "{e}"
+    );
+    // Every sheet: the notes sheet has no time column, and is named.
+    let e = read_paths(
+        std::slice::from_ref(&book),
+        &s,
+        ReadOptions::default(),
+        &sheets(&[], true),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("sheet 'notes' (columns: machine, test rig 2)"),
+        "{e}"
+    );
+    let e = read_paths(
+        std::slice::from_ref(&book),
+        &s,
+        ReadOptions::default(),
+        &sheets(&["day 9"], false),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("--sheet = day 9: expected a sheet name or number of")
+            && e.contains("1 'notes', 2 'day 1', 3 'day 2', 4 'day 3'"),
+        "{e}"
+    );
+    // A CSV log has no sheets; CSV logs and workbooks are not mixed.
+    let csv_path = cli_fixture("day 1.csv");
+    let e = read_paths(
+        std::slice::from_ref(&csv_path),
+        &s,
+        ReadOptions::default(),
+        &sheets(&["1"], false),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("--sheet"), "{e}");
+    let e = read_paths(
+        &[csv_path, book],
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("either CSV logs or workbooks"),
+        "{e}"
+    );
+}
+
+/// A random table (values, empty cells, a time that may go back) as `(csv, book)`: the
+/// CSV with numbers in exponent form, the workbook by rust_xlsxwriter (empty cells not
+/// written). Returns also the grid (None = empty) for the expected cell names.
+fn random_table(
+    seed: u64,
+    rows: usize,
+    holes: u32,
+    path: &PathBuf,
+) -> (String, Vec<Vec<Option<f64>>>) {
+    let v = values(seed, rows * 5);
+    let mut grid = Vec::new();
+    let mut wb = Workbook::new();
+    let ws = wb.add_worksheet();
+    let header = ["time_s", "a_c", "b_c", "d_um"];
+    for (c, h) in header.iter().enumerate() {
+        ws.write_string(0, c as u16, *h).unwrap();
+    }
+    let mut csv = header.join(",") + "\n";
+    for r in 0..rows {
+        let mut row = Vec::new();
+        for c in 0..4 {
+            let u = v[r * 5 + c];
+            let x = if c == 0 {
+                // Usually increasing; now and then back in time.
+                if (v[r * 5 + 4] * 1000.0) as i64 % 17 == 0 {
+                    r as f64 * 10.0 - 25.0
+                } else {
+                    r as f64 * 10.0 + u.abs() / 4.0
+                }
+            } else {
+                u
+            };
+            let hole = ((v[r * 5 + 4] * 1e6) as i64 + c as i64 * 7) % 100 < holes as i64;
+            row.push(if hole { None } else { Some(x) });
+        }
+        let cells: Vec<String> = row
+            .iter()
+            .map(|x| x.map_or(String::new(), |x| format!("{x:e}")))
+            .collect();
+        csv += &(cells.join(",") + "\n");
+        for (c, x) in row.iter().enumerate() {
+            if let Some(x) = x {
+                ws.write_number(r as u32 + 1, c as u16, *x).unwrap();
+            }
+        }
+        grid.push(row);
+    }
+    wb.save(path).unwrap();
+    (csv, grid)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    /// Random tables with empty cells, written both as CSV and as a workbook: the same
+    /// table, or the same bad rows, the workbook's first reason being the CSV's with the
+    /// cell named (the first empty used cell of the first bad row, inputs then target,
+    /// else the time cell).
+    #[test]
+    fn csv_and_workbook_read_alike(seed in any::<u64>(), rows in 4usize..40, holes in 0u32..12,
+                                   split in any::<bool>(), skip in any::<bool>()) {
+        let path = tmp(&format!("prop-{seed}.xlsx"));
+        let (csv, grid) = random_table(seed, rows, holes, &path);
+        let s = sel("time_s", &["a_c", "b_c"], &["d_um"]);
+        let opts = ReadOptions {
+            missing: if split { MissingCells::Split } else { MissingCells::Error },
+            skip_bad_rows: skip,
+            ..ReadOptions::default()
+        };
+        let want = read_csv(&csv, "t.csv", &s, opts);
+        let got = read_paths(std::slice::from_ref(&path), &s, opts, &SheetChoice::default());
+        std::fs::remove_file(&path).ok();
+        match (got, want) {
+            (Ok(g), Ok(w)) => {
+                assert_same_data(&g, &w, true);
+                prop_assert_eq!(g.issues.len(), w.issues.len());
+                for (a, b) in g.issues.iter().zip(&w.issues) {
+                    let (a, b) = (a.to_string(), b.to_string());
+                    if a == b {
+                        // A gap: no cell to name.
+                        continue;
+                    }
+                    // `line N: bad row: ` / `line N: left out (` then the located reason.
+                    let cut = b.find(": bad row: ").map(|p| p + 11).or_else(|| b.find(" (").map(|p| p + 2));
+                    if let Some(p) = cut {
+                        prop_assert!(a.starts_with(&b[..p]), "{} / {}", a, b);
+                        prop_assert!(a[p..].starts_with("Sheet 'Sheet1' "), "{} / {}", a, b);
+                        prop_assert!(a.ends_with(&b[p..]) || b[p..].contains("(a sensor"), "{} / {}", a, b);
+                    } else {
+                        prop_assert_eq!(a, b);
+                    }
+                }
+            }
+            (Err(IdentifyError::BadRows { count, lines, first_reason, .. }),
+             Err(IdentifyError::BadRows { count: wc, lines: wl, first_reason: wr, .. })) => {
+                prop_assert_eq!(count, wc);
+                prop_assert_eq!(&lines, &wl);
+                let line: usize = lines.split(", ").next().unwrap().parse().unwrap();
+                let row = &grid[line - 2];
+                // The first empty used cell (under --missing split an empty cell is no
+                // bad row), else the time cell.
+                let col = if split { None } else { [1usize, 2, 3].into_iter().find(|&c| row[c].is_none()) };
+                let letter = match col { Some(1) => "B", Some(2) => "C", Some(3) => "D", _ => "A" };
+                prop_assert_eq!(
+                    first_reason,
+                    format!("Sheet 'Sheet1' cell {letter}{line}: {wr}")
+                );
+            }
+            (g, w) => prop_assert_eq!(
+                g.map(|_| ()).map_err(|e| e.to_string()),
+                w.map(|_| ()).map_err(|e| e.to_string())
+            ),
+        }
+    }
+}
