@@ -13,8 +13,8 @@ use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
 use gearcomp_identify::workpiece::workpiece_shrink;
 use gearcomp_identify::{
-    identify, plain_least_squares, Grouping, IdentifyOptions, ModelKind, Origin, RepresentativeBy,
-    Split, TargetModel,
+    identify, pipeline::identify_with_floor, Grouping, IdentifyOptions, ModelKind, Origin,
+    RepresentativeBy, Split, TargetModel,
 };
 
 /// Model kind (`--model`).
@@ -418,8 +418,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (table, data_name) = load(&args.data, &sel, read_options(&args)?)?;
     let (split, split_note) = split_of(&args, &table)?;
     let opts = options(&args, &split);
-    let id = identify(&table, &opts)?;
-    let base = plain_least_squares(&table, &split)?;
+    let (id, base) = identify_with_floor(&table, &opts)?;
     if !args.axis.is_empty() && args.axis.len() != table.targets.len() {
         anyhow::bail!(
             "invalid --axis: {} name(s) for {} target(s) ({}); give one per target",

@@ -398,11 +398,18 @@ fn clean_table_in(
     };
     let parsed: Vec<CleanPiece> = parsed.into_iter().collect::<Option<_>>()?;
     let rows: usize = parsed.iter().map(|p| p.line_offsets.len()).sum();
+    // The first piece's columns grow to hold the others (no copy of the first piece).
+    let mut parsed = parsed.into_iter();
+    let p0 = parsed.next()?;
     let mut t = CleanTable {
-        cols: vec![Vec::with_capacity(rows); slots.len()],
+        cols: p0.cols,
         lines: Vec::with_capacity(rows),
     };
-    let mut line0 = first;
+    for col in &mut t.cols {
+        col.reserve_exact(rows - col.len());
+    }
+    t.lines.extend(p0.line_offsets.iter().map(|o| first + o));
+    let mut line0 = first + p0.line_count;
     for p in parsed {
         // Time must also increase across the cut.
         if let (Some(prev), Some(next)) = (t.cols[0].last(), p.cols[0].first()) {
@@ -419,106 +426,120 @@ fn clean_table_in(
     Some(t)
 }
 
-/// Bytes of `w` (8 bytes, little-endian) equal to `c`: the high bit of each such byte.
-fn byte_mask(w: u64, c: u8) -> u64 {
-    const LO7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
-    let x = w ^ (u64::from(c) * 0x0101_0101_0101_0101);
-    !(((x & LO7) + LO7) | x | LO7)
+/// The end of the field that starts at `at`: the next `,`, line end or `\r`.
+fn field_end(b: &[u8], at: usize) -> usize {
+    b[at..]
+        .iter()
+        .position(|&c| matches!(c, b',' | b'\n' | b'\r'))
+        .map_or(b.len(), |p| at + p)
 }
 
-/// One piece of [`clean_table`] (whole lines; the last may lack its line end). Field and
-/// line ends are found eight bytes at a time.
+/// The row of a clean log that starts at byte `at` of `piece`: its `slot_of.len()` fields,
+/// the selected ones (`slot_of[k]`: the column of field `k`, or `usize::MAX`) pushed onto
+/// `cols` as finite numbers. The start of the next line, or `None` when the line is not
+/// such a row (the caller then decides between a blank line and the row-by-row path).
+///
+/// A field is read by `fast_float2::parse_partial` when the number it reads ends the field
+/// (the next byte a delimiter or a line end); any other field (spaces around it, text, an
+/// empty cell) goes through `str::parse` of the trimmed field as before. Both round
+/// correctly, so a value is the same bits either way (`fast_parse_is_std_parse` below).
+fn clean_row(
+    piece: &str,
+    mut at: usize,
+    slot_of: &[usize],
+    cols: &mut [Vec<f64>],
+) -> Option<usize> {
+    let b = piece.as_bytes();
+    for (k, &s) in slot_of.iter().enumerate() {
+        if s == usize::MAX {
+            at = field_end(b, at);
+        } else {
+            let v = match fast_float2::parse_partial::<f64, _>(&b[at..]) {
+                Ok((v, n)) if matches!(b.get(at + n), None | Some(b',' | b'\n' | b'\r')) => {
+                    at += n;
+                    v
+                }
+                _ => {
+                    let e = field_end(b, at);
+                    let v = piece.get(at..e)?.trim_ascii().parse::<f64>().ok()?;
+                    at = e;
+                    v
+                }
+            };
+            if !v.is_finite() {
+                return None;
+            }
+            cols[s].push(v);
+        }
+        let last = k + 1 == slot_of.len();
+        match (b.get(at), last) {
+            (Some(b','), false) => at += 1,
+            (None, true) => return Some(at),
+            (Some(b'\n'), true) => return Some(at + 1),
+            // `\r` only as part of a line end (`\r\n`, or the text's last byte).
+            (Some(b'\r'), true) => {
+                return match b.get(at + 1) {
+                    None => Some(at + 1),
+                    Some(b'\n') => Some(at + 2),
+                    Some(_) => None,
+                }
+            }
+            _ => return None,
+        }
+    }
+    None
+}
+
+/// One piece of [`clean_table`] (whole lines; the last may lack its line end), read row by
+/// row with [`clean_row`]. A line that is not a clean row is skipped when blank (every
+/// field empty, as the row-by-row path skips it); any other makes the piece `None`.
 fn clean_piece(piece: &str, width: usize, slots: &[usize]) -> Option<CleanPiece> {
     let b = piece.as_bytes();
+    let mut slot_of = vec![usize::MAX; width];
+    for (s, &k) in slots.iter().enumerate() {
+        let e = slot_of.get_mut(k)?;
+        if *e != usize::MAX {
+            return None;
+        }
+        *e = s;
+    }
     let rows = b.len() / (8 * width).max(1) + 1;
     let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); slots.len()];
     let mut line_offsets = Vec::with_capacity(rows);
-    // Start of each field of the current line, and the line's end.
-    let mut starts: Vec<usize> = Vec::with_capacity(width + 1);
-    starts.push(0);
     let mut line_count = 0u64;
     let mut prev_t = f64::NEG_INFINITY;
-    // A line ends at `end` (exclusive, before any `\r\n`); its fields are `starts`.
-    let mut line = |starts: &mut Vec<usize>, end: usize| -> Option<()> {
-        let field = |k: usize| -> &str {
-            let to = starts.get(k + 1).map_or(end, |&s| s - 1);
-            piece.get(starts[k]..to).unwrap_or("").trim_ascii()
-        };
-        let mut ok = starts.len() == width;
-        if ok {
-            for (col, &k) in cols.iter_mut().zip(slots) {
-                match field(k).parse::<f64>() {
-                    Ok(v) if v.is_finite() => col.push(v),
-                    _ => {
-                        ok = false;
-                        break;
-                    }
-                }
+    let mut pos = 0;
+    while pos < b.len() {
+        if let Some(next) = clean_row(piece, pos, &slot_of, &mut cols) {
+            let t = *cols[0].last()?;
+            if t <= prev_t {
+                return None;
             }
-        }
-        if !ok {
-            // Blank (every field empty): skipped, as the row-by-row path skips it.
-            if (0..starts.len()).all(|k| field(k).is_empty()) {
-                for col in cols.iter_mut() {
-                    col.truncate(line_offsets.len());
-                }
-                line_count += 1;
-                return Some(());
-            }
-            return None;
-        }
-        let t = *cols[0].last()?;
-        if t <= prev_t {
-            return None;
-        }
-        prev_t = t;
-        line_offsets.push(line_count);
-        line_count += 1;
-        Some(())
-    };
-    let mut delim = |k: usize, starts: &mut Vec<usize>| -> Option<()> {
-        match b[k] {
-            b',' => starts.push(k + 1),
-            b'\n' => {
-                let end = if k > 0 && b[k - 1] == b'\r' { k - 1 } else { k };
-                line(starts, end)?;
-                starts.clear();
-                starts.push(k + 1);
-            }
-            // `\r` only as part of a line end (`\r\n`, or the text's last byte).
-            _ => {
-                if b.get(k + 1).is_some_and(|&n| n != b'\n') {
-                    return None;
-                }
-            }
-        }
-        Some(())
-    };
-    let mut i = 0;
-    for chunk in b.chunks_exact(8) {
-        let mut w = [0u8; 8];
-        w.copy_from_slice(chunk);
-        let w = u64::from_le_bytes(w);
-        let mut m = byte_mask(w, b',') | byte_mask(w, b'\n') | byte_mask(w, b'\r');
-        while m != 0 {
-            delim(i + (m.trailing_zeros() / 8) as usize, &mut starts)?;
-            m &= m - 1;
-        }
-        i += 8;
-    }
-    for (k, c) in b.iter().enumerate().skip(i) {
-        if matches!(c, b',' | b'\n' | b'\r') {
-            delim(k, &mut starts)?;
-        }
-    }
-    // A last line without a line end (`\r` at the text's end is not part of it).
-    if starts.last().is_some_and(|&s| s < b.len()) || starts.len() > 1 {
-        let end = if b.last() == Some(&b'\r') {
-            b.len() - 1
+            prev_t = t;
+            line_offsets.push(line_count);
+            pos = next;
         } else {
-            b.len()
-        };
-        line(&mut starts, end)?;
+            for col in cols.iter_mut() {
+                col.truncate(line_offsets.len());
+            }
+            let nl = b[pos..]
+                .iter()
+                .position(|&c| c == b'\n')
+                .map_or(b.len(), |p| pos + p);
+            let end = if nl > pos && b[nl - 1] == b'\r' {
+                nl - 1
+            } else {
+                nl
+            };
+            if !b[pos..end]
+                .iter()
+                .all(|c| matches!(c, b',' | b' ' | b'\t' | b'\x0c'))
+            {
+                return None;
+            }
+            pos = nl + 1;
+        }
+        line_count += 1;
     }
     Some(CleanPiece {
         cols,
@@ -1288,6 +1309,79 @@ mod tests {
             )
             .map_err(|e| e.to_string());
             assert_eq!(fast, slow, "seed {seed}");
+        }
+    }
+
+    /// A number read by fast-float2 (when it reads a whole field, finite) is exactly what
+    /// `str::parse` reads: random strings over the characters of numbers, and random decimal
+    /// numbers with up to 25 digits, signs, exponents and the forms Rust prints.
+    #[test]
+    fn fast_parse_is_std_parse() {
+        use proptest::prelude::*;
+        let same = |s: &str| -> std::result::Result<(), TestCaseError> {
+            if let Ok((v, n)) = fast_float2::parse_partial::<f64, _>(s) {
+                if n == s.len() && v.is_finite() {
+                    let std = s.parse::<f64>();
+                    prop_assert!(std.is_ok(), "{s:?}: fast-float2 {v}, std refuses");
+                    prop_assert_eq!(std.unwrap_or(f64::NAN).to_bits(), v.to_bits(), "{:?}", s);
+                }
+            }
+            Ok(())
+        };
+        let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+            cases: 3000,
+            ..ProptestConfig::default()
+        });
+        runner
+            .run(&"[-+0-9.eE]{0,12}|[-+ .eEinfatyINFATY0-9_x]{0,10}", |s| {
+                same(&s)
+            })
+            .unwrap();
+        runner
+            .run(
+                &(
+                    "[-+]?",
+                    "[0-9]{0,25}",
+                    proptest::option::of("[0-9]{0,25}"),
+                    proptest::option::of(("[eE]", "[-+]?", "[0-9]{1,3}")),
+                ),
+                |(sign, int, frac, exp)| {
+                    let mut s = format!("{sign}{int}");
+                    if let Some(f) = frac {
+                        s.push('.');
+                        s.push_str(&f);
+                    }
+                    if let Some((e, es, ed)) = exp {
+                        s.push_str(&format!("{e}{es}{ed}"));
+                    }
+                    same(&s)
+                },
+            )
+            .unwrap();
+        runner
+            .run(&any::<f64>(), |v| {
+                same(&format!("{v}"))?;
+                same(&format!("{v:e}"))?;
+                same(&format!("{v:.17}"))
+            })
+            .unwrap();
+        // Fixed cases: the sensor-log forms, halfway and subnormal values, overlong digits.
+        for s in [
+            "0.37745278799999998",
+            "26.190862338069099",
+            "9007199254740993",
+            "2.2250738585072011e-308",
+            "4.9e-324",
+            "1.7976931348623157e308",
+            "0.1000000000000000055511151231257827021181583404541015625",
+            "123456789012345678901234567890",
+            ".5",
+            "5.",
+            "+1",
+            "-0",
+            "1e400",
+        ] {
+            same(s).unwrap();
         }
     }
 

@@ -8,7 +8,7 @@
 
 use crate::data::Table;
 use crate::error::{IdentifyError, Result};
-use crate::fit::select_rows;
+use crate::pipeline::train_rows;
 use crate::transform::transform_segments;
 use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
 use nalgebra::DMatrix;
@@ -47,7 +47,7 @@ pub fn training_envelope(
 ) -> Result<Envelope> {
     let mut ranges = Vec::new();
     for name in model.channels() {
-        let x = select_rows(&table.inputs[channel(table, name)?], train);
+        let x = train_rows(&table.inputs[channel(table, name)?], train);
         let (min, max) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
             (a.0.min(v), a.1.max(v))
         });
@@ -57,11 +57,9 @@ pub fn training_envelope(
             max,
         });
     }
-    let feats: Vec<Vec<f64>> = regressors(table, model)?
-        .iter()
-        .map(|f| select_rows(f, train))
-        .collect();
-    let n = feats.first().map_or(0, Vec::len);
+    let all = regressors(table, model)?;
+    let feats: Vec<std::borrow::Cow<[f64]>> = all.iter().map(|f| train_rows(f, train)).collect();
+    let n = feats.first().map_or(0, |f| f.len());
     let p = feats.len();
     let mut env = Envelope {
         axis: axis.to_string(),

@@ -221,15 +221,83 @@ fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
     let mut id = identify_models(table, opts)?;
-    for m in &mut id.targets {
+    // Each target's envelope on its own core (the targets are independent).
+    let envelopes = par_map(&id.targets, |m| {
         let env = crate::envelope::training_envelope(table, &id.train, &m.target, &m.model)?;
         let (outside, half) =
             crate::envelope::rows_outside_and_intervals(table, &m.model, &env, m.cv_rmse)?;
+        Ok::<_, IdentifyError>((env, outside, half))
+    });
+    for (m, e) in id.targets.iter_mut().zip(envelopes) {
+        let (env, outside, half) = e?;
         m.envelope = Some(env);
         m.outside = outside;
         m.interval_um = half;
     }
     Ok(id)
+}
+
+/// [`plain_least_squares`] on all inputs: (train RMSE, test RMSE) per target.
+pub type Floor = Vec<(f64, Option<f64>)>;
+
+/// [`identify`] and [`plain_least_squares`] (the floor the report compares with) at once,
+/// the floor on a second core; the same results as the two calls one after the other
+/// (the split is `opts.split`; an error of `identify` comes first).
+pub fn identify_with_floor(
+    table: &Table,
+    opts: &IdentifyOptions,
+) -> Result<(Identification, Floor)> {
+    let (id, floor) = std::thread::scope(|s| {
+        let floor = s.spawn(|| plain_least_squares(table, &opts.split));
+        let id = identify(table, opts);
+        (id, join(floor))
+    });
+    Ok((id?, floor?))
+}
+
+/// The result of a scoped thread (its panic, if any, carried on in the caller).
+fn join<R>(h: std::thread::ScopedJoinHandle<'_, R>) -> R {
+    h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))
+}
+
+/// `f` over `items` on up to as many threads as there are cores, in contiguous chunks;
+/// the results in the order of `items`.
+pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(items.len());
+    if threads <= 1 {
+        return items.iter().map(f).collect();
+    }
+    let chunk = items.len().div_ceil(threads);
+    let f = &f;
+    std::thread::scope(|s| {
+        let mut chunks = items.chunks(chunk);
+        let first = chunks.next().unwrap_or_default();
+        let rest: Vec<_> = chunks
+            .map(|c| s.spawn(move || c.iter().map(f).collect::<Vec<R>>()))
+            .collect();
+        let mut out: Vec<R> = first.iter().map(f).collect();
+        for h in rest {
+            out.extend(join(h));
+        }
+        out
+    })
+}
+
+/// The training rows of `x`: a slice of it when they are one contiguous block (a time
+/// split, the usual case), else a copy (the same values in the same order either way).
+pub(crate) fn train_rows<'a>(x: &'a [f64], train: &[bool]) -> std::borrow::Cow<'a, [f64]> {
+    let start = train.iter().position(|&t| t).unwrap_or(train.len());
+    let end = train[start..]
+        .iter()
+        .position(|&t| !t)
+        .map_or(train.len(), |p| start + p);
+    if x.len() == train.len() && !train[end..].contains(&true) {
+        std::borrow::Cow::Borrowed(&x[start..end])
+    } else {
+        std::borrow::Cow::Owned(select_rows(x, train))
+    }
 }
 
 fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
@@ -271,12 +339,9 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     }
     let fold = folds(table, &train, opts.folds)?;
     let k_folds = opts.folds;
-    let tr_inputs: Vec<Vec<f64>> = table
-        .inputs
-        .iter()
-        .map(|x| select_rows(x, &train))
-        .collect();
-    let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| v.as_slice()).collect();
+    let tr_inputs: Vec<std::borrow::Cow<[f64]>> =
+        table.inputs.iter().map(|x| train_rows(x, &train)).collect();
+    let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| &v[..]).collect();
     let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
     let absr = corr.map(f64::abs);
     let dendrogram = Dendrogram::single_linkage(&absr);
@@ -352,7 +417,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
 
     let mut out = Vec::with_capacity(table.targets.len());
     for (j, y) in table.targets.iter().enumerate() {
-        let ytr = select_rows(y, &train);
+        let ytr = train_rows(y, &train);
         let score: Vec<f64> = match opts.representative {
             RepresentativeBy::Pearson => tr_refs
                 .iter()
@@ -491,7 +556,8 @@ pub fn drop_degenerate_inputs<'a>(
 ) -> (std::borrow::Cow<'a, Table>, Vec<String>) {
     let mut keep: Vec<usize> = Vec::new();
     let mut notes = Vec::new();
-    let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, train)).collect();
+    let cols: Vec<std::borrow::Cow<[f64]>> =
+        table.inputs.iter().map(|x| train_rows(x, train)).collect();
     let stats: Vec<(f64, f64)> = cols
         .iter()
         .map(|x| {
@@ -517,7 +583,7 @@ pub fn drop_degenerate_inputs<'a>(
             let (mk, sk) = stats[k];
             let r = x
                 .iter()
-                .zip(&cols[k])
+                .zip(cols[k].iter())
                 .map(|(a, b)| (a - m) * (b - mk))
                 .sum::<f64>()
                 / (x.len() as f64 * sd * sk);
@@ -606,22 +672,22 @@ fn finish(
 ) -> Result<TargetModel> {
     let ti = taus.iter().position(|t| *t == ch.tau).unwrap_or(0);
     let feats = &features[ti];
-    let mut cols: Vec<Vec<f64>> = Vec::new();
+    let mut cols: Vec<std::borrow::Cow<[f64]>> = Vec::new();
     let mut names: Vec<String> = Vec::new();
     let mut kinds: Vec<(usize, Transform)> = Vec::new();
     for &s in &ch.sensors {
         let name = &table.input_names[s];
-        cols.push(select_rows(&feats[per_sensor * s], train));
+        cols.push(train_rows(&feats[per_sensor * s], train));
         names.push(name.clone());
         kinds.push((s, Transform::Value));
         if let Some(tau_s) = ch.tau {
-            cols.push(select_rows(&feats[per_sensor * s + 1], train));
+            cols.push(train_rows(&feats[per_sensor * s + 1], train));
             names.push(format!("rate({name}, τ = {tau_s} s)"));
             kinds.push((s, Transform::Rate { tau_s }));
         }
     }
-    let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
-    let ytr = select_rows(&table.targets[j], train);
+    let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
+    let ytr = train_rows(&table.targets[j], train);
     let fit = match ch.alpha {
         Some(a) => regress::ridge(&refs, &ytr, a, &names)?,
         None => regress::ols(&refs, &ytr, &names)?,
@@ -703,18 +769,15 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
     let train = train_mask(table, split)?;
     let (table, _) = drop_degenerate_inputs(table, &train);
     let table = &table;
-    let cols: Vec<Vec<f64>> = table
-        .inputs
-        .iter()
-        .map(|x| select_rows(x, &train))
-        .collect();
-    let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
-    let ys: Vec<Vec<f64>> = table
+    let cols: Vec<std::borrow::Cow<[f64]>> =
+        table.inputs.iter().map(|x| train_rows(x, &train)).collect();
+    let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
+    let ys: Vec<std::borrow::Cow<[f64]>> = table
         .targets
         .iter()
-        .map(|y| select_rows(y, &train))
+        .map(|y| train_rows(y, &train))
         .collect();
-    let ys: Vec<&[f64]> = ys.iter().map(|v| v.as_slice()).collect();
+    let ys: Vec<&[f64]> = ys.iter().map(|v| &v[..]).collect();
     let fits = regress::ols_many(&refs, &ys, &table.input_names)?;
     table
         .targets
