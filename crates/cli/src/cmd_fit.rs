@@ -11,6 +11,7 @@ use gearcomp_identify::data::{read_runs, MissingCells, ReadOptions, Selection, T
 use gearcomp_identify::dialect::parse_delimiter;
 use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
+use gearcomp_identify::spreadsheet::{is_workbook, read_paths, SheetChoice};
 use gearcomp_identify::workpiece::workpiece_shrink;
 use gearcomp_identify::{
     identify, pipeline::identify_with_floor, Grouping, IdentifyOptions, ModelKind, Origin,
@@ -119,11 +120,24 @@ pub enum ShrinkMethodArg {
 Without --data the embedded FL_THERMAL test (46 h, 16 temperatures, 5 probes) is used, trained on the first 24 h."
 )]
 pub struct Args {
-    /// CSV log(s) with a header row: time column (s), temperature columns, target columns.
+    /// CSV log(s) with a header row: time column (s), temperature columns, target columns;
+    /// or workbooks (.xlsx .xlsm .xlsb .xls .ods), read as the same values written as CSV.
     /// Several files are several runs (one per file, named after the file).
     /// Default: the embedded FL_THERMAL data set.
     #[arg(long, num_args = 1..)]
     pub data: Vec<PathBuf>,
+    /// Workbook sheet(s) to read, by name or 1-based number; several are several runs, each
+    /// named after its sheet. Default: the workbook's only sheet with data.
+    #[arg(long, num_args = 1..)]
+    pub sheet: Vec<String>,
+    /// Every sheet with data of each workbook (or every --sheet) is a run named after it.
+    #[arg(long)]
+    pub sheets_as_runs: bool,
+    /// The first row is data, not a header (CSV and workbooks): columns are named c1 … cN
+    /// by position (column A = c1), e.g. --time-column c1 --inputs 'c*' --target c23
+    /// (the time and target columns are never inputs).
+    #[arg(long)]
+    pub no_header: bool,
     /// The log has no time column: rows are this many seconds apart (restarting per run).
     #[arg(long)]
     pub sample_interval_s: Option<f64>,
@@ -264,11 +278,25 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
             MissingArg::Error => MissingCells::Error,
             MissingArg::Split => MissingCells::Split,
         },
+        no_header: args.no_header,
         ..ReadOptions::default()
     })
 }
 
-fn load(paths: &[PathBuf], sel: &Selection, opts: ReadOptions) -> anyhow::Result<(Table, String)> {
+fn load(
+    paths: &[PathBuf],
+    sel: &Selection,
+    opts: ReadOptions,
+    sheets: &SheetChoice,
+) -> anyhow::Result<(Table, String)> {
+    if paths.iter().any(|p| is_workbook(p)) || !sheets.sheets.is_empty() || sheets.all {
+        let name = paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ");
+        return Ok((read_paths(paths, sel, opts, sheets)?, name));
+    }
     let files: Vec<(String, String)> = if paths.is_empty() {
         vec![(
             gearcomp_datasets::fl_thermal_csv()
@@ -372,7 +400,12 @@ fn workpiece_model(
         targets: vec![args.workpiece_target.clone().unwrap_or_default()],
         run: None,
     };
-    let (wt, _) = load(std::slice::from_ref(path), &wsel, read_options(args)?)?;
+    let (wt, _) = load(
+        std::slice::from_ref(path),
+        &wsel,
+        read_options(args)?,
+        &SheetChoice::default(),
+    )?;
     let wid = identify(
         &wt,
         &IdentifyOptions {
@@ -415,7 +448,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         targets: args.target.clone(),
         run: args.run_column.clone(),
     };
-    let (table, data_name) = load(&args.data, &sel, read_options(&args)?)?;
+    let sheets = SheetChoice {
+        sheets: args.sheet.clone(),
+        all: args.sheets_as_runs,
+    };
+    let (table, data_name) = load(&args.data, &sel, read_options(&args)?, &sheets)?;
     let (split, split_note) = split_of(&args, &table)?;
     let opts = options(&args, &split);
     let (id, base) = identify_with_floor(&table, &opts)?;
