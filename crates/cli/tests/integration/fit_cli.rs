@@ -40,6 +40,9 @@ fn fit_help_lists_every_option() {
         "--json",
         "--family",
         "--delay-s",
+        "--sheet",
+        "--sheets-as-runs",
+        "--no-header",
     ] {
         assert!(help.contains(opt), "missing {opt} in help");
     }
@@ -411,4 +414,147 @@ fn fit_delimiter_and_decimal_comma_options() {
         "{e}"
     );
     std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A fixture of `crates/identify/tests/data/workbooks/make_workbooks.py` (openpyxl and
+/// pandas/odfpy): three days as workbook sheets and as CSV files of the same values.
+fn fixture(name: &str) -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// `fit --json --model static --classes 2` on `data` with `extra` options: the document, or
+/// the error text.
+fn fit_files(data: &[std::path::PathBuf], extra: &[&str]) -> Result<serde_json::Value, String> {
+    let out = bin()
+        .args([
+            "fit",
+            "--json",
+            "--model",
+            "static",
+            "--classes",
+            "2",
+            "--data",
+        ])
+        .args(data)
+        .args(extra)
+        .output()
+        .unwrap();
+    if out.status.success() {
+        Ok(serde_json::from_str(&String::from_utf8_lossy(&out.stdout)).unwrap())
+    } else {
+        Err(String::from_utf8_lossy(&out.stderr).into_owned())
+    }
+}
+
+/// Workbook sheets chosen with --sheet (by name and by number) or every sheet with
+/// --sheets-as-runs, and a header-less workbook or CSV with --no-header, fit the model of
+/// the same values as CSV files with a header (one file per day).
+#[test]
+fn fit_reads_workbook_sheets_as_the_csv_files() {
+    let csv: Vec<_> = ["day 1.csv", "day 2.csv", "day 3.csv"]
+        .iter()
+        .map(|n| fixture(n))
+        .collect();
+    let want = fit_files(&csv, &["--target", "d_um"]).unwrap();
+    assert_eq!(want["runs"], serde_json::json!(["day 1", "day 2", "day 3"]));
+    let book = fit_files(
+        &[fixture("days.xlsx")],
+        &["--target", "d_um", "--sheet", "day 1", "day 2", "4"],
+    )
+    .unwrap();
+    assert_eq!(book["runs"], want["runs"]);
+    assert_eq!(book["targets"], want["targets"], "the same model");
+    // Header-less: columns c1 … c5; 'c*' as inputs leaves out the time and the target.
+    let bare = [
+        "--no-header",
+        "--time-column",
+        "c1",
+        "--inputs",
+        "c*",
+        "--target",
+        "c5",
+    ];
+    let mut extra = bare.to_vec();
+    extra.push("--sheets-as-runs");
+    let got = fit_files(&[fixture("days_noheader.xlsx")], &extra).unwrap();
+    assert_eq!(got["runs"], want["runs"]);
+    let renamed = want["targets"]
+        .to_string()
+        .replace("t1_c", "c2")
+        .replace("t2_c", "c3")
+        .replace("t3_c", "c4")
+        .replace("d_um", "c5");
+    assert_eq!(got["targets"].to_string(), renamed);
+    // One header-less CSV file: the model of day 1 with its header.
+    let one = fit_files(&[fixture("day 1.csv")], &["--target", "d_um", "--no-test"]).unwrap();
+    let mut extra = bare.to_vec();
+    extra.push("--no-test");
+    let got = fit_files(&[fixture("day 1 noheader.csv")], &extra).unwrap();
+    let renamed = one["targets"]
+        .to_string()
+        .replace("t1_c", "c2")
+        .replace("t2_c", "c3")
+        .replace("t3_c", "c4")
+        .replace("d_um", "c5");
+    assert_eq!(got["targets"].to_string(), renamed);
+    // The OpenDocument file of day 1.
+    let got = fit_files(&[fixture("day 1.ods")], &["--target", "d_um", "--no-test"]).unwrap();
+    assert_eq!(got["targets"], one["targets"]);
+}
+
+/// What a workbook user gets wrong is named: several sheets without a choice, an unknown
+/// sheet, a header-less file read with a header, --sheet on a CSV log, a bad cell.
+#[test]
+fn fit_workbook_errors_name_the_sheet_and_the_cell() {
+    let e = fit_files(&[fixture("days.xlsx")], &["--target", "d_um"]).unwrap_err();
+    assert!(
+        e.contains("has 4 sheets with data ('notes', 'day 1', 'day 2', 'day 3')")
+            && e.contains("--sheet NAME|NUMBER, or read each as a run with --sheets-as-runs"),
+        "{e}"
+    );
+    let e = fit_files(
+        &[fixture("days.xlsx")],
+        &["--target", "d_um", "--sheets-as-runs"],
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("days.xlsx, sheet 'notes' (columns: machine, test rig 2)"),
+        "{e}"
+    );
+    let e = fit_files(
+        &[fixture("days.xlsx")],
+        &["--target", "d_um", "--sheet", "day 9"],
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("invalid --sheet = day 9: expected a sheet name or number of")
+            && e.contains("1 'notes', 2 'day 1', 3 'day 2', 4 'day 3'"),
+        "{e}"
+    );
+    let e = fit_files(&[fixture("days_noheader.xlsx")], &["--sheet", "1"]).unwrap_err();
+    assert!(
+        e.contains("seems to have no header row; read it with --no-header"),
+        "{e}"
+    );
+    let e = fit_files(&[fixture("day 1 noheader.csv")], &["--target", "c5"]).unwrap_err();
+    assert!(e.contains("--no-header"), "{e}");
+    let e = fit_files(
+        &[fixture("day 1.csv")],
+        &["--target", "d_um", "--sheet", "1"],
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("--sheet") && e.contains("CSV logs have no sheets"),
+        "{e}"
+    );
+    let cells = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../identify/tests/data/workbooks/cells.xlsx");
+    let e = fit_files(&[cells], &["--target", "d_um", "--inputs", "a_c", "b_c"]).unwrap_err();
+    assert!(
+        e.contains("3 bad row(s) at line(s) 10, 12, 17: Sheet 'day 3' cell B10: a_c is empty")
+            && e.contains("(the cell holds the error #DIV/0!)"),
+        "{e}"
+    );
 }
