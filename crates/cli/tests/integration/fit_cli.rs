@@ -499,9 +499,11 @@ fn fit_reads_workbook_sheets_as_the_csv_files() {
         .replace("t3_c", "c4")
         .replace("d_um", "c5");
     assert_eq!(got["targets"].to_string(), renamed);
-    // The OpenDocument file of day 1.
-    let got = fit_files(&[fixture("day 1.ods")], &["--target", "d_um", "--no-test"]).unwrap();
-    assert_eq!(got["targets"], one["targets"]);
+    // The OpenDocument and the Excel 97-2003 file of day 1.
+    for book in ["day 1.ods", "day 1.xls"] {
+        let got = fit_files(&[fixture(book)], &["--target", "d_um", "--no-test"]).unwrap();
+        assert_eq!(got["targets"], one["targets"], "{book}");
+    }
 }
 
 /// What a workbook user gets wrong is named: several sheets without a choice, an unknown

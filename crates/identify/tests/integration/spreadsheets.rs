@@ -147,7 +147,8 @@ fn workbook_of_random_values_equals_the_csv_to_the_last_bit() {
 }
 
 /// Date-time cells are the time column in seconds since the run's first stamp, with the
-/// 1900 and the 1904 epoch (the same instants written by openpyxl both ways), across
+/// 1900 and the 1904 epoch (the same instants written by openpyxl both ways, and by xlwt
+/// in a 1904 .xls), across
 /// midnight into a leap day; the values equal the CSV of ISO stamps written by the same
 /// script.
 #[test]
@@ -157,7 +158,7 @@ fn excel_serial_dates_of_both_epochs_are_seconds() {
     let want = read_csv(&csv_text, "dates.csv", &s, ReadOptions::default()).unwrap();
     let expected: Vec<f64> = (0..8).map(|k| k as f64 * 37.25).collect();
     assert_eq!(want.time_s, expected);
-    for book in ["dates.xlsx", "dates_1904.xlsx"] {
+    for book in ["dates.xlsx", "dates_1904.xlsx", "dates_1904.xls"] {
         let got = read_paths(
             &[fixture(book)],
             &s,
@@ -167,23 +168,44 @@ fn excel_serial_dates_of_both_epochs_are_seconds() {
         .unwrap();
         assert_eq!(got.time_s, expected, "{book}");
         assert_same_data(&got, &want, true);
+        // The absolute date, shown by a stamp read as a number: the epoch is the workbook's.
+        let e = read_paths(
+            &[fixture(book)],
+            &sel("t", &["stamp", "a_c"], &["d_um"]),
+            ReadOptions {
+                sample_interval_s: Some(1.0),
+                ..ReadOptions::default()
+            },
+            &SheetChoice::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains(
+                "8 bad row(s) at line(s) 2, 3, 4, 5, 6, 7, 8, 9: Sheet 'log' cell A2: stamp = \"2024-02-28 23:58:00.000\" is not a number"
+            ),
+            "{book}: {e}"
+        );
     }
 }
 
-/// The OpenDocument file pandas/odfpy wrote equals the CSV of the same day.
+/// The OpenDocument file pandas/odfpy wrote, and the Excel 97-2003 file xlwt wrote, equal
+/// the CSV of the same day.
 #[test]
-fn an_ods_workbook_equals_its_csv() {
+fn ods_and_xls_workbooks_equal_their_csv() {
     let s = sel("time_s", &["*_c"], &["d_um"]);
     let csv = std::fs::read_to_string(cli_fixture("day 1.csv")).unwrap();
     let want = read_csv(&csv, "day 1.csv", &s, ReadOptions::default()).unwrap();
-    let got = read_paths(
-        &[cli_fixture("day 1.ods")],
-        &s,
-        ReadOptions::default(),
-        &SheetChoice::default(),
-    )
-    .unwrap();
-    assert_same_data(&got, &want, true);
+    for book in ["day 1.ods", "day 1.xls"] {
+        let got = read_paths(
+            &[cli_fixture(book)],
+            &s,
+            ReadOptions::default(),
+            &SheetChoice::default(),
+        )
+        .unwrap();
+        assert_same_data(&got, &want, true);
+    }
 }
 
 /// Error, empty and text cells are named by sheet and cell; a number written as text is a

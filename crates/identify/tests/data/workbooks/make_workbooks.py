@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Writes the workbook fixtures of the spreadsheet tests with an independent writer (openpyxl;
-pandas with odfpy for the OpenDocument file), and the CSV logs holding the same values.
+pandas with odfpy for the OpenDocument file; xlwt for the Excel 97-2003 .xls files), and the CSV logs holding the same values.
 
-    pip install openpyxl pandas odfpy
+    pip install openpyxl pandas odfpy xlwt
     python3 crates/identify/tests/data/workbooks/make_workbooks.py
 
 Run from anywhere; writes beside this script and into crates/cli/tests/fixtures/. The Rust
@@ -117,6 +117,35 @@ def days():
     )
 
 
+def write_xls():
+    """The legacy binary format (BIFF, .xls): day 1 with its header, and the dates in the
+    1904 epoch."""
+    import xlwt
+
+    wb = xlwt.Workbook()
+    ws = wb.add_sheet("day 1")
+    for c, h in enumerate(["time_s", "t1_c", "t2_c", "t3_c", "d_um"]):
+        ws.write(0, c, h)
+    for r, row in enumerate(day(1, 40)):
+        for c, v in enumerate(row):
+            ws.write(r + 1, c, v)
+    wb.save(os.path.join(CLI, "day 1.xls"))
+    wb = xlwt.Workbook()
+    wb.dates_1904 = True
+    ws = wb.add_sheet("log")
+    stamp = xlwt.easyxf(num_format_str="yyyy-mm-dd hh:mm:ss.000")
+    for c, h in enumerate(["stamp", "a_c", "b_c", "c_c", "d_um"]):
+        ws.write(0, c, h)
+    for r, row in enumerate(dates()):
+        # xlwt drops the milliseconds of a datetime: the 1904 serial date written as a
+        # number in the date format (days since 1904-01-01 00:00).
+        serial = (row[0] - dt.datetime(1904, 1, 1)).total_seconds() / 86400.0
+        ws.write(r + 1, 0, serial, stamp)
+        for c, v in enumerate(row[1:]):
+            ws.write(r + 1, c + 1, v)
+    wb.save(os.path.join(HERE, "dates_1904.xls"))
+
+
 if __name__ == "__main__":
     os.makedirs(CLI, exist_ok=True)
     write_dates(os.path.join(HERE, "dates.xlsx"), False)
@@ -127,3 +156,4 @@ if __name__ == "__main__":
             f.write(r[0].strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] + "," + ",".join(repr(v) for v in r[1:]) + "\n")
     cells()
     days()
+    write_xls()
