@@ -504,7 +504,9 @@ fn clean_piece(piece: &str, width: usize, slots: &[usize]) -> Option<CleanPiece>
         *e = s;
     }
     let rows = b.len() / (8 * width).max(1) + 1;
-    let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); slots.len()];
+    // One allocation per column (`vec![Vec::with_capacity(rows); k]` would clone an empty
+    // vector, capacity 0, into all but the last: growth by reallocation and copies).
+    let mut cols: Vec<Vec<f64>> = (0..slots.len()).map(|_| Vec::with_capacity(rows)).collect();
     let mut line_offsets = Vec::with_capacity(rows);
     let mut line_count = 0u64;
     let mut prev_t = f64::NEG_INFINITY;

@@ -8,7 +8,7 @@
 
 use crate::data::Table;
 use crate::error::{IdentifyError, Result};
-use crate::pipeline::train_rows;
+use crate::pipeline::TrainRows;
 use crate::transform::transform_segments;
 use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
 use nalgebra::DMatrix;
@@ -45,9 +45,10 @@ pub fn training_envelope(
     axis: &str,
     model: &LinearModel,
 ) -> Result<Envelope> {
+    let rows = TrainRows::new(train);
     let mut ranges = Vec::new();
     for name in model.channels() {
-        let x = train_rows(&table.inputs[channel(table, name)?], train);
+        let x = rows.of(&table.inputs[channel(table, name)?]);
         let (min, max) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
             (a.0.min(v), a.1.max(v))
         });
@@ -58,7 +59,7 @@ pub fn training_envelope(
         });
     }
     let all = regressors(table, model)?;
-    let feats: Vec<std::borrow::Cow<[f64]>> = all.iter().map(|f| train_rows(f, train)).collect();
+    let feats: Vec<std::borrow::Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
     let n = feats.first().map_or(0, |f| f.len());
     let p = feats.len();
     let mut env = Envelope {

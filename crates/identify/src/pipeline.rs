@@ -285,18 +285,31 @@ pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync)
     })
 }
 
-/// The training rows of `x`: a slice of it when they are one contiguous block (a time
-/// split, the usual case), else a copy (the same values in the same order either way).
-pub(crate) fn train_rows<'a>(x: &'a [f64], train: &[bool]) -> std::borrow::Cow<'a, [f64]> {
-    let start = train.iter().position(|&t| t).unwrap_or(train.len());
-    let end = train[start..]
-        .iter()
-        .position(|&t| !t)
-        .map_or(train.len(), |p| start + p);
-    if x.len() == train.len() && !train[end..].contains(&true) {
-        std::borrow::Cow::Borrowed(&x[start..end])
-    } else {
-        std::borrow::Cow::Owned(select_rows(x, train))
+/// The training rows of a mask, to take from series: a slice of a series when they are one
+/// contiguous block (a time split, the usual case), else a copy (the same values in the same
+/// order either way). The block is found once per mask.
+pub(crate) struct TrainRows<'m> {
+    mask: &'m [bool],
+    block: Option<(usize, usize)>,
+}
+
+impl<'m> TrainRows<'m> {
+    pub(crate) fn new(mask: &'m [bool]) -> Self {
+        let start = mask.iter().position(|&t| t).unwrap_or(mask.len());
+        let end = mask[start..]
+            .iter()
+            .position(|&t| !t)
+            .map_or(mask.len(), |p| start + p);
+        let block = (!mask[end..].contains(&true)).then_some((start, end));
+        Self { mask, block }
+    }
+
+    /// The training rows of `x` (a series as long as the mask).
+    pub(crate) fn of<'a>(&self, x: &'a [f64]) -> std::borrow::Cow<'a, [f64]> {
+        match self.block {
+            Some((a, b)) if x.len() == self.mask.len() => std::borrow::Cow::Borrowed(&x[a..b]),
+            _ => std::borrow::Cow::Owned(select_rows(x, self.mask)),
+        }
     }
 }
 
@@ -338,9 +351,9 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         }
     }
     let fold = folds(table, &train, opts.folds)?;
+    let rows = TrainRows::new(&train);
     let k_folds = opts.folds;
-    let tr_inputs: Vec<std::borrow::Cow<[f64]>> =
-        table.inputs.iter().map(|x| train_rows(x, &train)).collect();
+    let tr_inputs: Vec<std::borrow::Cow<[f64]>> = table.inputs.iter().map(|x| rows.of(x)).collect();
     let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| &v[..]).collect();
     let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
     let absr = corr.map(f64::abs);
@@ -415,9 +428,11 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             .collect()
     };
 
-    let mut out = Vec::with_capacity(table.targets.len());
-    for (j, y) in table.targets.iter().enumerate() {
-        let ytr = train_rows(y, &train);
+    // Each target's selection and final fit on its own core (the targets are independent).
+    let target_index: Vec<usize> = (0..table.targets.len()).collect();
+    let out = par_map(&target_index, |&j| -> Result<TargetModel> {
+        let y = &table.targets[j];
+        let ytr = rows.of(y);
         let score: Vec<f64> = match opts.representative {
             RepresentativeBy::Pearson => tr_refs
                 .iter()
@@ -508,10 +523,12 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             pivot: 0.0,
             tolerance: 0.0,
         })?;
-        out.push(finish(
-            table, &train, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,
-        )?);
-    }
+        finish(
+            table, &rows, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,
+        )
+    })
+    .into_iter()
+    .collect::<Result<Vec<_>>>()?;
     let method = format!(
         "{} model; classes by {}; representative by {}; {}-fold cross-validation by {}",
         match opts.model {
@@ -556,8 +573,8 @@ pub fn drop_degenerate_inputs<'a>(
 ) -> (std::borrow::Cow<'a, Table>, Vec<String>) {
     let mut keep: Vec<usize> = Vec::new();
     let mut notes = Vec::new();
-    let cols: Vec<std::borrow::Cow<[f64]>> =
-        table.inputs.iter().map(|x| train_rows(x, train)).collect();
+    let rows = TrainRows::new(train);
+    let cols: Vec<std::borrow::Cow<[f64]>> = table.inputs.iter().map(|x| rows.of(x)).collect();
     let stats: Vec<(f64, f64)> = cols
         .iter()
         .map(|x| {
@@ -581,6 +598,23 @@ pub fn drop_degenerate_inputs<'a>(
         }
         let dup = keep.iter().copied().find(|&k| {
             let (mk, sk) = stats[k];
+            // Four running sums first: they differ from the one running sum below by at
+            // most 2·n·ε·Σ|a·b| ≤ 2·n·ε·n·sd·sk (Cauchy–Schwarz), i.e. |r| by 2·n·ε, far
+            // below 1e-6 for any table: |r| < 1 − 1e-6 there means no duplicate, and the
+            // decision is the one of the single running sum (computed when it matters).
+            let mut acc = [0.0f64; 4];
+            let (xa, xb) = (x.chunks_exact(4), cols[k].chunks_exact(4));
+            let (ra, rb) = (xa.remainder(), xb.remainder());
+            for (a, b) in xa.zip(xb) {
+                for q in 0..4 {
+                    acc[q] += (a[q] - m) * (b[q] - mk);
+                }
+            }
+            let tail: f64 = ra.iter().zip(rb).map(|(a, b)| (a - m) * (b - mk)).sum();
+            let quick = (acc[0] + acc[1] + acc[2] + acc[3] + tail) / (x.len() as f64 * sd * sk);
+            if quick.abs() < 1.0 - 1e-6 {
+                return false;
+            }
             let r = x
                 .iter()
                 .zip(cols[k].iter())
@@ -659,7 +693,7 @@ fn ridge_fold_rmse(
 #[allow(clippy::too_many_arguments)]
 fn finish(
     table: &Table,
-    train: &[bool],
+    rows: &TrainRows,
     fold: &[Option<usize>],
     k_folds: usize,
     j: usize,
@@ -677,17 +711,17 @@ fn finish(
     let mut kinds: Vec<(usize, Transform)> = Vec::new();
     for &s in &ch.sensors {
         let name = &table.input_names[s];
-        cols.push(train_rows(&feats[per_sensor * s], train));
+        cols.push(rows.of(&feats[per_sensor * s]));
         names.push(name.clone());
         kinds.push((s, Transform::Value));
         if let Some(tau_s) = ch.tau {
-            cols.push(train_rows(&feats[per_sensor * s + 1], train));
+            cols.push(rows.of(&feats[per_sensor * s + 1]));
             names.push(format!("rate({name}, τ = {tau_s} s)"));
             kinds.push((s, Transform::Rate { tau_s }));
         }
     }
     let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
-    let ytr = train_rows(&table.targets[j], train);
+    let ytr = rows.of(&table.targets[j]);
     let fit = match ch.alpha {
         Some(a) => regress::ridge(&refs, &ytr, a, &names)?,
         None => regress::ols(&refs, &ytr, &names)?,
@@ -759,8 +793,8 @@ fn finish(
         envelope: None,
         outside: Vec::new(),
         interval_um: Vec::new(),
-        train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
-        test_rmse: rmse_where(&e, train, false),
+        train_rmse: rmse_where(&e, rows.mask, true).unwrap_or(f64::NAN),
+        test_rmse: rmse_where(&e, rows.mask, false),
     })
 }
 
@@ -768,15 +802,11 @@ fn finish(
 pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
     let train = train_mask(table, split)?;
     let (table, _) = drop_degenerate_inputs(table, &train);
+    let rows = TrainRows::new(&train);
     let table = &table;
-    let cols: Vec<std::borrow::Cow<[f64]>> =
-        table.inputs.iter().map(|x| train_rows(x, &train)).collect();
+    let cols: Vec<std::borrow::Cow<[f64]>> = table.inputs.iter().map(|x| rows.of(x)).collect();
     let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
-    let ys: Vec<std::borrow::Cow<[f64]>> = table
-        .targets
-        .iter()
-        .map(|y| train_rows(y, &train))
-        .collect();
+    let ys: Vec<std::borrow::Cow<[f64]>> = table.targets.iter().map(|y| rows.of(y)).collect();
     let ys: Vec<&[f64]> = ys.iter().map(|v| &v[..]).collect();
     let fits = regress::ols_many(&refs, &ys, &table.input_names)?;
     table
