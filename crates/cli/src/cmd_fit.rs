@@ -11,7 +11,7 @@ use gearcomp_identify::data::{read_runs, MissingCells, ReadOptions, Selection, T
 use gearcomp_identify::dialect::parse_delimiter;
 use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
-use gearcomp_identify::spreadsheet::{is_workbook, read_paths, SheetChoice};
+use gearcomp_identify::spreadsheet::{is_workbook, read_paths_with_targets, SheetChoice};
 use gearcomp_identify::workpiece::workpiece_shrink;
 use gearcomp_identify::{
     identify, pipeline::identify_with_floor, Grouping, IdentifyOptions, ModelKind, Origin,
@@ -138,6 +138,11 @@ pub struct Args {
     /// (the time and target columns are never inputs).
     #[arg(long)]
     pub no_header: bool,
+    /// Workbook(s) holding the target columns of the --data workbooks, one per --data file,
+    /// row for row (each sheet's target sheet: the one of the same name, else the one at
+    /// the same place).
+    #[arg(long, num_args = 1.., requires = "data")]
+    pub target_data: Vec<PathBuf>,
     /// The log has no time column: rows are this many seconds apart (restarting per run).
     #[arg(long)]
     pub sample_interval_s: Option<f64>,
@@ -288,14 +293,17 @@ fn load(
     sel: &Selection,
     opts: ReadOptions,
     sheets: &SheetChoice,
+    targets: &[PathBuf],
 ) -> anyhow::Result<(Table, String)> {
-    if paths.iter().any(|p| is_workbook(p)) || !sheets.sheets.is_empty() || sheets.all {
+    let books = paths.iter().any(|p| is_workbook(p));
+    if books || !sheets.sheets.is_empty() || sheets.all || !targets.is_empty() {
         let name = paths
             .iter()
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        return Ok((read_paths(paths, sel, opts, sheets)?, name));
+        let table = read_paths_with_targets(paths, targets, sel, opts, sheets)?;
+        return Ok((table, name));
     }
     let files: Vec<(String, String)> = if paths.is_empty() {
         vec![(
@@ -405,6 +413,7 @@ fn workpiece_model(
         &wsel,
         read_options(args)?,
         &SheetChoice::default(),
+        &[],
     )?;
     let wid = identify(
         &wt,
@@ -452,7 +461,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sheets: args.sheet.clone(),
         all: args.sheets_as_runs,
     };
-    let (table, data_name) = load(&args.data, &sel, read_options(&args)?, &sheets)?;
+    let (table, data_name) = load(
+        &args.data,
+        &sel,
+        read_options(&args)?,
+        &sheets,
+        &args.target_data,
+    )?;
     let (split, split_note) = split_of(&args, &table)?;
     let opts = options(&args, &split);
     let (id, base) = identify_with_floor(&table, &opts)?;

@@ -73,6 +73,20 @@ pub fn cell_name(row: usize, col: usize) -> String {
 struct SheetCells {
     name: String,
     cells: Vec<Vec<Data>>,
+    /// Columns from `--target-data` joined to the right of the sheet's own.
+    target: Option<TargetPart>,
+}
+
+/// Where the joined target columns of a sheet come from (`--target-data`).
+#[derive(Clone)]
+struct TargetPart {
+    /// The target workbook and its sheet.
+    path: String,
+    sheet: String,
+    /// The first joined column.
+    col0: usize,
+    /// Row of the joined grid → row of the target sheet.
+    rows: Vec<(usize, usize)>,
 }
 
 /// The sheets of a workbook (its bytes; `name` for messages) that `choice` selects.
@@ -121,6 +135,7 @@ fn sheets_of(bytes: Vec<u8>, name: &str, choice: &SheetChoice) -> Result<Vec<She
         Ok(SheetCells {
             name: sheet.to_string(),
             cells,
+            target: None,
         })
     };
     let mut out = Vec::new();
@@ -259,6 +274,8 @@ struct SheetInfo {
     header: Vec<String>,
     /// Error cells: (0-based row, column, the error as Excel shows it).
     errors: Vec<(usize, usize, String)>,
+    /// The joined target columns (`--target-data`).
+    target: Option<TargetPart>,
 }
 
 impl SheetInfo {
@@ -281,11 +298,22 @@ impl SheetInfo {
                     .find(|e| e.0 == row && e.1 == c)
                     .map(|e| format!(" (the cell holds the error {})", e.2))
                     .unwrap_or_default();
-                format!(
-                    "Sheet '{}' cell {}: {reason}{err}",
-                    self.sheet,
-                    cell_name(row, c)
-                )
+                match &self.target {
+                    Some(t) if c >= t.col0 => {
+                        let r = t.rows.iter().find(|m| m.0 == row).map_or(row, |m| m.1);
+                        format!(
+                            "{}: Sheet '{}' cell {}: {reason}{err}",
+                            t.path,
+                            t.sheet,
+                            cell_name(r, c - t.col0)
+                        )
+                    }
+                    _ => format!(
+                        "Sheet '{}' cell {}: {reason}{err}",
+                        self.sheet,
+                        cell_name(row, c)
+                    ),
+                }
             }
             None => format!("Sheet '{}' row {line}: {reason}", self.sheet),
         }
@@ -360,6 +388,133 @@ pub fn read_paths(
         ));
     }
     read_sheets(&sheets, sel, opts)
+}
+
+/// [`read_paths`] with the target columns in other workbooks (`--target-data`): workbook k
+/// of `targets` holds the target columns of workbook k of `paths`, row by row (the n-th row
+/// with data of a sheet, header included, beside the n-th of its target sheet). The target
+/// sheet of a sheet is the one of the same name, else the one at the same place when the
+/// target workbook has as many sheets with data as are read from the data workbook. Row
+/// counts must match. Target cells are named in messages by their own workbook, sheet and
+/// cell; with [`ReadOptions::no_header`] their columns continue the numbering (`c23` after
+/// 22 columns).
+pub fn read_paths_with_targets(
+    paths: &[PathBuf],
+    targets: &[PathBuf],
+    sel: &Selection,
+    opts: ReadOptions,
+    choice: &SheetChoice,
+) -> Result<Table> {
+    if targets.is_empty() {
+        return read_paths(paths, sel, opts, choice);
+    }
+    let list = |ps: &[PathBuf]| {
+        ps.iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if targets.len() != paths.len() {
+        return Err(invalid(
+            "--target-data",
+            list(targets),
+            &format!(
+                "one target workbook per --data file: {} file(s) for {} ({})",
+                targets.len(),
+                paths.len(),
+                list(paths)
+            ),
+        ));
+    }
+    if let Some(p) = paths.iter().chain(targets).find(|p| !is_workbook(p)) {
+        return Err(invalid(
+            "--target-data",
+            p.display(),
+            "workbooks (.xlsx .xlsm .xlsb .xls .ods) for --data and --target-data (CSV logs are not joined: put their columns into one file)",
+        ));
+    }
+    let mut books = Vec::new();
+    for (p, tp) in paths.iter().zip(targets) {
+        let (name, tname) = (p.display().to_string(), tp.display().to_string());
+        let sheets = sheets_of(std::fs::read(p).map_err(|e| io_error(p, e))?, &name, choice)?;
+        let all = SheetChoice {
+            sheets: Vec::new(),
+            all: true,
+        };
+        let tsheets = sheets_of(
+            std::fs::read(tp).map_err(|e| io_error(tp, e))?,
+            &tname,
+            &all,
+        )?;
+        let n = sheets.len();
+        let mut joined = Vec::with_capacity(n);
+        for (k, s) in sheets.into_iter().enumerate() {
+            let t = match tsheets.iter().find(|t| t.name == s.name) {
+                Some(t) => t,
+                None if tsheets.len() == n => &tsheets[k],
+                None => {
+                    return Err(invalid(
+                        "--target-data",
+                        &tname,
+                        &format!(
+                            "a sheet '{}' (as in {name}), or as many sheets with data as are read from {name} ({n}); its sheets with data: {}",
+                            s.name,
+                            tsheets
+                                .iter()
+                                .map(|t| format!("'{}'", t.name))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    ))
+                }
+            };
+            joined.push(join(s, &name, t, &tname)?);
+        }
+        books.push((name, joined));
+    }
+    read_sheets(&books, sel, opts)
+}
+
+/// The sheet `s` (of workbook `name`) with the columns of target sheet `t` (of `tname`)
+/// to its right, the n-th row with data beside the n-th.
+fn join(s: SheetCells, name: &str, t: &SheetCells, tname: &str) -> Result<SheetCells> {
+    let with_data = |c: &SheetCells| -> Vec<usize> {
+        (0..c.cells.len())
+            .filter(|&r| !c.cells[r].iter().all(is_blank))
+            .collect()
+    };
+    let (rows, trows) = (with_data(&s), with_data(t));
+    if rows.len() != trows.len() {
+        return Err(invalid(
+            "--target-data",
+            tname,
+            &format!(
+                "as many rows as the data, row for row: sheet '{}' of {tname} has {} row(s) with data, sheet '{}' of {name} has {}",
+                t.name,
+                trows.len(),
+                s.name,
+                rows.len()
+            ),
+        ));
+    }
+    let col0 = s.cells.iter().map(Vec::len).max().unwrap_or(0);
+    let twidth = t.cells.iter().map(Vec::len).max().unwrap_or(0);
+    let mut cells = s.cells;
+    for (&r, &tr) in rows.iter().zip(&trows) {
+        cells[r].resize(col0, Data::Empty);
+        cells[r].extend(t.cells[tr].iter().cloned());
+        cells[r].resize(col0 + twidth, Data::Empty);
+    }
+    Ok(SheetCells {
+        name: s.name,
+        cells,
+        target: Some(TargetPart {
+            path: tname.to_string(),
+            sheet: t.name.clone(),
+            col0,
+            rows: rows.into_iter().zip(trows).collect(),
+        }),
+    })
 }
 
 /// Reads sheets (`(workbook name, its sheets)`) as [`read_paths`] does.
@@ -439,6 +594,7 @@ fn read_sheets(
                     sheet: s.name.clone(),
                     header,
                     errors,
+                    target: s.target.clone(),
                 }),
             });
         }

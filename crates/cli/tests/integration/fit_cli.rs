@@ -43,6 +43,7 @@ fn fit_help_lists_every_option() {
         "--sheet",
         "--sheets-as-runs",
         "--no-header",
+        "--target-data",
     ] {
         assert!(help.contains(opt), "missing {opt} in help");
     }
@@ -559,4 +560,38 @@ fn fit_workbook_errors_name_the_sheet_and_the_cell() {
             && e.contains("(the cell holds the error #DIV/0!)"),
         "{e}"
     );
+}
+
+/// --target-data: the temperatures of three days in one workbook, the drift in another
+/// (sheets of the same names): the model of the three CSV days; a CSV target file is
+/// refused.
+#[test]
+fn fit_joins_targets_from_a_second_workbook() {
+    let csv: Vec<_> = ["day 1.csv", "day 2.csv", "day 3.csv"]
+        .iter()
+        .map(|n| fixture(n))
+        .collect();
+    let want = fit_files(&csv, &["--target", "d_um"]).unwrap();
+    let drift = fixture("days_drift.xlsx");
+    let drift = drift.to_str().unwrap();
+    let got = fit_files(
+        &[fixture("days_temps.xlsx")],
+        &[
+            "--target",
+            "d_um",
+            "--sheets-as-runs",
+            "--target-data",
+            drift,
+        ],
+    )
+    .unwrap();
+    assert_eq!(got["runs"], want["runs"]);
+    assert_eq!(got["targets"], want["targets"], "the same model");
+    let day = fixture("day 2.csv");
+    let e = fit_files(
+        &[fixture("day 1.csv")],
+        &["--target", "d_um", "--target-data", day.to_str().unwrap()],
+    )
+    .unwrap_err();
+    assert!(e.contains("CSV logs are not joined"), "{e}");
 }

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use gearcomp_identify::data::{
     read_csv, read_runs, DataIssue, MissingCells, ReadOptions, Selection, Table,
 };
-use gearcomp_identify::spreadsheet::{read_paths, SheetChoice};
+use gearcomp_identify::spreadsheet::{read_paths, read_paths_with_targets, SheetChoice};
 use gearcomp_identify::{identify, IdentifyError, IdentifyOptions, ModelKind, Split};
 use proptest::prelude::*;
 use rust_xlsxwriter::Workbook;
@@ -573,4 +573,137 @@ proptest! {
             ),
         }
     }
+}
+
+/// The rows of a CSV fixture (header first) as cells: text for the header, numbers below.
+fn csv_cells(name: &str) -> Vec<Vec<String>> {
+    std::fs::read_to_string(cli_fixture(name))
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
+}
+
+/// Writes `cells` to `ws` from row `r0`, column `c0` (0-based): the first row as text, the
+/// others as numbers (a cell "x" as text).
+fn put(ws: &mut rust_xlsxwriter::Worksheet, cells: &[Vec<String>], r0: u32, c0: u16) {
+    for (r, row) in cells.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            let (r, c) = (r0 + r as u32, c0 + c as u16);
+            match v.parse::<f64>() {
+                Ok(x) if r > r0 => ws.write_number(r, c, x).unwrap(),
+                _ => ws.write_string(r, c, v).unwrap(),
+            };
+        }
+    }
+}
+
+/// `--target-data`: temperatures in one workbook (sheets 'day 1' … 'day 3' from A1), the
+/// drift in another (sheets 'd1' … 'd3', paired by place, from B3): the table of the three
+/// CSV days; a row count that differs, a bad target cell, a CSV log are named.
+#[test]
+fn targets_in_a_second_workbook_join_row_by_row() {
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let texts: Vec<(String, String)> = (1..=3)
+        .map(|d| {
+            let n = format!("day {d}.csv");
+            (std::fs::read_to_string(cli_fixture(&n)).unwrap(), n)
+        })
+        .collect();
+    let refs: Vec<(&str, &str)> = texts
+        .iter()
+        .map(|(t, n)| (t.as_str(), n.as_str()))
+        .collect();
+    let want = read_runs(&refs, &s, ReadOptions::default()).unwrap();
+    let write = |short_row: Option<usize>, bad: Option<(usize, u32)>| {
+        let mut inputs = Workbook::new();
+        let mut targets = Workbook::new();
+        for d in 1..=3 {
+            let cells = csv_cells(&format!("day {d}.csv"));
+            let left: Vec<Vec<String>> = cells.iter().map(|r| r[..4].to_vec()).collect();
+            let mut right: Vec<Vec<String>> = cells.iter().map(|r| r[4..].to_vec()).collect();
+            if short_row == Some(d) {
+                right.pop();
+            }
+            if let Some((_, row)) = bad.filter(|b| b.0 == d) {
+                right[row as usize][0] = "x".into();
+            }
+            let ws = inputs.add_worksheet();
+            ws.set_name(format!("day {d}")).unwrap();
+            put(ws, &left, 0, 0);
+            let ws = targets.add_worksheet();
+            ws.set_name(format!("d{d}")).unwrap();
+            put(ws, &right, 2, 1);
+        }
+        let (a, b) = (tmp("temps.xlsx"), tmp("drift.xlsx"));
+        inputs.save(&a).unwrap();
+        targets.save(&b).unwrap();
+        (a, b)
+    };
+    let all = sheets(&[], true);
+    let (a, b) = write(None, None);
+    let got = read_paths_with_targets(
+        std::slice::from_ref(&a),
+        std::slice::from_ref(&b),
+        &s,
+        ReadOptions::default(),
+        &all,
+    )
+    .unwrap();
+    assert_same_data(&got, &want, true);
+    // Row 5 of the data (its 4th row after the header) beside row 7 of the target sheet.
+    let (a, b) = write(None, Some((2, 4)));
+    let e = read_paths_with_targets(
+        std::slice::from_ref(&a),
+        std::slice::from_ref(&b),
+        &s,
+        ReadOptions::default(),
+        &all,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains(&format!(
+            "{}: Sheet 'd2' cell B7: d_um = \"x\" is not a number",
+            b.display()
+        )),
+        "{e}"
+    );
+    assert!(e.contains("1 bad row(s) at line(s) 5"), "{e}");
+    let (a, b) = write(Some(3), None);
+    let e = read_paths_with_targets(
+        std::slice::from_ref(&a),
+        std::slice::from_ref(&b),
+        &s,
+        ReadOptions::default(),
+        &all,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("sheet 'd3' of")
+            && e.contains("has 40 row(s) with data, sheet 'day 3' of")
+            && e.ends_with("has 41"),
+        "{e}"
+    );
+    let e = read_paths_with_targets(
+        &[cli_fixture("day 1.csv")],
+        &[cli_fixture("day 2.csv")],
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("CSV logs are not joined"), "{e}");
+    let e = read_paths_with_targets(
+        std::slice::from_ref(&a),
+        &[b.clone(), b],
+        &s,
+        ReadOptions::default(),
+        &all,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("2 file(s) for 1"), "{e}");
 }

@@ -111,6 +111,19 @@ def days():
             ws.append(list(r))
     wb.save(os.path.join(CLI, "days_noheader.xlsx"))
     write_csv(os.path.join(CLI, "day 1 noheader.csv"), None, day(1, 40))
+    # The temperatures in one workbook, the drift in another (--target-data).
+    temps, drift = openpyxl.Workbook(), openpyxl.Workbook()
+    temps.remove(temps.active)
+    drift.remove(drift.active)
+    for d in (1, 2, 3):
+        ws, wd = temps.create_sheet(f"day {d}"), drift.create_sheet(f"day {d}")
+        ws.append(header[:4])
+        wd.append(header[4:])
+        for r in day(d, 40):
+            ws.append(list(r[:4]))
+            wd.append(list(r[4:]))
+    temps.save(os.path.join(CLI, "days_temps.xlsx"))
+    drift.save(os.path.join(CLI, "days_drift.xlsx"))
     # OpenDocument: day 1 with its header.
     pd.DataFrame(day(1, 40), columns=header).to_excel(
         os.path.join(CLI, "day 1.ods"), sheet_name="day 1", index=False, engine="odf"
