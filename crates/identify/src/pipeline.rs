@@ -830,3 +830,93 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
         })
         .collect()
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    /// The duplicate-input check against the definition written here (Pearson r by one
+    /// running sum over the training rows, |r| ≥ 1 − 1e-12): exact affine copies, copies
+    /// with noise of 1e-3 … 1e-9 of the signal (|r| from 1 − 1e-6 down to about
+    /// 1 − 1e-18), odd row counts (the four-lane sum's remainder) and a mask of two blocks.
+    #[test]
+    fn duplicate_inputs_match_the_single_sum_definition() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for n in [7usize, 64, 1001, 5763] {
+            let base: Vec<f64> = (0..n).map(|i| (i as f64 * 0.01).sin() + next()).collect();
+            let noise: Vec<f64> = (0..n).map(|_| next()).collect();
+            let mut inputs = vec![base.clone()];
+            let mut names = vec!["base_c".to_string()];
+            for (k, eps) in [0.0, 1e-3, 1e-5, 1e-6, 1e-7, 1e-9].iter().enumerate() {
+                inputs.push(
+                    base.iter()
+                        .zip(&noise)
+                        .map(|(b, z)| 3.5 * b - 2.0 + eps * z)
+                        .collect(),
+                );
+                names.push(format!("c{k}_c"));
+            }
+            for mask_kind in 0..2 {
+                let train: Vec<bool> = (0..n)
+                    .map(|i| mask_kind == 0 || i < n / 3 || i >= 2 * n / 3)
+                    .collect();
+                let table = Table {
+                    time_s: (0..n).map(|i| i as f64).collect(),
+                    input_names: names.clone(),
+                    inputs: inputs.clone(),
+                    target_names: vec!["y_um".into()],
+                    targets: vec![base.clone()],
+                    ..Table::default()
+                };
+                let (_, notes) = drop_degenerate_inputs(&table, &train);
+                // The definition: r of each copy with `base`, one running sum.
+                let sel = |v: &[f64]| -> Vec<f64> {
+                    v.iter()
+                        .zip(&train)
+                        .filter(|p| *p.1)
+                        .map(|p| *p.0)
+                        .collect()
+                };
+                let b = sel(&base);
+                let stat = |v: &[f64]| {
+                    let m = v.iter().sum::<f64>() / v.len() as f64;
+                    let sd =
+                        (v.iter().map(|a| (a - m) * (a - m)).sum::<f64>() / v.len() as f64).sqrt();
+                    (m, sd)
+                };
+                let (mb, sb) = stat(&b);
+                let want: Vec<String> = names[1..]
+                    .iter()
+                    .zip(&inputs[1..])
+                    .filter(|(_, v)| {
+                        let c = sel(v);
+                        let (mc, sc) = stat(&c);
+                        let r = c
+                            .iter()
+                            .zip(&b)
+                            .map(|(p, q)| (p - mc) * (q - mb))
+                            .sum::<f64>()
+                            / (c.len() as f64 * sc * sb);
+                        r.abs() >= 1.0 - 1e-12
+                    })
+                    .map(|(name, _)| format!("input {name} dropped: duplicates base_c"))
+                    .collect();
+                let got: Vec<String> = notes
+                    .iter()
+                    .map(|s| s.split(" (").next().unwrap().to_string())
+                    .collect();
+                assert_eq!(got, want, "n = {n}, mask {mask_kind}");
+                // The exact copy is always dropped, the 1e-3 copy never.
+                assert!(want[0].contains("c0_c"));
+                assert!(!want.iter().any(|w| w.contains("c1_c")));
+            }
+        }
+    }
+}
