@@ -283,6 +283,11 @@ pub enum Family {
     Delay,
     /// Static least squares on single sensors and sensor differences A − B.
     Differences,
+    /// CN105397560 as written inside the comparison: fuzzy-equivalence classes of the
+    /// inputs, one representative per class, least squares or ridge on the representatives;
+    /// the class count (within the sensor cap) and α by validation, the classes and
+    /// representatives formed on each fold's training rows.
+    Classes,
     /// Convex combination of the other families' best models, weights fitted on their
     /// out-of-fold predictions ([`stack`]); not in [`Family::ALL`]: compared by
     /// default, or when named beside the families it combines.
@@ -291,10 +296,11 @@ pub enum Family {
 
 impl Family {
     /// Every family, in order of simplicity (ties keep the earlier).
-    pub const ALL: [Family; 8] = [
+    pub const ALL: [Family; 9] = [
         Family::Static,
         Family::Ridge,
         Family::Pcr,
+        Family::Classes,
         Family::Differences,
         Family::Delay,
         Family::LeadLag,
@@ -313,6 +319,7 @@ impl Family {
             Family::Tf2 => "2nd-order transfer function",
             Family::Delay => "pure delay",
             Family::Differences => "sensor differences (A − B)",
+            Family::Classes => "class representatives (CN105397560)",
             Family::Stacked => "stacked families (convex weights)",
         }
     }

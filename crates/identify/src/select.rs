@@ -33,7 +33,10 @@
 use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
-use crate::fit::{predict, rmse_where, select_rows, Identification, IdentifyOptions, TargetModel};
+use crate::fit::{
+    predict, rmse_where, select_rows, Grouping, Identification, IdentifyOptions, RepresentativeBy,
+    TargetModel,
+};
 pub use crate::fit::{Family, FamilyScore};
 use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
@@ -781,7 +784,7 @@ fn family_best(
                 .chain(ctx.delay[s].iter().map(|&d| vec![d]))
                 .collect()
         }),
-        Family::Stacked => None,
+        Family::Stacked | Family::Classes => None,
         Family::Differences => {
             // Candidates: each sensor alone, or its difference with another sensor.
             ols(&|s| {
@@ -1064,7 +1067,12 @@ pub fn identify_auto(
                 }
                 _ => &ctx,
             };
-            match family_best(cx, fam, j, opts, &static_path) {
+            let got = if fam == Family::Classes {
+                classes_best(table, &scheme, &ctx, j, opts)
+            } else {
+                family_best(cx, fam, j, opts, &static_path)
+            };
+            match got {
                 Some(b) => {
                     comparison.push(FamilyScore {
                         family: fam.name().into(),
@@ -1090,6 +1098,26 @@ pub fn identify_auto(
                     eligible: false,
                     kept: false,
                 }),
+            }
+        }
+        // Plain least squares on all inputs, when eligible, stays the model unless another
+        // validates better by more than one standard error of the per-fold difference
+        // ([`beats_reference`]): with 4–5 folds of ~70 rows, or day-level offsets, the
+        // lowest pooled figure among ten candidates is often noise.
+        let reference: Option<Vec<f64>> = (c <= opts.max_sensors)
+            .then(|| eng.fold_sse(&all_cols, j, Fitter::Ols))
+            .flatten();
+        let fold_n: Vec<usize> = eng.folds.iter().map(|f| eng.block_n[f.val]).collect();
+        let significant = |sse: &[f64]| {
+            reference
+                .as_ref()
+                .is_none_or(|r| beats_reference(sse, r, &fold_n))
+        };
+        if kept != Some(0) && best.as_ref().is_some_and(|b| !significant(&b.sse)) {
+            best = members.first().map(|(b, _)| b.clone());
+            kept = Some(0);
+            if let Some(s) = comparison.first_mut() {
+                s.detail = "kept: no family validates better by more than one standard error of the per-fold difference".into();
             }
         }
         // Stacked generalisation of the families (`crate::stack`): convex weights on their
@@ -1124,7 +1152,7 @@ pub fn identify_auto(
                 eligible: true,
                 kept: false,
             });
-            if cv.is_finite() && best.as_ref().is_none_or(|x| cv < x.cv) {
+            if cv.is_finite() && best.as_ref().is_none_or(|x| cv < x.cv) && significant(sse) {
                 if let Some(s) = comparison.last_mut() {
                     s.kept = true;
                 }
@@ -1230,6 +1258,158 @@ pub fn identify_auto(
         input_names: table.input_names.clone(),
         notes,
     })
+}
+
+/// The CN105397560 selection on the rows where `rows` is true: the inputs' classes at
+/// count `k` (fuzzy equivalence, i.e. single linkage on |r|, or fuzzy c-means) and per class
+/// the representative for target `j` (largest |r| or grey relational grade), as
+/// [`crate::pipeline`]'s fixed kinds form them.
+pub fn class_representatives(
+    table: &Table,
+    rows: &[bool],
+    j: usize,
+    k: usize,
+    opts: &IdentifyOptions,
+) -> Result<Vec<usize>> {
+    let cols: Vec<Vec<f64>> = table.inputs.iter().map(|x| select_rows(x, rows)).collect();
+    let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+    let classes = match opts.grouping {
+        Grouping::FuzzyEquivalence => {
+            let corr = cluster::correlation_matrix(&refs, &table.input_names)?;
+            Dendrogram::single_linkage(&corr.map(f64::abs)).classes(k)?
+        }
+        Grouping::FuzzyCMeans => cluster::fuzzy_c_means(&refs, k, 2.0, 1e-9, 2000)?.1,
+    };
+    let y = select_rows(&table.targets[j], rows);
+    let score: Vec<f64> = match opts.representative {
+        RepresentativeBy::Pearson => refs
+            .iter()
+            .enumerate()
+            .map(|(i, x)| {
+                cluster::pearson(
+                    x,
+                    &y,
+                    &format!(
+                        "correlation({}, {})",
+                        table.input_names[i], table.target_names[j]
+                    ),
+                )
+                .map(f64::abs)
+            })
+            .collect::<Result<_>>()?,
+        RepresentativeBy::GreyRelational => cluster::grey_relational_grades(&y, &refs, 0.5)?,
+    };
+    Ok(cluster::representatives(&classes, &score))
+}
+
+/// The class counts the classes family tries: `class_counts` within the sensor cap and
+/// below the number of inputs (else the largest such count).
+fn class_counts(opts: &IdentifyOptions, c: usize) -> Vec<usize> {
+    let top = opts.max_sensors.min(c.saturating_sub(1));
+    let v: Vec<usize> = opts
+        .class_counts
+        .iter()
+        .copied()
+        .filter(|&k| k >= 1 && k <= top)
+        .collect();
+    if v.is_empty() && top >= 1 {
+        vec![top]
+    } else {
+        v
+    }
+}
+
+/// The classes family's best: per class count, each fold forms its classes and
+/// representatives on its own training rows ([`class_representatives`]) and fits them by
+/// least squares or ridge; the count and the fit with the lowest pooled held-out RMSE win.
+/// The model kept uses the representatives formed on every training row.
+fn classes_best(
+    table: &Table,
+    scheme: &Scheme,
+    ctx: &Ctx,
+    j: usize,
+    opts: &IdentifyOptions,
+) -> Option<Best> {
+    let c = table.inputs.len();
+    let train: Vec<bool> = scheme.block.iter().map(|b| b.is_some()).collect();
+    let fold_rows: Vec<Vec<bool>> = scheme
+        .folds
+        .iter()
+        .map(|(tr, _)| {
+            scheme
+                .block
+                .iter()
+                .map(|b| b.is_some_and(|b| tr.contains(&b)))
+                .collect()
+        })
+        .collect();
+    let fitters: Vec<Fitter> = std::iter::once(Fitter::Ols)
+        .chain(opts.ridge_alphas.iter().map(|&a| Fitter::Ridge(a)))
+        .collect();
+    let mut best: Option<Best> = None;
+    for k in class_counts(opts, c) {
+        let Ok(all) = class_representatives(table, &train, j, k, opts) else {
+            continue;
+        };
+        let Ok(per_fold) = fold_rows
+            .iter()
+            .map(|rows| class_representatives(table, rows, j, k, opts))
+            .collect::<Result<Vec<_>>>()
+        else {
+            continue;
+        };
+        let fold_cols: Vec<Vec<usize>> = per_fold
+            .iter()
+            .map(|r| r.iter().map(|&s| ctx.value[s]).collect())
+            .collect();
+        for &fit in &fitters {
+            let Some(sse) = fold_cols
+                .iter()
+                .enumerate()
+                .map(|(f, cols)| ctx.eng.val_sse(f, cols, j, fit))
+                .collect::<Option<Vec<f64>>>()
+            else {
+                continue;
+            };
+            let cv = ctx.eng.pooled(&sse);
+            if cv.is_finite() && best.as_ref().is_none_or(|b| cv < b.cv) {
+                best = Some(Best {
+                    family: Family::Classes,
+                    units: all.iter().map(|&s| vec![ctx.value[s]]).collect(),
+                    fitter: fit,
+                    sse,
+                    cv,
+                    detail: match fit {
+                        Fitter::Ridge(a) => format!("{k} classes, ridge α = {a}"),
+                        _ => format!("{k} classes"),
+                    },
+                    fold_cols: fold_cols.clone(),
+                });
+            }
+        }
+    }
+    best
+}
+
+/// Whether a candidate's held-out error is lower than the reference's by more than one
+/// standard error: per fold the difference of the mean squared errors d_f = (SSE_ref,f −
+/// SSE_f)/n_f; the candidate wins when the row-weighted mean of d_f exceeds the standard
+/// error of the folds' mean, sd(d)/√F (Hastie, Tibshirani & Friedman, The Elements of
+/// Statistical Learning, 2nd ed., §7.10: the one-standard-error rule, here on the paired
+/// difference).
+pub(crate) fn beats_reference(sse: &[f64], reference: &[f64], fold_n: &[usize]) -> bool {
+    let f = sse.len();
+    if f < 2 || reference.len() != f || fold_n.len() != f {
+        return false;
+    }
+    let d: Vec<f64> = (0..f)
+        .map(|k| (reference[k] - sse[k]) / fold_n[k].max(1) as f64)
+        .collect();
+    let n: f64 = fold_n.iter().sum::<usize>().max(1) as f64;
+    let mean = (0..f).map(|k| d[k] * fold_n[k] as f64).sum::<f64>() / n;
+    let plain = d.iter().sum::<f64>() / f as f64;
+    let var = d.iter().map(|x| (x - plain).powi(2)).sum::<f64>() / (f - 1) as f64;
+    mean > (var / f as f64).sqrt()
 }
 
 fn sensors_of_units(feats: &[Feat], units: &[Vec<usize>]) -> Vec<usize> {
@@ -1526,6 +1706,93 @@ pub struct FixedResult {
     pub cv_rmse: f64,
     /// The fit on every training row (intercept first, one coefficient per term).
     pub fit: LinearFit,
+}
+
+/// The classes family at one class count and fit ([`evaluate_classes`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClassesResult {
+    /// Representatives formed on every training row (the model's sensors, in class order).
+    pub representatives: Vec<usize>,
+    /// Representatives formed on each fold's training rows.
+    pub fold_representatives: Vec<Vec<usize>>,
+    /// Validation of the procedure and the fit on every training row.
+    pub result: FixedResult,
+}
+
+/// The classes family at class count `k` with fit `fit` (no choice of k or α): each fold
+/// forms its classes and representatives on its own training rows and is validated on its
+/// held-out block; the model is the fit on the representatives formed on every training
+/// row. Exposed so it can be checked against an independent implementation.
+pub fn evaluate_classes(
+    table: &Table,
+    train: &[bool],
+    folds: usize,
+    target: usize,
+    k: usize,
+    opts: &IdentifyOptions,
+    fit: FitSpec,
+) -> Result<ClassesResult> {
+    if target >= table.targets.len() {
+        return Err(invalid("target", target, "a target index"));
+    }
+    let scheme = deployment_scheme(table, train, folds)?;
+    let representatives = class_representatives(table, train, target, k, opts)?;
+    let fold_representatives = scheme
+        .folds
+        .iter()
+        .map(|(tr, _)| {
+            let rows: Vec<bool> = scheme
+                .block
+                .iter()
+                .map(|b| b.is_some_and(|b| tr.contains(&b)))
+                .collect();
+            class_representatives(table, &rows, target, k, opts)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let eng = Engine::new(
+        &table.inputs,
+        std::slice::from_ref(&table.targets[target]),
+        &scheme,
+    );
+    let fitter = match fit {
+        FitSpec::Ols => Fitter::Ols,
+        FitSpec::Ridge(a) => Fitter::Ridge(a),
+        FitSpec::Pcr(k) => Fitter::Pcr(k),
+    };
+    let sse = fold_representatives
+        .iter()
+        .enumerate()
+        .map(|(f, cols)| eng.val_sse(f, cols, 0, fitter))
+        .collect::<Option<Vec<f64>>>()
+        .ok_or_else(|| IdentifyError::RankDeficient {
+            columns: "the class representatives in some fold".into(),
+            pivot: 0.0,
+            tolerance: 0.0,
+        })?;
+    let names: Vec<String> = representatives
+        .iter()
+        .map(|&s| table.input_names[s].clone())
+        .collect();
+    let tr: Vec<Vec<f64>> = representatives
+        .iter()
+        .map(|&s| select_rows(&table.inputs[s], train))
+        .collect();
+    let refs: Vec<&[f64]> = tr.iter().map(|v| v.as_slice()).collect();
+    let y = select_rows(&table.targets[target], train);
+    let fit = match fit {
+        FitSpec::Ols => regress::ols(&refs, &y, &names)?,
+        FitSpec::Ridge(a) => regress::ridge(&refs, &y, a, &names)?,
+        FitSpec::Pcr(k) => regress::pcr(&refs, &y, k, &names)?,
+    };
+    Ok(ClassesResult {
+        representatives,
+        fold_representatives,
+        result: FixedResult {
+            fold_rmse: eng.fold_rmse(&sse),
+            cv_rmse: eng.pooled(&sse),
+            fit,
+        },
+    })
 }
 
 /// Validates and fits one fixed model of target `target` (no selection): the building block

@@ -2,7 +2,10 @@
 """Independent numpy implementation of the model families of `gearcomp fit --model auto`
 (crates/identify/src/select.rs, `evaluate_fixed`): regressor transforms restarted per run,
 deployment validation (rolling origin on one run, leave-one-run-out on runs), OLS / ridge /
-PCR fitted directly on the rows of each fold (no QR reduction), final fit on all training rows.
+PCR fitted directly on the rows of each fold (no QR reduction), final fit on all training rows;
+and the classes family (`evaluate_classes`): fuzzy-equivalence classes by the max-min
+transitive closure of |r| (not single linkage) and representatives formed on each fold's
+training rows.
 
 Usage: python3 families.py fl_thermal.csv > families.json
 (fl_thermal.csv = gunzipped crates/datasets/data/fl_thermal.csv.gz). Needs numpy only.
@@ -23,6 +26,9 @@ SPECS = [
     ("delay", [(3, None, "delay", 900.0), (5, None, "delay", 300.0), (9, None, "value", 0)], ("ols", 0)),
     ("differences", [(3, 5, "value", 0), (10, 12, "value", 0), (4, None, "value", 0)], ("ols", 0)),
 ]
+
+# The classes family: (class count, fit).
+CLASS_SPECS = [(6, ("ols", 0)), (8, ("ridge", 0.01)), (4, ("ols", 0))]
 
 
 def lag(t, u, tau):
@@ -69,6 +75,52 @@ def fit(X, y, how):
     return np.concatenate([[y.mean() - b @ m], b])
 
 
+def closure_classes(X, k):
+    """CN105397560 fuzzy equivalence: |r| as a fuzzy similarity relation, its max-min
+    transitive closure (squared until it no longer changes), cut at the level that leaves
+    k classes; classes ordered by their first member."""
+    R = np.abs(np.corrcoef(X, rowvar=False))
+    while True:
+        T = np.max(np.minimum(R[:, :, None], R[None, :, :]), axis=1)
+        T = np.maximum(T, R)
+        if np.array_equal(T, R):
+            break
+        R = T
+    c = R.shape[0]
+    levels = sorted(set(R[np.triu_indices(c, 1)].tolist()), reverse=True)
+    for lam in [np.inf] + levels:
+        classes = []
+        seen = set()
+        for i in range(c):
+            if i not in seen:
+                cl = [j for j in range(c) if j == i or R[i, j] >= lam]
+                seen.update(cl)
+                classes.append(cl)
+        if len(classes) == k:
+            return classes
+    raise ValueError(f"no cut leaves {k} classes (tied levels)")
+
+
+def representatives(X, y, classes):
+    r = [abs(np.corrcoef(X[:, i], y)[0, 1]) for i in range(X.shape[1])]
+    return [max(cl, key=lambda i: (r[i], -i)) for cl in classes]
+
+
+def evaluate_classes(X, y, blocks, folds, k, how):
+    fold_rmse, fold_reps, sse, nval = [], [], 0.0, 0
+    for tr_blocks, va in folds:
+        tr = np.isin(blocks, tr_blocks)
+        vm = blocks == va
+        reps = representatives(X[tr], y[tr], closure_classes(X[tr], k))
+        b = fit(X[tr][:, reps], y[tr], how)
+        e = y[vm] - b[0] - X[vm][:, reps] @ b[1:]
+        fold_rmse.append(float(np.sqrt(np.mean(e * e))))
+        fold_reps.append(reps)
+        sse += float(e @ e)
+        nval += int(vm.sum())
+    return fold_rmse, fold_reps, float(np.sqrt(sse / nval))
+
+
 def evaluate(t, X, y, blocks, folds, how):
     fold_rmse, sse, nval = [], 0.0, 0
     for tr_blocks, va in folds:
@@ -87,7 +139,7 @@ def main():
     t = d["time_s"]
     inputs = np.column_stack([d[f"t{i}_c"] for i in range(1, 17)])
     y = d["ch3_um"]
-    out = {"target": "ch3_um", "cases": []}
+    out = {"target": "ch3_um", "cases": [], "classes_cases": []}
     # Case 1: one run, train t < 86400 s, rolling origin: 3 folds over 4 blocks.
     # Case 2: 8 h pseudo-runs (run = floor(t / 28800)), the last run tests,
     #         leave-one-run-out over the 5 training runs; every filter restarts per run.
@@ -124,6 +176,23 @@ def main():
                 "family": name,
                 "terms": [[s, minus, kind, p] for s, minus, kind, p in terms],
                 "fit": [how[0], how[1]],
+                "fold_rmse_um": fold_rmse,
+                "cv_rmse_um": cv,
+                "coefficients": [float(c) for c in coef],
+            })
+        # The classes family (CN105397560 inside the comparison): classes and
+        # representatives formed on each fold's training rows, values only.
+        V, yv = inputs[train], y[train]
+        for k, how in CLASS_SPECS:
+            fold_rmse, fold_reps, cv = evaluate_classes(V, yv, blocks, folds, k, how)
+            reps = representatives(V, yv, closure_classes(V, k))
+            coef = fit(V[:, reps], yv, how)
+            out["classes_cases"].append({
+                "scheme": case,
+                "classes": k,
+                "fit": [how[0], how[1]],
+                "representatives": reps,
+                "fold_representatives": fold_reps,
                 "fold_rmse_um": fold_rmse,
                 "cv_rmse_um": cv,
                 "coefficients": [float(c) for c in coef],

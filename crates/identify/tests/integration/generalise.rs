@@ -11,7 +11,18 @@
 //!
 //! Each held-out run is never seen by any choice (outer loop here, inner validation in the
 //! library). The default is compared with plain least squares on all inputs and with the
-//! fixed kinds `--model static` and `--model ridge`, as the evaluators do.
+//! fixed kinds `--model static` and `--model ridge`, as the evaluators do; the
+//! figures pooled over seeds 1..=n and one fresh seed (printed) are asserted:
+//! - B (6 inputs, within the sensor cap): default ≤ 1.02 × plain LS and ≤ 1.05 × the better
+//!   of static / ridge (measured over seeds 1–8: 3.449 vs LS 3.533, static 3.550, ridge
+//!   3.581 µm);
+//! - A (22 inputs, cap 8): default ≤ 1.05 × the better of static / ridge (1.908 vs 2.220 /
+//!   2.273 µm over seeds 1–8). Plain LS on all 22 inputs generalises better here (1.783 µm)
+//!   and no family within the cap of 8 sensors reaches it (best alone: 2nd-order TF 1.946);
+//!   the default is guarded at ≤ 1.25 × plain LS (docs/identification.md, "Look-alikes").
+//!
+//! `GEARCOMP_LOOKALIKE_FAMILIES=1` adds each family alone to the table,
+//! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
@@ -502,49 +513,98 @@ pub fn outer(d: &LookAlike, shape_b: bool, dt_s: f64, who: &[Who]) -> Vec<(f64, 
         .collect()
 }
 
-fn seeds() -> Vec<u64> {
+/// Seeds 1..=n and a fresh one (printed with the table); `GEARCOMP_LOOKALIKE_SEEDS=1,2,…`
+/// replaces them (to rerun a fresh seed that failed).
+fn seeds(n: u64) -> Vec<u64> {
+    if let Ok(s) = std::env::var("GEARCOMP_LOOKALIKE_SEEDS") {
+        return s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+    }
     let fresh = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(1, |d| d.as_nanos() as u64);
-    let mut v = vec![1, 2, 3];
-    if let Ok(s) = std::env::var("GEARCOMP_LOOKALIKE_SEEDS") {
-        v = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
-    } else {
-        v.push(fresh % 1_000_000);
-    }
-    v
+    (1..=n).chain([1000 + fresh % 1_000_000]).collect()
 }
 
+/// Pooled held-out RMSE over seeds of every contender, per shape; prints the table.
+fn pooled_table(shape_b: bool, seeds: &[u64], who: &[Who]) -> Vec<f64> {
+    let dt = if shape_b { 120.0 } else { 300.0 };
+    let mut sq = vec![0.0; who.len()];
+    for &seed in seeds {
+        let d = if shape_b {
+            self::shape_b(seed)
+        } else {
+            shape_a(seed)
+        };
+        let res = outer(&d, shape_b, dt, who);
+        let line: Vec<String> = who
+            .iter()
+            .zip(&res)
+            .map(|(w, (p, runs))| {
+                format!(
+                    "{} {:.3} [{}]",
+                    w.name(),
+                    p,
+                    runs.iter()
+                        .map(|x| format!("{x:.2}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                )
+            })
+            .collect();
+        println!(
+            "seed {seed} shape {}: {}",
+            if shape_b { "B" } else { "A" },
+            line.join(" | ")
+        );
+        for (s, (p, _)) in sq.iter_mut().zip(&res) {
+            *s += p * p;
+        }
+    }
+    let pooled: Vec<f64> = sq.iter().map(|s| (s / seeds.len() as f64).sqrt()).collect();
+    println!(
+        "shape {} pooled over seeds {seeds:?}: {}",
+        if shape_b { "B" } else { "A" },
+        who.iter()
+            .zip(&pooled)
+            .map(|(w, p)| format!("{} {p:.3}", w.name()))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    pooled
+}
+
+/// Shape A (22 sensors, cap 8): the default against the fixed kinds, and with the cap at
+/// every input against plain least squares on all inputs.
 #[test]
-fn lookalike_table() {
+fn repeat_runs_default_holds_out_of_run() {
     let mut who = vec![Who::Auto, Who::PlainLs, Who::Static, Who::Ridge];
     if std::env::var("GEARCOMP_LOOKALIKE_FAMILIES").is_ok() {
         who.extend(Family::ALL.map(Who::Fam));
     }
-    for seed in seeds() {
-        for (shape, dt) in [(false, 300.0), (true, 120.0)] {
-            let d = if shape { shape_b(seed) } else { shape_a(seed) };
-            let res = outer(&d, shape, dt, &who);
-            let line: Vec<String> = who
-                .iter()
-                .zip(&res)
-                .map(|(w, (p, runs))| {
-                    format!(
-                        "{} {:.3} [{}]",
-                        w.name(),
-                        p,
-                        runs.iter()
-                            .map(|x| format!("{x:.2}"))
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    )
-                })
-                .collect();
-            println!(
-                "seed {seed} shape {}: {}",
-                if shape { "B" } else { "A" },
-                line.join(" | ")
-            );
-        }
+    let p = pooled_table(false, &seeds(6), &who);
+    let fixed = p[2].min(p[3]);
+    assert!(
+        p[0] <= 1.05 * fixed,
+        "default {} vs static/ridge {fixed}",
+        p[0]
+    );
+    assert!(p[0] <= 1.25 * p[1], "default {} vs plain LS {}", p[0], p[1]);
+}
+
+/// Shape B (6 sensors, within the cap): the default against plain least squares on all
+/// inputs and the fixed kinds, holding out each of the last five days.
+#[test]
+fn production_days_default_holds_out_of_day() {
+    let mut who = vec![Who::Auto, Who::PlainLs, Who::Static, Who::Ridge];
+    if std::env::var("GEARCOMP_LOOKALIKE_FAMILIES").is_ok() {
+        who.extend(Family::ALL.map(Who::Fam));
     }
+    let p = pooled_table(true, &seeds(8), &who);
+    let fixed = p[2].min(p[3]);
+    assert!(p[0] <= 1.02 * p[1], "default {} vs plain LS {}", p[0], p[1]);
+    assert!(
+        p[0] <= 1.05 * fixed,
+        "default {} vs static/ridge {fixed}",
+        p[0]
+    );
 }

@@ -105,3 +105,74 @@ fn every_family_matches_numpy() {
         }
     }
 }
+
+/// The classes family (CN105397560 inside the comparison) against the numpy reference,
+/// whose classes come from the max–min transitive closure (not single linkage): the
+/// representatives of every fold and of all training rows equal, fold and pooled RMSE and
+/// coefficients to 1e-9 relative.
+#[test]
+fn classes_family_matches_numpy() {
+    use gearcomp_identify::select::evaluate_classes;
+    use gearcomp_identify::IdentifyOptions;
+    let g: serde_json::Value =
+        serde_json::from_str(include_str!("../golden/families.json")).unwrap();
+    let cases = g["classes_cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 6);
+    let list = |v: &serde_json::Value| -> Vec<usize> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_u64().unwrap() as usize)
+            .collect()
+    };
+    for runs in [false, true] {
+        let t = table(runs);
+        let train = if runs {
+            let last = t.run_names.last().unwrap().clone();
+            train_mask(&t, &Split::TestRuns(vec![last])).unwrap()
+        } else {
+            train_mask(&t, &Split::TimeBefore(86_400.0)).unwrap()
+        };
+        let scheme = if runs { "runs" } else { "rolling" };
+        for c in cases.iter().filter(|c| c["scheme"] == scheme) {
+            let k = c["classes"].as_u64().unwrap() as usize;
+            let fit = match c["fit"][0].as_str().unwrap() {
+                "ols" => FitSpec::Ols,
+                "ridge" => FitSpec::Ridge(c["fit"][1].as_f64().unwrap()),
+                f => panic!("{f}"),
+            };
+            let r =
+                evaluate_classes(&t, &train, 3, 0, k, &IdentifyOptions::default(), fit).unwrap();
+            let name = format!("{scheme}/{k} classes");
+            assert_eq!(r.representatives, list(&c["representatives"]), "{name}");
+            let folds: Vec<Vec<usize>> = c["fold_representatives"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(list)
+                .collect();
+            assert_eq!(r.fold_representatives, folds, "{name}");
+            for (a, b) in r
+                .result
+                .fold_rmse
+                .iter()
+                .zip(c["fold_rmse_um"].as_array().unwrap())
+            {
+                assert!(
+                    close(*a, b.as_f64().unwrap()),
+                    "{name}: fold {a} vs numpy {b}"
+                );
+            }
+            assert!(
+                close(r.result.cv_rmse, c["cv_rmse_um"].as_f64().unwrap()),
+                "{name}"
+            );
+            let coef = c["coefficients"].as_array().unwrap();
+            assert_eq!(coef.len(), r.result.fit.coefficients.len(), "{name}");
+            for (a, b) in r.result.fit.coefficients.iter().zip(coef) {
+                let b = b.as_f64().unwrap();
+                assert!(close(*a, b), "{name}: coefficient {a} vs numpy {b}");
+            }
+        }
+    }
+}

@@ -86,7 +86,8 @@ fn hobbing_runs_default_beats_plain_least_squares_out_of_run() {
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("hobbing outer LORO: default {auto:?}, plain LS {ls:?}");
     // The column core lags the column (τ ≈ 9 h): a lag model must do strictly better
-    // (measured 0.532 vs 0.693 µm; 0.511 before the stacked families), and never more than
+    // (measured 0.552 vs 0.693 µm; 0.532 before the one-standard-error rule against plain
+    // LS and the classes family, 0.511 before the stacked families), and never more than
     // 2 % worse.
     assert!(auto[0] <= 1.02 * ls[0], "{auto:?} vs {ls:?}");
     assert!(auto[0] < ls[0], "{auto:?} vs {ls:?}");
@@ -114,8 +115,9 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
     assert_eq!(t.run_names.len(), 6);
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("FL_THERMAL outer LORO: default {auto:?}, plain LS {ls:?}");
-    // Measured (nested selection and stacked families): ch1 2.502 vs 6.886, ch3 3.117 vs
-    // 6.049, ch5 4.532 vs 6.426 µm (without the stack 2.547, 3.193, 5.228;
+    // Measured (nested selection, stacked families, classes family): ch1 2.547 vs 6.886,
+    // ch3 3.117 vs 6.049, ch5 4.616 vs 6.426 µm (before the classes family 2.502, 3.117,
+    // 4.532; without the stack 2.547, 3.193, 5.228;
     // docs/identification.md). Never more than 2 % worse than plain LS on all 16
     // inputs (the default reads at most 8), and strictly better: every channel lags.
     for j in 0..3 {
