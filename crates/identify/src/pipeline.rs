@@ -140,20 +140,18 @@ struct CvEngine {
 impl CvEngine {
     fn new(features: &[&[f64]], targets: &[&[f64]], fold: &[Option<usize>], k: usize) -> Self {
         let m = 1 + features.len() + targets.len();
-        let mut blocks = Vec::with_capacity(k);
-        let mut n_val = 0;
-        for f in 0..k {
+        // The folds' blocks, then their training factors, on every core.
+        let fold_ids: Vec<usize> = (0..k).collect();
+        let blocks: Vec<DMatrix<f64>> = par_map(&fold_ids, |&f| {
             let rows: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] == Some(f)).collect();
-            n_val += rows.len();
-            blocks.push(augmented_r(&rows, features, targets));
-        }
-        let train_r = (0..k)
-            .map(|f| {
-                let others: Vec<&DMatrix<f64>> =
-                    (0..k).filter(|&g| g != f).map(|g| &blocks[g]).collect();
-                r_factor(stack(&others, m))
-            })
-            .collect();
+            augmented_r(&rows, features, targets)
+        });
+        let n_val = fold.iter().filter(|g| g.is_some_and(|g| g < k)).count();
+        let train_r = par_map(&fold_ids, |&f| {
+            let others: Vec<&DMatrix<f64>> =
+                (0..k).filter(|&g| g != f).map(|g| &blocks[g]).collect();
+            r_factor(stack(&others, m))
+        });
         Self {
             train_r,
             val_r: blocks,
