@@ -20,7 +20,8 @@
 //! without a date (serial < 1) and a duration (`[h]:mm:ss`) are seconds.
 //!
 //! Sheets: [`SheetChoice`]. Several sheets read are several runs, as several files are, each
-//! named after its sheet (`book:sheet` when several workbooks are read).
+//! named after its sheet (`book:sheet` when several workbooks are read). Target columns in
+//! a second workbook (`--target-data`): [`read_paths_with_targets`].
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
@@ -279,6 +280,15 @@ struct SheetInfo {
 }
 
 impl SheetInfo {
+    /// [`SheetInfo::locate`] after the workbook's name (a target cell's is already there).
+    fn locate_in_file(&self, line: u64, reason: &str) -> String {
+        let located = self.locate(line, reason);
+        match &self.target {
+            Some(t) if located.starts_with(&format!("{}: ", t.path)) => located,
+            _ => format!("{}: {located}", self.path),
+        }
+    }
+
     /// `reason` (a message of the CSV reading about 1-based row `line`, starting with a
     /// column name) with the sheet and the cell: `Sheet 's' cell C17: reason`.
     fn locate(&self, line: u64, reason: &str) -> String {
@@ -627,7 +637,7 @@ fn read_sources(sources: &[Source], sel: &Selection, opts: ReadOptions) -> Resul
             if let (Some(core), Some(info)) =
                 (reason.strip_prefix(&format!("{}: ", s.name)), &s.sheet)
             {
-                return format!("{}: {}", info.path, info.locate(line, core));
+                return info.locate_in_file(line, core);
             }
         }
         reason.to_string()
@@ -664,11 +674,7 @@ fn read_sources(sources: &[Source], sel: &Selection, opts: ReadOptions) -> Resul
                             .trim_end_matches(')')
                             .parse::<u64>()
                             .unwrap_or(0);
-                        located = Some(format!(
-                            "{}: {}",
-                            info.path,
-                            info.locate(line, &first_reason[..p])
-                        ));
+                        located = Some(info.locate_in_file(line, &first_reason[..p]));
                         break;
                     }
                 }

@@ -670,6 +670,11 @@ fn targets_in_a_second_workbook_join_row_by_row() {
         "{e}"
     );
     assert!(e.contains("1 bad row(s) at line(s) 5"), "{e}");
+    // The target cell is named in its own workbook only.
+    assert!(
+        !e.contains(&format!("{}: {}", a.display(), b.display())),
+        "{e}"
+    );
     let (a, b) = write(Some(3), None);
     let e = read_paths_with_targets(
         std::slice::from_ref(&a),
