@@ -712,3 +712,31 @@ fn targets_in_a_second_workbook_join_row_by_row() {
     .to_string();
     assert!(e.contains("2 file(s) for 1"), "{e}");
 }
+
+/// A chart sheet beside the data sheet (engineers plot their test) is no sheet with data:
+/// the workbook reads as its one data sheet.
+#[test]
+fn a_chart_sheet_is_not_a_sheet_with_data() {
+    let mut wb = Workbook::new();
+    let ws = wb.add_worksheet();
+    ws.set_name("day 1").unwrap();
+    put(ws, &csv_cells("day 1.csv"), 0, 0);
+    let mut chart = rust_xlsxwriter::Chart::new(rust_xlsxwriter::ChartType::Line);
+    chart.add_series().set_values("='day 1'!$E$2:$E$41");
+    wb.add_chartsheet().insert_chart(0, 0, &chart).unwrap();
+    let path = tmp("charted.xlsx");
+    wb.save(&path).unwrap();
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let csv = std::fs::read_to_string(cli_fixture("day 1.csv")).unwrap();
+    let want = read_csv(&csv, "day 1.csv", &s, ReadOptions::default()).unwrap();
+    for choice in [SheetChoice::default(), sheets(&[], true)] {
+        let got = read_paths(
+            std::slice::from_ref(&path),
+            &s,
+            ReadOptions::default(),
+            &choice,
+        )
+        .unwrap();
+        assert_same_data(&got, &want, true);
+    }
+}
