@@ -1867,6 +1867,25 @@ mod tests {
     use super::*;
     use crate::data::{read_csv, ReadOptions, Selection};
 
+    /// The one-standard-error rule against hand-computed figures: per-fold MSE gains
+    /// d = (0.5, 0.3, 0.1) over 10, 20, 30 rows: weighted mean 14/60 = 0.2333 > sd/√3 =
+    /// 0.2/√3 = 0.1155 (kept); d = (0.5, −0.3, 0.1): 2/60 = 0.0333 < 0.4/√3 = 0.2309 (not);
+    /// one fold never decides.
+    #[test]
+    fn one_standard_error_rule() {
+        let n = [10, 20, 30];
+        let reference = [10.0, 20.0, 30.0];
+        let sse = |d: [f64; 3]| -> Vec<f64> {
+            (0..3).map(|k| reference[k] - d[k] * n[k] as f64).collect()
+        };
+        assert!(beats_reference(&sse([0.5, 0.3, 0.1]), &reference, &n));
+        assert!(!beats_reference(&sse([0.5, -0.3, 0.1]), &reference, &n));
+        // A constant gain has sd 0: any gain is significant, no gain is not.
+        assert!(beats_reference(&sse([0.01, 0.01, 0.01]), &reference, &n));
+        assert!(!beats_reference(&sse([0.0, 0.0, 0.0]), &reference, &n));
+        assert!(!beats_reference(&[1.0], &[2.0], &[10]));
+    }
+
     /// The combined model predicts Σ w_k·(prediction of model k) (equal terms merged).
     #[test]
     fn combined_model_is_the_weighted_sum_of_its_parts() {

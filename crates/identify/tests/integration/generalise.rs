@@ -22,7 +22,8 @@
 //!   the default is guarded at ≤ 1.25 × plain LS (docs/identification.md, "Look-alikes").
 //!
 //! `GEARCOMP_LOOKALIKE_FAMILIES=1` adds each family alone to the table,
-//! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run.
+//! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run,
+//! `GEARCOMP_LOOKALIKE_DT_S=60` sets the sample interval the user guesses.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
@@ -527,7 +528,11 @@ fn seeds(n: u64) -> Vec<u64> {
 
 /// Pooled held-out RMSE over seeds of every contender, per shape; prints the table.
 fn pooled_table(shape_b: bool, seeds: &[u64], who: &[Who]) -> Vec<f64> {
-    let dt = if shape_b { 120.0 } else { 300.0 };
+    // The sample interval the user passes (`--sample-interval-s`, a guess for A).
+    let dt = std::env::var("GEARCOMP_LOOKALIKE_DT_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(if shape_b { 120.0 } else { 300.0 });
     let mut sq = vec![0.0; who.len()];
     for &seed in seeds {
         let d = if shape_b {
