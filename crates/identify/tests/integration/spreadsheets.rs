@@ -740,3 +740,84 @@ fn a_chart_sheet_is_not_a_sheet_with_data() {
         assert_same_data(&got, &want, true);
     }
 }
+
+/// Numbers written as text with a decimal comma (a German export pasted into Excel) read as
+/// the same values as the `;` CSV of that text, detected or forced; `20.5` as text among
+/// them is refused as in a decimal-comma CSV; `--delimiter` is refused for workbooks.
+#[test]
+fn decimal_comma_text_cells_read_as_the_csv() {
+    let rows = [
+        ["0", "20,125", "1,5E-3", "7"],
+        ["60", "20,5", "-0,25", "8,75"],
+        ["120", "21", "0,5", "9,0"],
+        ["180", "21,75", "1,25", "10,5"],
+    ];
+    let write = |rows: &[[&str; 4]], name: &str| {
+        let mut wb = Workbook::new();
+        let ws = wb.add_worksheet();
+        for (c, h) in ["time_s", "a_c", "b_c", "d_um"].iter().enumerate() {
+            ws.write_string(0, c as u16, *h).unwrap();
+        }
+        for (r, row) in rows.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                // The time as a number, the rest as text.
+                if c == 0 {
+                    ws.write_number(r as u32 + 1, 0, v.parse::<f64>().unwrap())
+                        .unwrap();
+                } else {
+                    ws.write_string(r as u32 + 1, c as u16, *v).unwrap();
+                }
+            }
+        }
+        let p = tmp(name);
+        wb.save(&p).unwrap();
+        p
+    };
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let mut csv = String::from("time_s;a_c;b_c;d_um\n");
+    for r in &rows {
+        csv += &(r.join(";") + "\n");
+    }
+    let want = read_csv(&csv, "de.csv", &s, ReadOptions::default()).unwrap();
+    assert_eq!(want.inputs[1], vec![1.5e-3, -0.25, 0.5, 1.25]);
+    let book = write(&rows, "de.xlsx");
+    for dc in [None, Some(true)] {
+        let got = read_paths(
+            std::slice::from_ref(&book),
+            &s,
+            ReadOptions {
+                decimal_comma: dc,
+                ..ReadOptions::default()
+            },
+            &SheetChoice::default(),
+        )
+        .unwrap();
+        assert_same_data(&got, &want, true);
+    }
+    let mut mixed = rows;
+    mixed[2][1] = "20.5";
+    let e = read_paths(
+        &[write(&mixed, "mixed.xlsx")],
+        &s,
+        ReadOptions::default(),
+        &SheetChoice::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("Sheet 'Sheet1' cell B4: a_c = \"20.5\" is not a number with a decimal comma"),
+        "{e}"
+    );
+    let e = read_paths(
+        &[book],
+        &s,
+        ReadOptions {
+            delimiter: Some(b';'),
+            ..ReadOptions::default()
+        },
+        &SheetChoice::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--delimiter"), "{e}");
+}
