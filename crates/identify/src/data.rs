@@ -351,7 +351,7 @@ fn clean_table(text: &str, start: usize, width: usize, slots: &[usize]) -> Optio
     let threads = if text.len() < PARALLEL_MIN_BYTES {
         1
     } else {
-        std::thread::available_parallelism().map_or(1, |n| n.get().min(8))
+        crate::par::cores()
     };
     clean_table_in(text, start, width, slots, threads)
 }

@@ -10,6 +10,7 @@ use crate::fit::{
     TargetModel,
 };
 use crate::fit::{rmse_where, select_rows};
+use crate::par::{join, par_map};
 use crate::regress::{self, augmented_r, r_factor, stack};
 use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
@@ -251,36 +252,6 @@ pub fn identify_with_floor(
         (id, join(floor))
     });
     Ok((id?, floor?))
-}
-
-/// The result of a scoped thread (its panic, if any, carried on in the caller).
-fn join<R>(h: std::thread::ScopedJoinHandle<'_, R>) -> R {
-    h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))
-}
-
-/// `f` over `items` on up to as many threads as there are cores, in contiguous chunks;
-/// the results in the order of `items`.
-pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(items.len());
-    if threads <= 1 {
-        return items.iter().map(f).collect();
-    }
-    let chunk = items.len().div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|s| {
-        let mut chunks = items.chunks(chunk);
-        let first = chunks.next().unwrap_or_default();
-        let rest: Vec<_> = chunks
-            .map(|c| s.spawn(move || c.iter().map(f).collect::<Vec<R>>()))
-            .collect();
-        let mut out: Vec<R> = first.iter().map(f).collect();
-        for h in rest {
-            out.extend(join(h));
-        }
-        out
-    })
 }
 
 /// The training rows of a mask, to take from series: a slice of a series when they are one
