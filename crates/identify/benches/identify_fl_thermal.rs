@@ -89,6 +89,19 @@ fn bench(c: &mut Criterion) {
             (id, base)
         })
     });
+    // The same two as `fit` runs them: the floor on a second core beside the identification.
+    r.bench_function(
+        "identify_static_6_classes_with_floor_on_all_cores-3tg",
+        |b| {
+            b.iter(|| {
+                gearcomp_identify::pipeline::identify_with_floor(
+                    black_box(&static_table),
+                    &static_opts,
+                )
+                .unwrap()
+            })
+        },
+    );
     r.finish();
 
     // Per-cycle evaluation of an 8-sensor value + rate model: 16 terms.
