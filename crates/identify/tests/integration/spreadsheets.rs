@@ -821,3 +821,64 @@ fn decimal_comma_text_cells_read_as_the_csv() {
     .to_string();
     assert!(e.contains("--delimiter"), "{e}");
 }
+
+/// A time of day without a date (`hh:mm:ss.000`) and a duration (`[h]:mm:ss`) are seconds:
+/// 08:00:00 + k · 15.5 s is 28 800 + 15.5 k, an elapsed time of k · 90 s is 90 k.
+#[test]
+fn times_of_day_and_durations_are_seconds() {
+    let mut wb = Workbook::new();
+    let ws = wb.add_worksheet();
+    let clock = rust_xlsxwriter::Format::new().set_num_format("hh:mm:ss.000");
+    let elapsed = rust_xlsxwriter::Format::new().set_num_format("[h]:mm:ss");
+    for (c, h) in ["clock", "elapsed", "a_c", "d_um"].iter().enumerate() {
+        ws.write_string(0, c as u16, *h).unwrap();
+    }
+    for k in 0..6u32 {
+        let r = k + 1;
+        // The serial of a time of day: the fraction of the day.
+        let t = (8.0 * 3600.0 + f64::from(k) * 15.5) / 86_400.0;
+        ws.write_number_with_format(r, 0, t, &clock).unwrap();
+        ws.write_number_with_format(r, 1, f64::from(k) * 90.0 / 86_400.0, &elapsed)
+            .unwrap();
+        ws.write_number(r, 2, 20.0 + f64::from(k)).unwrap();
+        ws.write_number(r, 3, f64::from(k * k)).unwrap();
+    }
+    let path = tmp("clock.xlsx");
+    wb.save(&path).unwrap();
+    let read = |time: &str| {
+        read_paths(
+            std::slice::from_ref(&path),
+            &sel(time, &["a_c"], &["d_um"]),
+            ReadOptions::default(),
+            &SheetChoice::default(),
+        )
+        .unwrap()
+        .time_s
+    };
+    let want: Vec<f64> = (0..6).map(|k| 28_800.0 + f64::from(k) * 15.5).collect();
+    assert_eq!(read("clock"), want);
+    let want: Vec<f64> = (0..6).map(|k| f64::from(k) * 90.0).collect();
+    assert_eq!(read("elapsed"), want);
+}
+
+/// Several workbooks of several sheets: runs named `book:sheet`; a workbook giving one sheet
+/// is a run named after the workbook.
+#[test]
+fn runs_of_several_workbooks_are_named_book_and_sheet() {
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let book = |name: &str, days: &[usize]| {
+        let mut wb = Workbook::new();
+        for d in days {
+            let ws = wb.add_worksheet();
+            ws.set_name(format!("day {d}")).unwrap();
+            put(ws, &csv_cells(&format!("day {d}.csv")), 0, 0);
+        }
+        let p = tmp(name);
+        wb.save(&p).unwrap();
+        p
+    };
+    let (a, b) = (book("week1.xlsx", &[1, 2]), book("week2.xlsx", &[3]));
+    let t = read_paths(&[a, b], &s, ReadOptions::default(), &sheets(&[], true)).unwrap();
+    assert_eq!(t.run_names, vec!["week1:day 1", "week1:day 2", "week2"]);
+    assert_eq!(t.segments, vec![0, 40, 80]);
+}
