@@ -23,7 +23,9 @@
 //!
 //! `GEARCOMP_LOOKALIKE_FAMILIES=1` adds each family alone to the table,
 //! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run,
-//! `GEARCOMP_LOOKALIKE_DT_S=60` sets the sample interval the user guesses.
+//! `GEARCOMP_LOOKALIKE_DT_S=60` sets the sample interval the user guesses,
+//! `GEARCOMP_LOOKALIKE_SENSOR_DRIFT_K=1.5` adds a per-sensor, per-run drift to A (the
+//! variant where ridge beats plain LS and the default loses; docs/identification.md).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
@@ -255,10 +257,22 @@ pub fn shape_a(seed: u64) -> LookAlike {
         // Sensor noise 0.05–0.15 K, read to 0.1 K; error noise 0.3 µm; rises from row 0.
         let noise: Vec<f64> = (0..cols.len()).map(|_| g.range(0.05, 0.15)).collect();
         let mut rows = vec![Vec::with_capacity(23); n];
+        // Variant (`GEARCOMP_LOOKALIKE_SENSOR_DRIFT_K=D`, off by default): a per-sensor,
+        // per-run drift over the run (contact, calibration) of up to ±D K.
+        let d_k: f64 = std::env::var("GEARCOMP_LOOKALIKE_SENSOR_DRIFT_K")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0.0);
         for (c, sd) in cols.iter().zip(&noise) {
+            let slope = if d_k > 0.0 {
+                g.range(-d_k, d_k) / n as f64
+            } else {
+                0.0
+            };
             let v: Vec<f64> = c
                 .iter()
-                .map(|x| ((x + sd * g.normal()) * 10.0).round() / 10.0)
+                .enumerate()
+                .map(|(i, x)| ((x + slope * i as f64 + sd * g.normal()) * 10.0).round() / 10.0)
                 .collect();
             for i in 0..n {
                 rows[i].push(v[i] - v[0]);
