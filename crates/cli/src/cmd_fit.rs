@@ -41,6 +41,9 @@ pub enum FamilyArg {
     Ridge,
     /// Current values, principal-component regression.
     Pcr,
+    /// CN105397560's class representatives, least squares or ridge (class count and α by
+    /// validation, within the sensor cap).
+    Classes,
     /// Sensors and sensor differences A − B, least squares.
     Differences,
     /// A pure delay per sensor.
@@ -59,6 +62,7 @@ impl From<FamilyArg> for Family {
             FamilyArg::Static => Family::Static,
             FamilyArg::Ridge => Family::Ridge,
             FamilyArg::Pcr => Family::Pcr,
+            FamilyArg::Classes => Family::Classes,
             FamilyArg::Differences => Family::Differences,
             FamilyArg::Delay => Family::Delay,
             FamilyArg::LeadLag => Family::LeadLag,

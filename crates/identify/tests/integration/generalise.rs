@@ -24,7 +24,8 @@
 //! `GEARCOMP_LOOKALIKE_FAMILIES=1` adds each family alone to the table,
 //! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run,
 //! `GEARCOMP_LOOKALIKE_DT_S=60` sets the sample interval the user guesses,
-//! `GEARCOMP_LOOKALIKE_SENSOR_DRIFT_K=1.5` adds a per-sensor, per-run drift to A (the
+//! `GEARCOMP_LOOKALIKE_DUMP=dir` writes each run as a CSV without time column (to run
+//! `gearcomp fit` on), `GEARCOMP_LOOKALIKE_SENSOR_DRIFT_K=1.5` adds a per-sensor, per-run drift to A (the
 //! variant where ridge beats plain LS and the default loses; docs/identification.md).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
@@ -554,6 +555,18 @@ fn pooled_table(shape_b: bool, seeds: &[u64], who: &[Who]) -> Vec<f64> {
         } else {
             shape_a(seed)
         };
+        if let Ok(dir) = std::env::var("GEARCOMP_LOOKALIKE_DUMP") {
+            // One CSV per run without a time column, as the real files come (for the CLI).
+            for (name, rows) in &d.runs {
+                let mut text = format!("{},{}\n", d.names.join(","), d.target);
+                for r in rows {
+                    let v: Vec<String> = r.iter().map(|x| format!("{x:.4}")).collect();
+                    text += &format!("{}\n", v.join(","));
+                }
+                let shape = if shape_b { "b" } else { "a" };
+                std::fs::write(format!("{dir}/{shape}{seed}_{name}.csv"), text).unwrap();
+            }
+        }
         let res = outer(&d, shape_b, dt, who);
         let line: Vec<String> = who
             .iter()
