@@ -298,7 +298,8 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         ));
     }
     if opts.model == ModelKind::Auto {
-        return crate::select::identify_auto(table, train, notes, opts);
+        let (bounded, notes) = bound_dynamic_search(table, &train, opts, notes);
+        return crate::select::identify_auto(table, train, notes, &bounded);
     }
     if c < 2 {
         return Err(invalid("inputs", c, "at least 2 input columns"));
@@ -777,7 +778,16 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
     let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
     let ys: Vec<std::borrow::Cow<[f64]>> = table.targets.iter().map(|y| rows.of(y)).collect();
     let ys: Vec<&[f64]> = ys.iter().map(|v| &v[..]).collect();
-    let fits = regress::ols_many(&refs, &ys, &table.input_names)?;
+    let fits: Vec<regress::LinearFit> = match regress::ols_many(&refs, &ys, &table.input_names) {
+        Ok(f) => f,
+        // Fewer training rows than inputs + 2, or collinear inputs (c = a + b): the
+        // minimum-norm least-squares solution (numpy's lstsq), so that the floor exists on
+        // every valid shape instead of aborting the fit.
+        Err(IdentifyError::TooFewRows { .. } | IdentifyError::RankDeficient { .. }) => {
+            min_norm_least_squares(&refs, &ys)
+        }
+        Err(e) => return Err(e),
+    };
     table
         .targets
         .iter()
@@ -796,6 +806,86 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
                 rmse_where(&e, &train, true).unwrap_or(f64::NAN),
                 rmse_where(&e, &train, false),
             ))
+        })
+        .collect()
+}
+
+/// Largest training rows × (candidate regressor columns)² for which the default
+/// (`--family` not given) searches the dynamic families (pure delay, lead-lag, 1st- and
+/// 2nd-order transfer functions): their candidate columns (value, one lag per τ, one delay
+/// per d, for every sensor) enter the validation's QR factors, whose cost grows with this
+/// product (100 sensors × 13 columns on 8 640 training rows, 1.5·10¹⁰: 24 s; 30 sensors on
+/// 8 640 rows, 1.3·10⁹: 2 s, on this 2-core machine). Above it the default compares the
+/// static families only and says so in a note; `--family` naming them searches them anyway.
+pub const DYNAMIC_SEARCH_BUDGET: f64 = 3e9;
+
+/// The default's families bounded by [`DYNAMIC_SEARCH_BUDGET`] (unchanged when the user
+/// named families or the search fits the budget), with the note saying so.
+fn bound_dynamic_search<'o>(
+    table: &Table,
+    train: &[bool],
+    opts: &'o IdentifyOptions,
+    mut notes: Vec<String>,
+) -> (std::borrow::Cow<'o, IdentifyOptions>, Vec<String>) {
+    use crate::fit::Family;
+    if !opts.families.is_empty() {
+        return (std::borrow::Cow::Borrowed(opts), notes);
+    }
+    let c = table.inputs.len();
+    let n = train.iter().filter(|&&m| m).count();
+    let cols = c * (1 + opts.taus_s.len() + opts.delays_s.len());
+    let cost = n as f64 * (cols as f64).powi(2);
+    if cost <= DYNAMIC_SEARCH_BUDGET {
+        return (std::borrow::Cow::Borrowed(opts), notes);
+    }
+    let dynamic = [Family::Delay, Family::LeadLag, Family::Tf1, Family::Tf2];
+    let mut bounded = opts.clone();
+    bounded.families = Family::ALL
+        .iter()
+        .copied()
+        .filter(|f| !dynamic.contains(f))
+        .chain(std::iter::once(Family::Stacked))
+        .collect();
+    notes.push(format!(
+        "search bounded: {c} inputs × {} candidate columns each on {n} training rows exceed the \
+         default's budget (rows × columns² = {cost:.2e} > {DYNAMIC_SEARCH_BUDGET:.0e}), so the \
+         dynamic families ({}) were not searched; name them with --family to search them \
+         (slow), or give fewer --inputs, --tau-s or --delay-s",
+        1 + opts.taus_s.len() + opts.delays_s.len(),
+        dynamic.map(Family::name).join(", ")
+    ));
+    (std::borrow::Cow::Owned(bounded), notes)
+}
+
+/// Minimum-norm least squares of each y on [1 X] (SVD, singular values below
+/// max(n, p + 1)·ε·σ₁ treated as zero): the solution of numpy's `lstsq`. Only the
+/// coefficients are meaningful (standard errors empty, r² and RMSE of the fitted rows).
+fn min_norm_least_squares(columns: &[&[f64]], ys: &[&[f64]]) -> Vec<regress::LinearFit> {
+    let n = ys.first().map_or(0, |y| y.len());
+    let p = columns.len() + 1;
+    let a = DMatrix::from_fn(n, p, |i, j| if j == 0 { 1.0 } else { columns[j - 1][i] });
+    let svd = a.clone().svd(true, true);
+    let s1 = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    let eps = s1 * n.max(p) as f64 * f64::EPSILON;
+    ys.iter()
+        .map(|y| {
+            let yv = DVector::from_column_slice(y);
+            let b = svd
+                .solve(&yv, eps)
+                .map_or_else(|_| vec![0.0; p], |b| b.iter().copied().collect());
+            let fitted = &a * DVector::from_column_slice(&b);
+            let residuals: Vec<f64> = (0..n).map(|i| y[i] - fitted[i]).collect();
+            let sse: f64 = residuals.iter().map(|e| e * e).sum();
+            let mean = y.iter().sum::<f64>() / n.max(1) as f64;
+            let sst: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+            regress::LinearFit {
+                coefficients: b,
+                std_errors: Vec::new(),
+                r2: if sst > 0.0 { 1.0 - sse / sst } else { 1.0 },
+                rmse: (sse / n.max(1) as f64).sqrt(),
+                sse,
+                residuals,
+            }
         })
         .collect()
 }

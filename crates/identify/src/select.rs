@@ -208,6 +208,25 @@ impl Engine {
         }
     }
 
+    /// Validation RMSE differences up to this are ties (resolved for the fewer steps, the
+    /// unshrunk fit, the simpler family): 1e-9 × the standard deviation of the target on
+    /// every training row (from R of [1 y]: |R₁₁| = √(Σ(y − ȳ)²)). On noise-free data every
+    /// candidate that contains the true relation validates at rounding level (~1e-13), and
+    /// without this the rounding noise chose lags, shrinkage and extra sensors (issue 12:
+    /// an exact relation must come back with its own coefficients).
+    fn tie(&self, target: usize) -> f64 {
+        let n = self.block_n.iter().sum::<usize>().max(1) as f64;
+        let r = self
+            .all_r
+            .select_columns(&[0, 1 + self.n_feat + target])
+            .qr()
+            .r();
+        if r.nrows() < 2 {
+            return 0.0;
+        }
+        1e-9 * r[(1, 1)].abs() / n.sqrt()
+    }
+
     /// Columns of [1 F Y] of the sub-model on feature columns `cols` for `target`.
     fn columns(&self, cols: &[usize], target: usize) -> Vec<usize> {
         let mut sel = Vec::with_capacity(cols.len() + 2);
@@ -590,7 +609,7 @@ fn forward(
     let mut kept: Option<Prefix> = None;
     for (k, s) in sse.into_iter().enumerate().take(steps) {
         let v = ctx.eng.pooled(&s);
-        if v.is_finite() && kept.as_ref().is_none_or(|b| v < b.2) {
+        if v.is_finite() && kept.as_ref().is_none_or(|b| v < b.2 - ctx.eng.tie(target)) {
             let fc = fold_states
                 .iter()
                 .map(|st| st.get(k).cloned().unwrap_or_default())
@@ -632,7 +651,7 @@ fn shrink_path(ctx: &Ctx, target: usize, fw: &Forward, fitters: &[Fitter]) -> Op
             .collect();
         if let Some(sse) = sse {
             let v = ctx.eng.pooled(&sse);
-            if v.is_finite() && best.as_ref().is_none_or(|b| v < b.2) {
+            if v.is_finite() && best.as_ref().is_none_or(|b| v < b.2 - ctx.eng.tie(target)) {
                 let fc = fw.fold_units.iter().map(|u| flat(u)).collect();
                 best = Some((fw.units.clone(), sse, v, fit, fc));
             }
@@ -1084,7 +1103,7 @@ pub fn identify_auto(
                         kept: false,
                     });
                     members.push((b.clone(), fam == Family::Differences));
-                    if best.as_ref().is_none_or(|x| b.cv < x.cv) {
+                    if best.as_ref().is_none_or(|x| b.cv < x.cv - eng.tie(j)) {
                         best = Some(b);
                         kept = Some(comparison.len() - 1);
                     }
@@ -1152,7 +1171,10 @@ pub fn identify_auto(
                 eligible: true,
                 kept: false,
             });
-            if cv.is_finite() && best.as_ref().is_none_or(|x| cv < x.cv) && significant(sse) {
+            if cv.is_finite()
+                && best.as_ref().is_none_or(|x| cv < x.cv - eng.tie(j))
+                && significant(sse)
+            {
                 if let Some(s) = comparison.last_mut() {
                     s.kept = true;
                 }
