@@ -38,7 +38,7 @@ impl Gear {
     /// 1 for an even tooth count, cos(π/(2z)) for an odd one (balls in gaps not opposite).
     fn odd_factor(&self) -> f64 {
         let z = self.spec().teeth;
-        if z % 2 == 0 {
+        if z.is_multiple_of(2) {
             1.0
         } else {
             (FRAC_PI_2 / f64::from(z)).cos()

@@ -255,7 +255,7 @@ pub fn ball(g: &Gear3, ball: f64) -> Option<BallConstruction> {
     let (rho_min, _) = golden(0.7 * r_b, hi, |rho| nearest(rho).0);
     let rho = bisect_n(rho_min, hi, 64, |rho| nearest(rho).0 - 0.5 * ball)?;
     let (_, p) = nearest(rho);
-    let odd = if g.z % 2 == 0 {
+    let odd = if g.z.is_multiple_of(2) {
         1.0
     } else {
         (PI / (2.0 * f64::from(g.z))).cos()
