@@ -187,7 +187,7 @@ fn written(log: &Log, d: &Dialect, seed: u64) -> String {
     let quote = |s: String, r: &mut Rng| -> String {
         let q = match d.quoting {
             0 => false,
-            1 => r.next() % 3 == 0,
+            1 => r.next().is_multiple_of(3),
             _ => true,
         };
         if q {

@@ -12,5 +12,6 @@ mod multirun;
 mod properties;
 mod runs;
 mod seed003;
+mod shapes;
 mod spreadsheets;
 mod stack;
