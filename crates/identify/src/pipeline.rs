@@ -362,19 +362,20 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         ModelKind::Dynamic => opts.taus_s.iter().map(|&t| Some(t)).collect(),
         _ => vec![None],
     };
-    let mut features: Vec<Vec<Vec<f64>>> = Vec::with_capacity(taus.len());
+    // Values are the input columns themselves (borrowed); rates are computed.
+    let mut features: Vec<Vec<std::borrow::Cow<[f64]>>> = Vec::with_capacity(taus.len());
     let segs = table.segment_ranges();
     for tau in &taus {
         let mut f = Vec::with_capacity(2 * c);
         for x in &table.inputs {
-            f.push(x.clone());
+            f.push(std::borrow::Cow::Borrowed(x.as_slice()));
             if let Some(tau_s) = tau {
-                f.push(transform_segments(
+                f.push(std::borrow::Cow::Owned(transform_segments(
                     &table.time_s,
                     x,
                     Transform::Rate { tau_s: *tau_s },
                     &segs,
-                )?);
+                )?));
             }
         }
         features.push(f);
@@ -387,7 +388,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     let engines: Vec<CvEngine> = features
         .iter()
         .map(|f| {
-            let refs: Vec<&[f64]> = f.iter().map(|v| v.as_slice()).collect();
+            let refs: Vec<&[f64]> = f.iter().map(|v| &v[..]).collect();
             CvEngine::new(&refs, &target_refs, &fold, k_folds)
         })
         .collect();
@@ -667,7 +668,7 @@ fn finish(
     fold: &[Option<usize>],
     k_folds: usize,
     j: usize,
-    features: &[Vec<Vec<f64>>],
+    features: &[Vec<std::borrow::Cow<[f64]>>],
     taus: &[Option<f64>],
     per_sensor: usize,
     ch: Choice,
