@@ -474,6 +474,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?;
     let (split, split_note) = split_of(&args, &table)?;
     let opts = options(&args, &split);
+    opts.check()?;
     let (id, base) = identify_with_floor(&table, &opts)?;
     if !args.axis.is_empty() && args.axis.len() != table.targets.len() {
         anyhow::bail!(

@@ -91,6 +91,44 @@ pub struct IdentifyOptions {
     pub families: Vec<Family>,
 }
 
+impl IdentifyOptions {
+    /// Refuses candidate grids a fit cannot use, naming the command-line option, the value
+    /// and the expected range (issue 12: `--ridge-alpha -1` and `--class-counts 0` were
+    /// silently dropped, a grid of only such values silently ran without that family).
+    pub fn check(&self) -> Result<()> {
+        if let Some(a) = self
+            .ridge_alphas
+            .iter()
+            .find(|a| !(a.is_finite() && **a >= 0.0))
+        {
+            return Err(invalid("--ridge-alpha", a, "α ≥ 0 (finite)"));
+        }
+        if let Some(k) = self.class_counts.iter().find(|&&k| k == 0) {
+            return Err(invalid("--class-counts", k, "class counts ≥ 1"));
+        }
+        if self.classes == Some(0) {
+            return Err(invalid("--classes", 0, "a class count ≥ 1"));
+        }
+        if let Some(t) = self.taus_s.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+            return Err(invalid("--tau-s", t, "time constants > 0 s"));
+        }
+        if let Some(d) = self.delays_s.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
+            return Err(invalid("--delay-s", d, "delays > 0 s"));
+        }
+        if self.max_sensors == 0 {
+            return Err(invalid("--max-sensors", 0, "at least 1 sensor"));
+        }
+        if self.folds < 2 {
+            return Err(invalid(
+                "--folds",
+                self.folds,
+                "at least 2 validation folds",
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for IdentifyOptions {
     fn default() -> Self {
         Self {

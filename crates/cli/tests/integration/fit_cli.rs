@@ -595,3 +595,142 @@ fn fit_joins_targets_from_a_second_workbook() {
     .unwrap_err();
     assert!(e.contains("CSV logs are not joined"), "{e}");
 }
+
+/// A noise-free log for the shape tests: `p` random-walk sensors `s0_c …`, y_um = 3 +
+/// 2·s0 − s1 (the first two sensors; s0 only when p = 1), `n` rows 60 s apart.
+fn shape_csv(n: usize, p: usize, seed: u64) -> String {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut next = move || {
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        (x.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut v: Vec<f64> = (0..p).map(|j| 20.0 + j as f64 * 0.37).collect();
+    let mut s = String::from("time_s");
+    for j in 0..p {
+        s += &format!(",s{j}_c");
+    }
+    s += ",y_um\n";
+    for i in 0..n {
+        for a in v.iter_mut() {
+            *a += 2.0 * next();
+        }
+        let y = 3.0 + 2.0 * v[0] - if p > 1 { v[1] } else { 0.0 };
+        s += &format!("{}", i * 60);
+        for a in &v {
+            s += &format!(",{a}");
+        }
+        s += &format!(",{y}\n");
+    }
+    s
+}
+
+/// Issue 12 shapes: candidate grids a fit cannot use are refused naming the option, the
+/// value and the range (they were silently dropped: `--ridge-alpha -1` ran without ridge),
+/// and nothing is written at --out.
+#[test]
+fn fit_refuses_unusable_candidate_grids_naming_the_option() {
+    let d = tmp("grids");
+    let data = d.join("exact.csv");
+    std::fs::write(&data, shape_csv(300, 4, 1)).unwrap();
+    let model = d.join("model.toml");
+    for (args, want) in [
+        (
+            vec!["--ridge-alpha", "-1"],
+            "invalid --ridge-alpha = -1: expected α ≥ 0",
+        ),
+        (
+            vec!["--ridge-alpha", "0.1,nan"],
+            "invalid --ridge-alpha = NaN",
+        ),
+        (vec!["--class-counts", "0"], "invalid --class-counts = 0"),
+        (vec!["--classes", "0"], "invalid --classes = 0"),
+        (
+            vec!["--tau-s", "300,inf"],
+            "invalid --tau-s = inf: expected time constants > 0 s",
+        ),
+        (
+            vec!["--folds", "1"],
+            "invalid --folds = 1: expected at least 2",
+        ),
+        (vec!["--max-sensors", "0"], "invalid --max-sensors = 0"),
+    ] {
+        let out = bin()
+            .args(["fit", "--target", "y_um", "--no-test", "--data"])
+            .arg(&data)
+            .args(&args)
+            .arg("--out")
+            .arg(&model)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!model.exists(), "{args:?} wrote a model file");
+    }
+}
+
+/// Issue 12 shapes: fewer rows than sensors (20 × 30) fitted (plain least squares on all
+/// inputs aborted the fit: "regression on 30 regressors: 20 row(s), need at least 32"),
+/// the exact relation of two sensors comes back with its coefficients, and no figure of
+/// the JSON is NaN or infinite.
+#[test]
+fn fit_with_fewer_rows_than_sensors_recovers_the_relation() {
+    let d = tmp("n-below-p");
+    let data = d.join("np.csv");
+    std::fs::write(&data, shape_csv(20, 30, 2)).unwrap();
+    let out = bin()
+        .args(["fit", "--target", "y_um", "--no-test", "--json", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        !text.contains("NaN") && !text.contains("Infinity") && !text.contains(": inf"),
+        "{text}"
+    );
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let t = &j["targets"][0];
+    assert!(t["train_rmse_um"].as_f64().unwrap() < 1e-9, "{t}");
+    assert!(t["validation_rmse_um"].as_f64().unwrap() < 1e-9, "{t}");
+    let terms = text.replace(char::is_whitespace, "");
+    for (ch, c) in [("s0_c", 2.0), ("s1_c", -1.0)] {
+        let at = terms
+            .find(&format!("\"channel\":\"{ch}\""))
+            .unwrap_or_else(|| panic!("{ch} missing: {text}"));
+        let near = &terms[at..(at + 120).min(terms.len())];
+        let k = near.find("\"coefficient\":").unwrap() + "\"coefficient\":".len();
+        let v: f64 = near[k..].split([',', '}']).next().unwrap().parse().unwrap();
+        assert!((v - c).abs() < 1e-9, "{ch}: {v} in {near}");
+    }
+}
+
+/// Issue 12 shapes: 100 sensors × 2 000 rows — the default bounds its dynamic families
+/// (their candidate columns cost rows × columns²) and says so in a note; the exact
+/// relation still comes back.
+#[test]
+fn fit_with_100_sensors_bounds_the_search_and_says_so() {
+    let d = tmp("wide");
+    let data = d.join("wide.csv");
+    std::fs::write(&data, shape_csv(2000, 100, 3)).unwrap();
+    let out = bin()
+        .args(["fit", "--target", "y_um", "--no-test", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("search bounded: 100 inputs"), "{text}");
+    assert!(text.contains("name them with --family"), "{text}");
+    assert!(!text.contains("NaN"), "{text}");
+}
