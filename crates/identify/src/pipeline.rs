@@ -71,10 +71,27 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     };
     let n = mask.iter().filter(|&&m| m).count();
     if n < 10 {
-        return Err(IdentifyError::TooFewRows {
-            what: "training rows of the split".into(),
-            rows: n,
-            needed: 10,
+        // Name the option that left too few training rows (issue 12 shapes: "training rows
+        // of the split: 0 row(s)" did not say that --test-runs named every run).
+        return Err(match split {
+            Split::TestRuns(runs) => invalid(
+                "--test-runs",
+                runs.join(","),
+                &format!(
+                    "runs that leave at least 10 training rows in the other runs ({n} left; runs: {})",
+                    table.run_names.join(", ")
+                ),
+            ),
+            Split::TimeBefore(s) => invalid(
+                "--train-before-h",
+                format!("{} h", s / 3600.0),
+                &format!("a time with at least 10 training rows before it ({n} before it)"),
+            ),
+            Split::None => IdentifyError::TooFewRows {
+                what: "training rows".into(),
+                rows: n,
+                needed: 10,
+            },
         });
     }
     Ok(mask)
@@ -219,6 +236,7 @@ fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
 /// dynamic Value + Rate model and its cross-validated selection are this project's
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
+    opts.check()?;
     let mut id = identify_models(table, opts)?;
     // Each target's envelope on its own core (the targets are independent).
     let envelopes = par_map(&id.targets, |m| {

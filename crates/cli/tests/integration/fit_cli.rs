@@ -734,3 +734,60 @@ fn fit_with_100_sensors_bounds_the_search_and_says_so() {
     assert!(text.contains("name them with --family"), "{text}");
     assert!(!text.contains("NaN"), "{text}");
 }
+
+/// Issue 12 shapes: a split that leaves too few training rows names its option (it said
+/// "training rows of the split: 0 row(s), need at least 10").
+#[test]
+fn fit_names_the_split_that_leaves_too_few_training_rows() {
+    let d = tmp("few-train");
+    let two = d.join("two.csv");
+    let mut text = String::from("run,");
+    for (k, l) in shape_csv(60, 3, 4).lines().enumerate() {
+        if k == 0 {
+            text += &format!("{l}\n");
+        } else {
+            text += &format!("{},{l}\n", if k <= 30 { "A" } else { "B" });
+        }
+    }
+    std::fs::write(&two, text).unwrap();
+    let out = bin()
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "--run-column",
+            "run",
+            "--test-runs",
+            "A,B",
+            "--data",
+        ])
+        .arg(&two)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("invalid --test-runs = A,B") && err.contains("0 left; runs: A, B"),
+        "{err}"
+    );
+    let one = d.join("one.csv");
+    std::fs::write(&one, shape_csv(600, 3, 5)).unwrap();
+    let out = bin()
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "--train-before-h",
+            "0.1",
+            "--data",
+        ])
+        .arg(&one)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("invalid --train-before-h = 0.1 h") && err.contains("(6 before it)"),
+        "{err}"
+    );
+}
