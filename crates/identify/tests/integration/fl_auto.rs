@@ -77,6 +77,7 @@ fn fl_thermal_default_uses_training_rows_only_and_at_most_8_sensors() {
             .iter()
             .find(|c| c.family.starts_with("stacked"))
             .unwrap();
+        println!("{}: stack validation {:.3}", m.target, st.cv_rmse);
         assert!(st.sensors <= 8 && !st.kept, "{}: {st:?}", m.target);
         assert!(
             (st.cv_rmse - stack_val[j]).abs() < 5e-3,

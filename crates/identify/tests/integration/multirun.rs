@@ -63,6 +63,23 @@ fn outer_loro(t: &Table, opts: &IdentifyOptions) -> (Vec<f64>, Vec<f64>) {
         )
         .unwrap();
         let ls = plain_least_squares(t, &split).unwrap();
+        if std::env::var("GEARCOMP_MULTIRUN_DETAIL").is_ok() {
+            for m in &id.targets {
+                println!(
+                    "  test {r}: kept {} (val {:.3}, test {:.3}; plain LS {:.3})",
+                    m.family,
+                    m.cv_rmse,
+                    m.test_rmse.unwrap(),
+                    ls[0].1.unwrap()
+                );
+                for c in &m.comparison {
+                    println!(
+                        "    {:<40} {:>2} val {:.3} {}",
+                        c.family, c.sensors, c.cv_rmse, c.detail
+                    );
+                }
+            }
+        }
         for j in 0..nt {
             auto_sse[j] += id.targets[j].test_rmse.unwrap().powi(2) * rows as f64;
             ls_sse[j] += ls[j].1.unwrap().powi(2) * rows as f64;
@@ -86,9 +103,9 @@ fn hobbing_runs_default_beats_plain_least_squares_out_of_run() {
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("hobbing outer LORO: default {auto:?}, plain LS {ls:?}");
     // The column core lags the column (τ ≈ 9 h): a lag model must do strictly better
-    // (measured 0.552 vs 0.693 µm; 0.532 before the one-standard-error rule against plain
-    // LS and the classes family, 0.511 before the stacked families), and never more than
-    // 2 % worse.
+    // (measured 0.675 vs 0.693 µm with the optimism of the family figures; 0.552 before
+    // it, 0.532 before the one-standard-error rule against plain LS and the classes family,
+    // 0.511 before the stacked families), and never more than 2 % worse.
     assert!(auto[0] <= 1.02 * ls[0], "{auto:?} vs {ls:?}");
     assert!(auto[0] < ls[0], "{auto:?} vs {ls:?}");
 }
@@ -115,8 +132,9 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
     assert_eq!(t.run_names.len(), 6);
     let (auto, ls) = outer_loro(&t, &IdentifyOptions::default());
     println!("FL_THERMAL outer LORO: default {auto:?}, plain LS {ls:?}");
-    // Measured (nested selection, stacked families, classes family): ch1 2.547 vs 6.886,
-    // ch3 3.117 vs 6.049, ch5 4.616 vs 6.426 µm (before the classes family 2.502, 3.117,
+    // Measured (nested selection, stacked families, classes family, optimism of the family
+    // figures): ch1 2.547 vs 6.886, ch3 3.193 vs 6.049, ch5 5.148 vs 6.426 µm (before the
+    // optimism 2.547, 3.117, 4.616; before the classes family 2.502, 3.117,
     // 4.532; without the stack 2.547, 3.193, 5.228;
     // docs/identification.md). Never more than 2 % worse than plain LS on all 16
     // inputs (the default reads at most 8), and strictly better: every channel lags.
@@ -144,9 +162,14 @@ fn every_family_runs_in_the_engine_as_fitted() {
         ..Selection::default()
     };
     let t = read_csv(&text, "hobbing runs", &sel, ReadOptions::default()).unwrap();
-    // Every family alone, then the default (every family and their stack).
+    // Every family alone, then the default (every family and their stack), then a stack
+    // that is kept here (ridge and the 1st-order TF; with the optimism of the family
+    // figures the full default keeps lead-lag on this split).
     let mut stacked = false;
-    for fams in Family::ALL.map(|f| vec![f]).into_iter().chain([Vec::new()]) {
+    for fams in Family::ALL.map(|f| vec![f]).into_iter().chain([
+        Vec::new(),
+        vec![Family::Stacked, Family::Ridge, Family::Tf1],
+    ]) {
         let id = identify(
             &t,
             &IdentifyOptions {
@@ -213,6 +236,6 @@ fn every_family_runs_in_the_engine_as_fitted() {
         }
         assert!(compared > t.time_s.len() * 9 / 10, "{name}: {compared}");
     }
-    // The default keeps the stack here: its combined terms run in the engine too.
-    assert!(stacked, "the default did not keep the stacked families");
+    // The stack is kept on the last set: its combined terms run in the engine too.
+    assert!(stacked, "no run kept the stacked families");
 }
