@@ -2029,6 +2029,22 @@ mod tests {
         assert!(!beats_reference(&[1.0], &[2.0], &[10]));
     }
 
+    /// The optimism per fold against hand-computed figures: the chosen setting's SSE minus
+    /// the fold's lowest over the settings compared (a setting missing a fold or NaN there
+    /// does not count); 0 where the chosen setting is the fold's best.
+    #[test]
+    fn optimism_is_the_gap_to_each_folds_best_setting() {
+        let chosen = [4.0, 1.0, 6.0];
+        let trials = vec![
+            vec![4.0, 1.0, 6.0],
+            vec![2.5, 3.0, 7.0],
+            vec![5.0, 0.25, f64::NAN],
+            vec![0.0, 0.0],
+        ];
+        assert_eq!(optimism(&chosen, &trials), vec![1.5, 0.75, 0.0]);
+        assert_eq!(optimism(&chosen, &[]), vec![0.0, 0.0, 0.0]);
+    }
+
     /// The combined model predicts Σ w_k·(prediction of model k) (equal terms merged).
     #[test]
     fn combined_model_is_the_weighted_sum_of_its_parts() {
