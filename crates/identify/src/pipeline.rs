@@ -305,7 +305,8 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         return Err(invalid("targets", "none", "at least one target column"));
     }
     let train = train_mask(table, &opts.split)?;
-    let (reduced, notes) = drop_degenerate_inputs(table, &train);
+    let (reduced, mut notes) = drop_degenerate_inputs(table, &train);
+    notes.extend(split_runs_note(table));
     let table = &reduced;
     let c = table.inputs.len();
     if c == 0 {
@@ -827,6 +828,36 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
             ))
         })
         .collect()
+}
+
+/// A note when a run's rows are not together in the log (a run column whose value comes
+/// back after another run's rows, e.g. two machines logged alternately): every block of a
+/// run is a segment, so each filter, lag and delay restarts at each block (issue 12 shapes:
+/// two runs alternating row by row gave 600 segments of one row, and nothing said so).
+fn split_runs_note(table: &Table) -> Option<String> {
+    let runs = table.runs.as_ref()?;
+    let mut seen = vec![false; table.run_names.len()];
+    let mut blocks = 0usize;
+    let mut first: Option<(usize, u64)> = None;
+    for (i, &r) in runs.iter().enumerate() {
+        if i > 0 && runs[i - 1] == r {
+            continue;
+        }
+        blocks += 1;
+        if seen.get(r).copied().unwrap_or(false) {
+            first.get_or_insert((r, table.lines.get(i).copied().unwrap_or(0)));
+        } else if let Some(s) = seen.get_mut(r) {
+            *s = true;
+        }
+    }
+    let (r, line) = first?;
+    Some(format!(
+        "runs not together: run {} comes back at line {line} after another run's rows ({blocks} \
+         blocks for {} runs); each block is a segment, so every filter, lag and delay restarts \
+         at each block; keep each run's rows together (sort the log by run) for dynamic models",
+        table.run_names.get(r).map_or("?", String::as_str),
+        table.run_names.len()
+    ))
 }
 
 /// Largest training rows × (candidate regressor columns)² for which the default

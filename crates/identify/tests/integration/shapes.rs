@@ -480,3 +480,51 @@ fn known_limit_greedy_misses_an_exact_pair() {
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     }
 }
+
+#[test]
+fn runs_written_apart_are_noted_with_the_line_they_come_back() {
+    // 20 rows of run0, 40 of run1, then run0 again: it comes back at line 1 + 20 + 40 + 1 = 62.
+    let case = generate(61, &[40, 40], 3, 2, 1.0, false, 1, false);
+    let mut lines: Vec<String> = case.csv.lines().map(str::to_string).collect();
+    let head = lines.remove(0);
+    let (a, b): (Vec<String>, Vec<String>) =
+        lines.into_iter().partition(|l| l.starts_with("run0,"));
+    let (a1, a2) = a.split_at(20);
+    let text = std::iter::once(head.clone())
+        .chain(a1.iter().cloned())
+        .chain(b.iter().cloned())
+        .chain(a2.iter().cloned())
+        .collect::<Vec<_>>()
+        .join("\n");
+    let table = read_csv(&text, "apart", &selection(true), ReadOptions::default()).unwrap();
+    let opts = IdentifyOptions {
+        split: Split::None,
+        ..IdentifyOptions::default()
+    };
+    let id = identify(&table, &opts).unwrap();
+    let note = id.notes.iter().find(|n| n.contains("runs not together"));
+    let note = note.unwrap_or_else(|| panic!("{:?}", id.notes));
+    assert!(
+        note.contains("run run0 comes back at line 62") && note.contains("3 blocks for 2 runs"),
+        "{note}"
+    );
+    // The same rows with each run together: no note.
+    let together = std::iter::once(head)
+        .chain(a.iter().cloned())
+        .chain(b.iter().cloned())
+        .collect::<Vec<_>>()
+        .join("\n");
+    let table = read_csv(
+        &together,
+        "together",
+        &selection(true),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    let id = identify(&table, &opts).unwrap();
+    assert!(
+        !id.notes.iter().any(|n| n.contains("runs not together")),
+        "{:?}",
+        id.notes
+    );
+}
