@@ -803,10 +803,17 @@ fn family_best(
             .into_iter()
             .chain(shrunk);
         for c in cands {
-            if best.as_ref().is_none_or(|b| c.2 < b.cv) {
+            if best
+                .as_ref()
+                .is_none_or(|b| c.2 < b.cv - ctx.eng.tie(target))
+            {
                 let mut d = describe(&c.0);
                 if let Fitter::Ridge(a) = c.3 {
-                    d = format!("{d}; ridge α = {a}");
+                    d = if d.is_empty() {
+                        format!("ridge α = {a}")
+                    } else {
+                        format!("{d}; ridge α = {a}")
+                    };
                 }
                 best = Some(mk(c, d));
             }
@@ -859,7 +866,10 @@ fn family_best(
                     .into_iter()
                     .chain(shrunk);
                 for c in cands {
-                    if best.as_ref().is_none_or(|b| c.2 < b.cv) {
+                    if best
+                        .as_ref()
+                        .is_none_or(|b| c.2 < b.cv - ctx.eng.tie(target))
+                    {
                         let d = match c.3 {
                             Fitter::Ridge(a) => format!("τ = {tau} s, ridge α = {a}"),
                             _ => format!("τ = {tau} s"),
