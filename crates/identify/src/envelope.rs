@@ -8,7 +8,7 @@
 
 use crate::data::Table;
 use crate::error::{IdentifyError, Result};
-use crate::pipeline::TrainRows;
+use crate::fit::TrainRows;
 use crate::transform::transform_segments;
 use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
 use nalgebra::DMatrix;

@@ -411,3 +411,31 @@ pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
     }
     Ok(out)
 }
+
+/// The training rows of a mask, to take from series: a slice of a series when they are one
+/// contiguous block (a time split, the usual case), else a copy (the same values in the same
+/// order either way). The block is found once per mask.
+pub(crate) struct TrainRows<'m> {
+    pub(crate) mask: &'m [bool],
+    block: Option<(usize, usize)>,
+}
+
+impl<'m> TrainRows<'m> {
+    pub(crate) fn new(mask: &'m [bool]) -> Self {
+        let start = mask.iter().position(|&t| t).unwrap_or(mask.len());
+        let end = mask[start..]
+            .iter()
+            .position(|&t| !t)
+            .map_or(mask.len(), |p| start + p);
+        let block = (!mask[end..].contains(&true)).then_some((start, end));
+        Self { mask, block }
+    }
+
+    /// The training rows of `x` (a series as long as the mask).
+    pub(crate) fn of<'a>(&self, x: &'a [f64]) -> std::borrow::Cow<'a, [f64]> {
+        match self.block {
+            Some((a, b)) if x.len() == self.mask.len() => std::borrow::Cow::Borrowed(&x[a..b]),
+            _ => std::borrow::Cow::Owned(select_rows(x, self.mask)),
+        }
+    }
+}
