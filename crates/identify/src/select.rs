@@ -1678,7 +1678,7 @@ fn finish(
         j,
         fitted,
         b.cv,
-        eng.fold_rmse(&b.sse),
+        eng.fold_rmse(&b.rank_sse()),
         comparison,
     )
 }
