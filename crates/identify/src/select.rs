@@ -1096,7 +1096,10 @@ pub fn identify_auto(
                     .map(|(&i, p)| (y[i] - p).powi(2))
                     .sum();
                 let t: f64 = b.sse.iter().sum();
-                (s - t).abs() <= 1e-6 * (1.0 + t)
+                // The SSE from the R factor (‖R·v‖²) loses ≈ ε·‖y‖² to cancellation when the
+                // fit is nearly exact; compare on that scale too.
+                let yy: f64 = val_rows.iter().flatten().map(|&i| y[i] * y[i]).sum();
+                (s - t).abs() <= 1e-6 * (1.0 + t) + 1e-9 * yy
             });
             preds.push(p);
             groups.push(sensors_of_units(fs, &b.units));
