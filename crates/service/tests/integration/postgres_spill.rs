@@ -99,7 +99,7 @@ fn an_outage_of_six_times_the_buffer_spills_and_loses_no_sample() {
             raw: i as f64 * 0.25,
         })
         .unwrap();
-        if i % 300 == 0 {
+        if i.is_multiple_of(300) {
             tx.send(Record::Average {
                 time_s: i as f64,
                 channel: 0,
