@@ -1831,6 +1831,28 @@ fn term_name(t: &Term) -> String {
     }
 }
 
+/// A fixed model's final fit: the columns' and the target's training rows, fitted as `fit`
+/// says.
+fn fit_on_training_rows<C: AsRef<[f64]>>(
+    cols: &[C],
+    y: &[f64],
+    train: &[bool],
+    fit: FitSpec,
+    names: &[String],
+) -> Result<LinearFit> {
+    let tr: Vec<Vec<f64>> = cols
+        .iter()
+        .map(|c| select_rows(c.as_ref(), train))
+        .collect();
+    let refs: Vec<&[f64]> = tr.iter().map(|v| v.as_slice()).collect();
+    let y = select_rows(y, train);
+    match fit {
+        FitSpec::Ols => regress::ols(&refs, &y, names),
+        FitSpec::Ridge(a) => regress::ridge(&refs, &y, a, names),
+        FitSpec::Pcr(k) => regress::pcr(&refs, &y, k, names),
+    }
+}
+
 /// How a fixed model is fitted ([`evaluate_fixed`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum FitSpec {
@@ -1929,17 +1951,11 @@ pub fn evaluate_classes(
         .iter()
         .map(|&s| table.input_names[s].clone())
         .collect();
-    let tr: Vec<Vec<f64>> = representatives
+    let cols: Vec<&[f64]> = representatives
         .iter()
-        .map(|&s| select_rows(&table.inputs[s], train))
+        .map(|&s| table.inputs[s].as_slice())
         .collect();
-    let refs: Vec<&[f64]> = tr.iter().map(|v| v.as_slice()).collect();
-    let y = select_rows(&table.targets[target], train);
-    let fit = match fit {
-        FitSpec::Ols => regress::ols(&refs, &y, &names)?,
-        FitSpec::Ridge(a) => regress::ridge(&refs, &y, a, &names)?,
-        FitSpec::Pcr(k) => regress::pcr(&refs, &y, k, &names)?,
-    };
+    let fit = fit_on_training_rows(&cols, &table.targets[target], train, fit, &names)?;
     Ok(ClassesResult {
         representatives,
         fold_representatives,
@@ -2002,14 +2018,7 @@ pub fn evaluate_fixed(
             tolerance: 0.0,
         })?;
     let names: Vec<String> = (0..cols.len()).map(|k| format!("term {k}")).collect();
-    let tr: Vec<Vec<f64>> = cols.iter().map(|c| select_rows(c, train)).collect();
-    let refs: Vec<&[f64]> = tr.iter().map(|v| v.as_slice()).collect();
-    let y = select_rows(&table.targets[target], train);
-    let fit = match fit {
-        FitSpec::Ols => regress::ols(&refs, &y, &names)?,
-        FitSpec::Ridge(a) => regress::ridge(&refs, &y, a, &names)?,
-        FitSpec::Pcr(k) => regress::pcr(&refs, &y, k, &names)?,
-    };
+    let fit = fit_on_training_rows(&cols, &table.targets[target], train, fit, &names)?;
     Ok(FixedResult {
         fold_rmse: eng.fold_rmse(&sse),
         cv_rmse: eng.pooled(&sse),
