@@ -33,6 +33,21 @@ fn tmp(name: &str) -> PathBuf {
     d.join(name)
 }
 
+/// The three CSV days of the CLI fixtures read as one file per run (the reference table).
+fn csv_days(s: &Selection) -> Table {
+    let texts: Vec<(String, String)> = (1..=3)
+        .map(|d| {
+            let n = format!("day {d}.csv");
+            (std::fs::read_to_string(cli_fixture(&n)).unwrap(), n)
+        })
+        .collect();
+    let refs: Vec<(&str, &str)> = texts
+        .iter()
+        .map(|(t, n)| (t.as_str(), n.as_str()))
+        .collect();
+    read_runs(&refs, s, ReadOptions::default()).unwrap()
+}
+
 fn sel(time: &str, inputs: &[&str], targets: &[&str]) -> Selection {
     Selection {
         time: time.into(),
@@ -361,17 +376,7 @@ fn header_less_logs_are_read_by_position() {
 #[test]
 fn sheets_as_runs_equal_one_file_per_run() {
     let s = sel("time_s", &["*_c"], &["d_um"]);
-    let texts: Vec<(String, String)> = (1..=3)
-        .map(|d| {
-            let n = format!("day {d}.csv");
-            (std::fs::read_to_string(cli_fixture(&n)).unwrap(), n)
-        })
-        .collect();
-    let refs: Vec<(&str, &str)> = texts
-        .iter()
-        .map(|(t, n)| (t.as_str(), n.as_str()))
-        .collect();
-    let want = read_runs(&refs, &s, ReadOptions::default()).unwrap();
+    let want = csv_days(&s);
     assert_eq!(want.run_names, vec!["day 1", "day 2", "day 3"]);
     let book = cli_fixture("days.xlsx");
     let got = read_paths(
@@ -604,17 +609,7 @@ fn put(ws: &mut rust_xlsxwriter::Worksheet, cells: &[Vec<String>], r0: u32, c0: 
 #[test]
 fn targets_in_a_second_workbook_join_row_by_row() {
     let s = sel("time_s", &["*_c"], &["d_um"]);
-    let texts: Vec<(String, String)> = (1..=3)
-        .map(|d| {
-            let n = format!("day {d}.csv");
-            (std::fs::read_to_string(cli_fixture(&n)).unwrap(), n)
-        })
-        .collect();
-    let refs: Vec<(&str, &str)> = texts
-        .iter()
-        .map(|(t, n)| (t.as_str(), n.as_str()))
-        .collect();
-    let want = read_runs(&refs, &s, ReadOptions::default()).unwrap();
+    let want = csv_days(&s);
     let write = |short_row: Option<usize>, bad: Option<(usize, u32)>| {
         let mut inputs = Workbook::new();
         let mut targets = Workbook::new();
