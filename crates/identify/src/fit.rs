@@ -439,3 +439,33 @@ impl<'m> TrainRows<'m> {
         }
     }
 }
+
+/// How well each input (its training rows in `inputs`) represents target `j` (training rows
+/// `y`): |Pearson r| or the grey relational grade (ρ = 0.5), CN105397560's choice of a class
+/// representative; the static kind and the class-representatives family both rank by it.
+pub(crate) fn representative_scores(
+    table: &Table,
+    inputs: &[&[f64]],
+    y: &[f64],
+    j: usize,
+    by: RepresentativeBy,
+) -> Result<Vec<f64>> {
+    match by {
+        RepresentativeBy::Pearson => inputs
+            .iter()
+            .enumerate()
+            .map(|(i, x)| {
+                crate::cluster::pearson(
+                    x,
+                    y,
+                    &format!(
+                        "correlation({}, {})",
+                        table.input_names[i], table.target_names[j]
+                    ),
+                )
+                .map(f64::abs)
+            })
+            .collect(),
+        RepresentativeBy::GreyRelational => crate::cluster::grey_relational_grades(y, inputs, 0.5),
+    }
+}

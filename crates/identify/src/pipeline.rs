@@ -9,7 +9,7 @@ use crate::fit::{
     predict, Grouping, Identification, IdentifyOptions, ModelKind, RepresentativeBy, Split,
     TargetModel,
 };
-use crate::fit::{rmse_where, select_rows, TrainRows};
+use crate::fit::{representative_scores, rmse_where, select_rows, TrainRows};
 use crate::par::{join, par_map};
 use crate::regress::{self, augmented_r, r_factor, stack};
 use crate::transform::transform_segments;
@@ -395,26 +395,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     let out = par_map(&target_index, |&j| -> Result<TargetModel> {
         let y = &table.targets[j];
         let ytr = rows.of(y);
-        let score: Vec<f64> = match opts.representative {
-            RepresentativeBy::Pearson => tr_refs
-                .iter()
-                .enumerate()
-                .map(|(i, x)| {
-                    cluster::pearson(
-                        x,
-                        &ytr,
-                        &format!(
-                            "correlation({}, {})",
-                            table.input_names[i], table.target_names[j]
-                        ),
-                    )
-                    .map(f64::abs)
-                })
-                .collect::<Result<_>>()?,
-            RepresentativeBy::GreyRelational => {
-                cluster::grey_relational_grades(&ytr, &tr_refs, 0.5)?
-            }
-        };
+        let score = representative_scores(table, &tr_refs, &ytr, j, opts.representative)?;
         let mut best: Option<Choice> = None;
         for (_, classes) in &class_sets {
             let reps = cluster::representatives(classes, &score);

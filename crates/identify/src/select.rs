@@ -34,8 +34,8 @@ use crate::cluster::{self, Dendrogram};
 use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
 use crate::fit::{
-    predict, rmse_where, select_rows, Grouping, Identification, IdentifyOptions, RepresentativeBy,
-    TargetModel,
+    predict, representative_scores, rmse_where, select_rows, Grouping, Identification,
+    IdentifyOptions, TargetModel,
 };
 pub use crate::fit::{Family, FamilyScore};
 use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
@@ -1435,24 +1435,7 @@ pub fn class_representatives(
         Grouping::FuzzyCMeans => cluster::fuzzy_c_means(&refs, k, 2.0, 1e-9, 2000)?.1,
     };
     let y = select_rows(&table.targets[j], rows);
-    let score: Vec<f64> = match opts.representative {
-        RepresentativeBy::Pearson => refs
-            .iter()
-            .enumerate()
-            .map(|(i, x)| {
-                cluster::pearson(
-                    x,
-                    &y,
-                    &format!(
-                        "correlation({}, {})",
-                        table.input_names[i], table.target_names[j]
-                    ),
-                )
-                .map(f64::abs)
-            })
-            .collect::<Result<_>>()?,
-        RepresentativeBy::GreyRelational => cluster::grey_relational_grades(&y, &refs, 0.5)?,
-    };
+    let score = representative_scores(table, &refs, &y, j, opts.representative)?;
     Ok(cluster::representatives(&classes, &score))
 }
 
