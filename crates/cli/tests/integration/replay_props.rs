@@ -54,7 +54,7 @@ fn case() -> impl Strategy<Value = Case> {
         (
             Just(channels),
             proptest::collection::vec(term(channels), 1..4),
-            prop_oneof![Just(0.0), 0.0f64..3.0],
+            prop_oneof![Just(0.0), 0.0f64..1.0],
             1.0f64..80.0,
             proptest::option::of(0.05f64..5.0),
             proptest::collection::vec(
@@ -66,10 +66,12 @@ fn case() -> impl Strategy<Value = Case> {
             ),
         )
             .prop_map(
-                |(channels, terms, dead_band_um, max_offset_um, max_step_um, rows)| Case {
+                // A valid dead band lies in 0 ..= max_offset_um (the engine refuses a
+                // larger one): drawn as a fraction of min(3 µm, max_offset_um).
+                |(channels, terms, dead_band_frac, max_offset_um, max_step_um, rows)| Case {
                     channels,
                     terms,
-                    dead_band_um,
+                    dead_band_um: dead_band_frac * max_offset_um.min(3.0),
                     max_offset_um,
                     max_step_um,
                     rows,
