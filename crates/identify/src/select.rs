@@ -97,6 +97,18 @@ pub struct Scheme {
     pub description: String,
 }
 
+impl Scheme {
+    /// Number of blocks (one more than the largest block index of a training row).
+    fn block_count(&self) -> usize {
+        self.block
+            .iter()
+            .flatten()
+            .map(|b| b + 1)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
 /// The deployment validation of the training rows: leave-one-run-out with ≥ 2 training
 /// runs, otherwise `k` rolling-origin folds over `k + 1` blocks of equal time span.
 pub fn deployment_scheme(table: &Table, train: &[bool], k: usize) -> Result<Scheme> {
@@ -164,13 +176,7 @@ pub fn deployment_scheme(table: &Table, train: &[bool], k: usize) -> Result<Sche
 impl Engine {
     fn new(features: &[Vec<f64>], targets: &[Vec<f64>], scheme: &Scheme) -> Self {
         let m = 1 + features.len() + targets.len();
-        let nb = scheme
-            .block
-            .iter()
-            .flatten()
-            .map(|b| b + 1)
-            .max()
-            .unwrap_or(0);
+        let nb = scheme.block_count();
         // The block factors, then the fold and all-rows factors, over the cores.
         let block_n: Vec<usize> = (0..nb)
             .map(|b| scheme.block.iter().filter(|&&x| x == Some(b)).count())
@@ -545,13 +551,7 @@ fn optimism(chosen: &[f64], trials: &[Vec<f64>]) -> Vec<f64> {
 
 /// Whether the scheme is leave-one-run-out (every fold trains on every other block).
 fn leave_one_run_out(scheme: &Scheme) -> bool {
-    let nb = scheme
-        .block
-        .iter()
-        .flatten()
-        .map(|b| b + 1)
-        .max()
-        .unwrap_or(0);
+    let nb = scheme.block_count();
     scheme.folds.len() == nb
         && scheme
             .folds
