@@ -164,6 +164,11 @@ pub struct Args {
     /// leave-one-run-out and --test-runs.
     #[arg(long)]
     pub run_column: Option<String>,
+    /// Every stretch between time gaps is a run of its own (e.g. the days of a production
+    /// log whose nights are gaps): runs are named 1 … N in time order (a --run-column run
+    /// cut by gaps: NAME/1 … NAME/k), validated leave-one-run-out, named in --test-runs.
+    #[arg(long)]
+    pub runs_at_gaps: bool,
     /// Train on rows with time < this many hours; test on the rest (one run only;
     /// default 24 h on one run; with several runs the last run tests by default).
     #[arg(long, conflicts_with_all = ["test_runs", "no_test"])]
@@ -465,14 +470,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sheets: args.sheet.clone(),
         all: args.sheets_as_runs,
     };
-    let (table, data_name) = load(
+    let (mut table, data_name) = load(
         &args.data,
         &sel,
         read_options(&args)?,
         &sheets,
         &args.target_data,
     )?;
+    let gap_note = args.runs_at_gaps.then(|| {
+        let before = table.run_count();
+        let n = table.make_segments_runs();
+        if n > before {
+            format!("--runs-at-gaps: {n} runs between the time gaps")
+        } else {
+            "--runs-at-gaps: no time gap cuts a run; the runs are as read".to_string()
+        }
+    });
     let (split, split_note) = split_of(&args, &table)?;
+    let split_note = match (gap_note, split_note) {
+        (Some(g), Some(s)) => Some(format!("{g}; {s}")),
+        (g, s) => g.or(s),
+    };
     let opts = options(&args, &split);
     opts.check()?;
     let (id, base) = identify_with_floor(&table, &opts)?;

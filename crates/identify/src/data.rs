@@ -221,6 +221,49 @@ impl Table {
                 .position(|r| r.parse::<f64>().is_ok_and(|w| w == v))
         })
     }
+
+    /// Makes every segment a run of its own: a production log of many days whose nights are
+    /// time gaps becomes one run per day, validated leave-one-run-out and named in
+    /// `--test-runs`. Without runs before, the runs are named `1` … `N` in time order; a run
+    /// that had a name keeps it when it is one segment and becomes `name/1` … `name/k` when
+    /// gaps cut it. Returns the number of runs; a table of one segment is left as it is.
+    pub fn make_segments_runs(&mut self) -> usize {
+        let ranges = self.segment_ranges();
+        if ranges.len() < 2 {
+            return self.run_count();
+        }
+        let old = self.runs.take();
+        let old_names = std::mem::take(&mut self.run_names);
+        let mut runs = vec![0usize; self.time_s.len()];
+        // Segments of each old run, to know which runs were cut.
+        let pieces = |r: usize| {
+            ranges
+                .iter()
+                .filter(|&&(s, _)| old.as_ref().map_or(0, |o| o[s]) == r)
+                .count()
+        };
+        let mut seen_of_run: Vec<usize> = vec![0; old_names.len().max(1)];
+        for (k, &(s, e)) in ranges.iter().enumerate() {
+            let name = match &old {
+                None => (k + 1).to_string(),
+                Some(o) => {
+                    let r = o[s];
+                    let base = old_names.get(r).cloned().unwrap_or_default();
+                    match seen_of_run.get_mut(r) {
+                        Some(c) if pieces(r) > 1 => {
+                            *c += 1;
+                            format!("{base}/{c}")
+                        }
+                        _ => base,
+                    }
+                }
+            };
+            runs[s..e].iter_mut().for_each(|x| *x = k);
+            self.run_names.push(name);
+        }
+        self.runs = Some(runs);
+        self.run_names.len()
+    }
 }
 
 fn resolve(patterns: &[String], header: &[String], exclude: &[usize]) -> Result<Vec<usize>> {

@@ -44,6 +44,7 @@ fn fit_help_lists_every_option() {
         "--sheets-as-runs",
         "--no-header",
         "--target-data",
+        "--runs-at-gaps",
     ] {
         assert!(help.contains(opt), "missing {opt} in help");
     }
@@ -790,4 +791,110 @@ fn fit_names_the_split_that_leaves_too_few_training_rows() {
         err.contains("invalid --train-before-h = 0.1 h") && err.contains("(6 before it)"),
         "{err}"
     );
+}
+
+/// A log of four days in one file, the nights being time gaps, read with `--runs-at-gaps`,
+/// gives the fit of the same four days written as four files (one run each): the same
+/// leave-one-run-out folds, terms and errors, with the runs named 1 … 4 in time order.
+#[test]
+fn fit_runs_at_gaps_is_one_file_per_day() {
+    let d = tmp("gaps");
+    let mut log = String::from("time_s,a_c,b_c,y_um\n");
+    let mut paths = Vec::new();
+    for k in 0..4 {
+        let day = run_csv(k, true);
+        let p = d.join(format!("day{k}.csv"));
+        std::fs::write(&p, &day).unwrap();
+        paths.push(p);
+        for l in day.lines().skip(1) {
+            let (t, rest) = l.split_once(',').unwrap();
+            let t: f64 = t.parse().unwrap();
+            log += &format!("{},{rest}\n", t + 86_400.0 * k as f64);
+        }
+    }
+    let one = d.join("log.csv");
+    std::fs::write(&one, &log).unwrap();
+    let run = |data: &[std::path::PathBuf], extra: &[&str]| {
+        let out = bin()
+            .args(["fit", "--target", "y_um", "--json", "--data"])
+            .args(data)
+            .args(extra)
+            .output()
+            .unwrap();
+        if out.status.success() {
+            Ok(serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap())
+        } else {
+            Err(String::from_utf8_lossy(&out.stderr).into_owned())
+        }
+    };
+    let close = |a: &serde_json::Value, b: &serde_json::Value, key: &str| {
+        let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
+        assert!((x - y).abs() <= 1e-9 * (1.0 + x.abs()), "{key}: {x} vs {y}");
+    };
+    for (gaps, files) in [
+        (vec!["--runs-at-gaps"], vec![]),
+        (
+            vec!["--runs-at-gaps", "--test-runs", "2"],
+            vec!["--test-runs", "day1"],
+        ),
+    ] {
+        let a = run(std::slice::from_ref(&one), &gaps).unwrap();
+        let b = run(&paths, &files).unwrap();
+        let names: Vec<&str> = a["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r.as_str().unwrap())
+            .collect();
+        assert_eq!(names, ["1", "2", "3", "4"]);
+        assert_eq!(a["test_rows"], b["test_rows"]);
+        assert_eq!(a["test_rows"].as_u64(), Some(240));
+        let (ta, tb) = (&a["targets"][0], &b["targets"][0]);
+        assert_eq!(ta["family"], tb["family"]);
+        assert_eq!(ta["sensors"], tb["sensors"]);
+        for key in [
+            "intercept",
+            "train_rmse_um",
+            "test_rmse_um",
+            "validation_rmse_um",
+        ] {
+            close(ta, tb, key);
+        }
+        let folds = |t: &serde_json::Value| t["validation_folds_um"].as_array().unwrap().len();
+        assert_eq!(folds(ta), 3, "leave-one-run-out over the 3 training days");
+        assert_eq!(folds(ta), folds(tb));
+    }
+    // Without the option the log is one run, split at 24 h by time.
+    let plain = run(std::slice::from_ref(&one), &[]).unwrap();
+    assert_eq!(plain["runs"].as_array().map_or(0, Vec::len), 0);
+    // A run that does not exist names the runs there are.
+    let err = run(
+        std::slice::from_ref(&one),
+        &["--runs-at-gaps", "--test-runs", "5"],
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("--test-runs = 5") && err.contains("1, 2, 3, 4"),
+        "{err}"
+    );
+    // A run of a --run-column cut by a gap becomes NAME/1, NAME/2; whole runs keep their name.
+    let mut text = String::from("run,time_s,a_c,b_c,y_um\n");
+    for (k, name) in ["a", "b", "a"].iter().enumerate() {
+        for l in run_csv(k, true).lines().skip(1) {
+            let (t, rest) = l.split_once(',').unwrap();
+            let t: f64 = t.parse().unwrap();
+            text += &format!("{name},{},{rest}\n", t + 86_400.0 * (k / 2) as f64);
+        }
+    }
+    let p = d.join("cut.csv");
+    std::fs::write(&p, text).unwrap();
+    let v = run(&[p], &["--run-column", "run", "--runs-at-gaps"]).unwrap();
+    let names: Vec<&str> = v["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["a/1", "b", "a/2"]);
+    std::fs::remove_dir_all(&d).unwrap();
 }
