@@ -60,15 +60,18 @@ pub struct ModelFile {
 }
 
 /// The inputs a machine model was identified on (issue 12): per-channel ranges and a
-/// Mahalanobis bound on the model's regressors (its terms, transformed, in term order).
+/// leverage bound on the model's regressors (its terms, transformed, in term order).
 ///
 /// # Formula
-/// d² = ‖W·(x − x̄)‖², W = √(n − 1)·R⁻ᵀ with R the QR factor of the centred training
-/// regressors (so d² = (x − x̄)ᵀ S⁻¹ (x − x̄), S the sample covariance); leverage
-/// h = 1/n + d²/(n − 1). Outside: a channel below `min` or above `max`, or d² > `max_d2`.
+/// d² = ‖W·(x − x̄)‖²; leverage h = 1/n + d²/(n − 1). For a least-squares model
+/// W = √(n − 1)·R⁻ᵀ with R the QR factor of the centred training regressors (so
+/// d² = (x − x̄)ᵀ S⁻¹ (x − x̄), S the sample covariance); a ridge or principal-component
+/// model stores the leverage of its own fit (a full W; `gearcomp_identify::envelope`).
+/// Outside: a channel below `min` or above `max`, or d² > `max_d2`.
 /// # Source
-/// Mahalanobis distance / hat-matrix leverage of least squares (Hoaglin & Welsch 1978)
-/// [STANDARD]; the stored form is this project's [PROJECT CONVENTION].
+/// Mahalanobis distance / hat-matrix leverage of least squares (Hoaglin & Welsch 1978),
+/// the ridge hat matrix (Walker & Birch 1988) [STANDARD]; the stored form is this
+/// project's [PROJECT CONVENTION].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Envelope {

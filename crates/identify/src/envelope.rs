@@ -1,10 +1,18 @@
 //! Extrapolation awareness (issue 12): the training envelope of a model's inputs, rows
 //! outside it, and prediction intervals.
 //!
-//! The envelope holds each channel's training range and a Mahalanobis bound on the model's
+//! The envelope holds each channel's training range and a leverage bound on the model's
 //! regressors (`gearcomp_core::model::Envelope`). The 95 % prediction interval of a row is
 //! ŷ ± 1.96·σ_v·√(1 + h), σ_v the validation RMSE (the honest out-of-sample scale, not the
 //! training residual) and h the row's leverage 1/n + d²/(n − 1).
+//!
+//! For a least-squares fit d² is the Mahalanobis distance of the regressors from their
+//! training mean, and h the hat-matrix leverage. For a ridge fit (α > 0) h is the leverage
+//! of the ridge fit itself: the variance of its prediction per unit noise variance. It
+//! weighs a direction of the regressors by λ/(λ + α)² instead of 1/λ (λ an eigenvalue of
+//! their correlation matrix), so a repeat run whose lag-minus-value noise differs from the
+//! training runs' (directions of tiny λ, which the ridge fit shrinks away) is not taken for
+//! an extrapolation, while a run hotter than any training run still is.
 
 use crate::data::Table;
 use crate::error::{IdentifyError, Result};
@@ -37,13 +45,49 @@ fn channel(table: &Table, name: &str) -> Result<usize> {
         })
 }
 
-/// The envelope of `model` over the training rows (`axis` names the model file's axis).
+/// How a model's coefficients were fitted, which decides its leverage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FitKind {
+    /// Least squares: the Mahalanobis distance.
+    LeastSquares,
+    /// Ridge regression with this α (standardised regressors, penalty α·n).
+    Ridge(f64),
+    /// Principal-component regression on this many leading components.
+    Components(usize),
+}
+
+impl FitKind {
+    /// The kind of a target's kept model.
+    pub fn of(m: &crate::fit::TargetModel) -> Self {
+        match (m.ridge_alpha, m.pcr_components) {
+            (Some(a), _) if a > 0.0 && a.is_finite() => FitKind::Ridge(a),
+            (_, Some(k)) if k > 0 => FitKind::Components(k),
+            _ => FitKind::LeastSquares,
+        }
+    }
+}
+
+/// The envelope of `model` over the training rows (`axis` names the model file's axis);
+/// `kind`: how the model was fitted (the leverage of that fit bounds the regressors).
+///
+/// # Formula
+/// Least squares: W = √(n − 1)·R⁻ᵀ, Xc = Q·R the centred training regressors.
+/// Ridge: Z = Xc·S⁻¹ (population standard deviations s_j, as the fit standardises),
+/// Z = Q·R_z, A = R_zᵀ·R_z + α·n·I, W = √(n − 1)·R_z·A⁻¹·S⁻¹, so that
+/// ‖W·(x − x̄)‖²/(n − 1) = zᵀA⁻¹ZᵀZ·A⁻¹z, the ridge prediction's variance over σ².
+/// Principal components (k): Z = U·Σ·Vᵀ, W's rows √(n − 1)·v_iᵀ·S⁻¹/σ_i for the k largest
+/// σ_i and zero rows for the others (the fit ignores those directions).
+/// max_d2 = the largest d² = ‖W·(x − x̄)‖² over the training rows.
+/// # Source
+/// Hoaglin & Welsch (1978), the hat matrix; Walker & Birch (1988), *Influence measures in
+/// ridge regression*, Technometrics 30, the ridge hat matrix [STANDARD].
 #[allow(clippy::needless_range_loop)] // rows of column-major series
 pub fn training_envelope(
     table: &Table,
     train: &[bool],
     axis: &str,
     model: &LinearModel,
+    kind: FitKind,
 ) -> Result<Envelope> {
     let rows = TrainRows::new(train);
     let mut ranges = Vec::new();
@@ -77,6 +121,15 @@ pub fn training_envelope(
         .iter()
         .map(|f| f.iter().sum::<f64>() / n as f64)
         .collect();
+    if kind != FitKind::LeastSquares {
+        let Some(w) = shrunk_whitening(&feats, &mean, kind) else {
+            return Ok(env);
+        };
+        env.feature_mean = mean;
+        env.whitening = w;
+        env.max_d2 = max_training_d2(&env, &feats);
+        return Ok(env);
+    }
     let xc = DMatrix::from_fn(n, p, |i, j| feats[j][i] - mean[j]);
     let r = xc.qr().r();
     let max_p = (0..p).map(|j| r[(j, j)].abs()).fold(0.0, f64::max);
@@ -94,14 +147,78 @@ pub fn training_envelope(
         .flat_map(|i| (0..p).map(move |j| (i, j)))
         .map(|(i, j)| if j <= i { w[(i, j)] } else { 0.0 })
         .collect();
-    let mut row = vec![0.0; p];
-    for i in 0..n {
-        for j in 0..p {
-            row[j] = feats[j][i];
-        }
-        env.max_d2 = env.max_d2.max(env.d2(&row));
-    }
+    env.max_d2 = max_training_d2(&env, &feats);
     Ok(env)
+}
+
+/// The largest d² of the envelope's bound over the training regressors `feats`.
+#[allow(clippy::needless_range_loop)] // rows of column-major series
+fn max_training_d2(env: &Envelope, feats: &[std::borrow::Cow<[f64]>]) -> f64 {
+    let n = feats.first().map_or(0, |f| f.len());
+    let mut row = vec![0.0; feats.len()];
+    let mut max_d2: f64 = 0.0;
+    for i in 0..n {
+        for (j, f) in feats.iter().enumerate() {
+            row[j] = f[i];
+        }
+        max_d2 = max_d2.max(env.d2(&row));
+    }
+    max_d2
+}
+
+/// W of a ridge or principal-component fit (see [`training_envelope`]), row-major; None
+/// when a regressor is constant on the training rows or the factorisation fails (the fit
+/// refuses such regressors too).
+fn shrunk_whitening(
+    feats: &[std::borrow::Cow<[f64]>],
+    mean: &[f64],
+    kind: FitKind,
+) -> Option<Vec<f64>> {
+    let n = feats.first().map_or(0, |f| f.len());
+    let p = feats.len();
+    let sd: Vec<f64> = feats
+        .iter()
+        .zip(mean)
+        .map(|(f, m)| (f.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n as f64).sqrt())
+        .collect();
+    if sd.iter().any(|&s| !crate::regress::exceeds(s, 0.0)) {
+        return None;
+    }
+    let z = DMatrix::from_fn(n, p, |i, j| (feats[j][i] - mean[j]) / sd[j]);
+    let w = match kind {
+        FitKind::LeastSquares => return None,
+        FitKind::Ridge(alpha) => {
+            let rz = z.qr().r();
+            let a = rz.transpose() * &rz + DMatrix::identity(p, p) * (alpha * n as f64);
+            // (R_z·A⁻¹)ᵀ = A⁻¹·R_zᵀ (A symmetric).
+            a.cholesky()?.inverse() * rz.transpose()
+        }
+        FitKind::Components(k) => {
+            let svd = z.svd(false, true);
+            let vt = svd.v_t.as_ref()?;
+            let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+            order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+            let mut w = DMatrix::zeros(p, p);
+            for (row, &c) in order.iter().take(k.min(p)).enumerate() {
+                let s = svd.singular_values[c];
+                if !crate::regress::exceeds(s, 0.0) {
+                    return None;
+                }
+                for j in 0..p {
+                    w[(j, row)] = vt[(c, j)] / s;
+                }
+            }
+            w
+        }
+    };
+    // The whitening's row i is √(n − 1)·(column i of w)ᵀ·S⁻¹.
+    let scale = ((n - 1) as f64).sqrt();
+    Some(
+        (0..p)
+            .flat_map(|i| (0..p).map(move |j| (i, j)))
+            .map(|(i, j)| scale * w[(j, i)] / sd[j])
+            .collect(),
+    )
 }
 
 /// Per row: outside the envelope, and the 95 % prediction-interval half-width in the
@@ -136,4 +253,120 @@ pub fn rows_outside_and_intervals(
         half.push(1.96 * sigma_v * (1.0 + h).sqrt());
     }
     Ok((outside, half))
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::regress;
+    use gearcomp_core::model::{Term, Transform};
+    use proptest::prelude::*;
+
+    /// A table of `cols` as inputs read by their current values, and the model reading them.
+    fn table_and_model(cols: &[Vec<f64>]) -> (Table, LinearModel) {
+        let n = cols[0].len();
+        let names: Vec<String> = (0..cols.len()).map(|j| format!("x{j}")).collect();
+        let table = Table {
+            time_s: (0..n).map(|i| i as f64).collect(),
+            input_names: names.clone(),
+            inputs: cols.to_vec(),
+            segments: vec![0],
+            ..Table::default()
+        };
+        let model = LinearModel {
+            intercept: 0.0,
+            terms: names
+                .into_iter()
+                .map(|channel| Term {
+                    channel,
+                    coefficient: 1.0,
+                    transform: Transform::Value,
+                })
+                .collect(),
+        };
+        (table, model)
+    }
+
+    /// The leverage of `x` by its definition: the prediction at `x` of a fit of `kind` is
+    /// Σ_i c_i(x)·y_i, linear in the targets; with independent errors of variance σ² its
+    /// variance is σ²·Σ_i c_i(x)², and c_i(x) is the prediction at `x` of the fit to the
+    /// unit target e_i. One fit per training row, by the regression routines themselves.
+    fn leverage_by_unit_fits(cols: &[Vec<f64>], kind: FitKind, x: &[f64]) -> f64 {
+        let n = cols[0].len();
+        let refs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+        let names: Vec<String> = (0..cols.len()).map(|j| format!("x{j}")).collect();
+        (0..n)
+            .map(|i| {
+                let e: Vec<f64> = (0..n).map(|k| f64::from(u8::from(k == i))).collect();
+                let fit = match kind {
+                    FitKind::LeastSquares => regress::ols(&refs, &e, &names),
+                    FitKind::Ridge(a) => regress::ridge(&refs, &e, a, &names),
+                    FitKind::Components(k) => regress::pcr(&refs, &e, k, &names),
+                }
+                .unwrap();
+                fit.predict(x).powi(2)
+            })
+            .sum()
+    }
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// The envelope's leverage 1/n + d²/(n − 1) is the fitted model's own leverage, for
+        /// least squares, ridge and principal components, at training rows and at points
+        /// far outside; max_d2 is the largest over the training rows.
+        #[test]
+        fn leverage_is_the_fits_prediction_variance(
+            seed in any::<u64>(),
+            n in 12usize..60,
+            p in 1usize..6,
+            kind_pick in 0usize..3,
+            log_alpha in -4.0f64..0.5,
+            k_pick in 0usize..8,
+            collinear in any::<bool>(),
+        ) {
+            let mut s = seed | 1;
+            let mut cols: Vec<Vec<f64>> = (0..p)
+                .map(|j| (0..n).map(|_| 20.0 + (j + 1) as f64 * lcg(&mut s)).collect())
+                .collect();
+            // Shrunk fits stay well defined on nearly collinear regressors.
+            let kind = match kind_pick {
+                0 => FitKind::LeastSquares,
+                1 => FitKind::Ridge(10f64.powf(log_alpha)),
+                _ => FitKind::Components(1 + k_pick % p),
+            };
+            if collinear && p > 1 && matches!(kind, FitKind::Ridge(_)) {
+                let c0 = cols[0].clone();
+                cols[p - 1] = c0.iter().map(|v| v + 1e-4 * lcg(&mut s)).collect();
+            }
+            let (table, model) = table_and_model(&cols);
+            let train = vec![true; n];
+            let env = training_envelope(&table, &train, "z", &model, kind).unwrap();
+            prop_assume!(n > p + 1);
+            prop_assert_eq!(env.whitening.len(), p * p);
+            let mut max_h: f64 = 0.0;
+            for i in 0..n {
+                let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
+                let want = leverage_by_unit_fits(&cols, kind, &x);
+                let got = env.leverage(&x);
+                prop_assert!((got - want).abs() <= 1e-7 * want, "row {}: {} vs {}", i, got, want);
+                max_h = max_h.max(want);
+            }
+            let bound = 1.0 / n as f64 + env.max_d2 / (n - 1) as f64;
+            prop_assert!((bound - max_h).abs() <= 1e-7 * max_h, "{} vs {}", bound, max_h);
+            for _ in 0..4 {
+                let x: Vec<f64> = (0..p).map(|j| 20.0 + 4.0 * (j + 1) as f64 * lcg(&mut s)).collect();
+                let want = leverage_by_unit_fits(&cols, kind, &x);
+                let got = env.leverage(&x);
+                prop_assert!((got - want).abs() <= 1e-7 * want, "{:?}: {} vs {}", x, got, want);
+            }
+        }
+    }
 }

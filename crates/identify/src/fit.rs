@@ -165,6 +165,8 @@ pub struct TargetModel {
     pub tau_s: Option<f64>,
     /// Ridge α (ridge model).
     pub ridge_alpha: Option<f64>,
+    /// Leading principal components kept (principal-component regression).
+    pub pcr_components: Option<usize>,
     /// Pooled cross-validation RMSE (µm, target unit) on the training rows.
     pub cv_rmse: f64,
     /// RMSE of each validation fold.

@@ -240,7 +240,13 @@ pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
     let mut id = identify_models(table, opts)?;
     // Each target's envelope on its own core (the targets are independent).
     let envelopes = par_map(&id.targets, |m| {
-        let env = crate::envelope::training_envelope(table, &id.train, &m.target, &m.model)?;
+        let env = crate::envelope::training_envelope(
+            table,
+            &id.train,
+            &m.target,
+            &m.model,
+            crate::envelope::FitKind::of(m),
+        )?;
         let (outside, half) =
             crate::envelope::rows_outside_and_intervals(table, &m.model, &env, m.cv_rmse)?;
         Ok::<_, IdentifyError>((env, outside, half))
@@ -721,6 +727,7 @@ fn finish(
         sensors: ch.sensors,
         tau_s: ch.tau,
         ridge_alpha: ch.alpha,
+        pcr_components: None,
         cv_rmse: ch.cv,
         fold_rmse,
         regressors: names,

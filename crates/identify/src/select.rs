@@ -1332,6 +1332,7 @@ pub fn identify_auto(
                     sensors: sensors.clone(),
                     tau_s: None,
                     ridge_alpha: None,
+                    pcr_components: None,
                     family: format!("{}: {detail}", Family::Stacked.name()),
                 };
                 return target_model(table, &train, j, fitted, cv, eng.fold_rmse(sse), comparison);
@@ -1652,6 +1653,10 @@ fn finish(
             Fitter::Ridge(a) => Some(a),
             _ => None,
         },
+        pcr_components: match b.fitter {
+            Fitter::Pcr(k) => Some(k),
+            _ => None,
+        },
         family: if b.detail.is_empty() {
             b.family.name().to_string()
         } else {
@@ -1677,6 +1682,7 @@ struct Fitted {
     sensors: Vec<usize>,
     tau_s: Option<f64>,
     ridge_alpha: Option<f64>,
+    pcr_components: Option<usize>,
     family: String,
 }
 
@@ -1703,6 +1709,7 @@ fn target_model(
         sensors: f.sensors,
         tau_s: f.tau_s,
         ridge_alpha: f.ridge_alpha,
+        pcr_components: f.pcr_components,
         cv_rmse,
         fold_rmse,
         regressors: f.names,

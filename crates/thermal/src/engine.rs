@@ -925,8 +925,9 @@ struct EnvelopeEval {
     mean: Vec<f64>,
     /// W, row-major p × p.
     whitening: Vec<f64>,
-    /// Per row of W: one past its last non-zero entry (W from the QR factor is lower
-    /// triangular: the zeros above the diagonal are not multiplied).
+    /// Per row of W: one past its last non-zero entry (W of a least-squares fit is lower
+    /// triangular: the zeros above the diagonal are not multiplied; a ridge or
+    /// principal-component fit writes a full W).
     row_len: Vec<usize>,
     /// x − x̄ of the current check (sized at build time).
     dx: Vec<f64>,
