@@ -22,7 +22,14 @@ pub fn pearson(x: &[f64], y: &[f64], name: &str) -> Result<f64> {
         ));
     }
     let n = x.len() as f64;
-    pearson_about(x, y, x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n)
+    // Both sums in one pass: each is the same chain of additions as `iter().sum()` (which
+    // starts at −0.0), bit for bit; two independent chains run side by side.
+    let (mut sx, mut sy) = (-0.0f64, -0.0f64);
+    for (a, b) in x.iter().zip(y) {
+        sx += a;
+        sy += b;
+    }
+    pearson_about(x, y, sx / n, sy / n)
         .ok_or_else(|| invalid(name, "a constant series", "series that vary"))
 }
 
@@ -51,6 +58,9 @@ pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatri
         .iter()
         .map(|x| x.iter().sum::<f64>() / x.len() as f64)
         .collect();
+    if let Some(r) = correlation_matrix_varying(columns, &means) {
+        return Ok(r);
+    }
     for i in 0..c {
         for j in i + 1..c {
             let label = || {
@@ -72,6 +82,72 @@ pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatri
         }
     }
     Ok(r)
+}
+
+/// [`correlation_matrix`] when every column has the same length ≥ 2 and varies (`None`
+/// otherwise: the pairwise loop then names the first constant pair). The same figures, bit
+/// for bit, as [`pearson_about`] per pair: each column's Σ(x − x̄)² is the sum that
+/// `pearson_about` accumulates for it, whatever the pair, so it is taken once per column;
+/// each cross sum Σ(x − x̄)(y − ȳ) is accumulated in the same order as there, four pairs
+/// (i, j..j+4) at a time in one pass over the rows (independent sums, so the additions of
+/// one no longer wait for the previous one's).
+fn correlation_matrix_varying(columns: &[&[f64]], means: &[f64]) -> Option<DMatrix<f64>> {
+    let c = columns.len();
+    let n = columns.first()?.len();
+    if n < 2 || columns.iter().any(|x| x.len() != n) {
+        return None;
+    }
+    let ss: Vec<f64> = columns
+        .iter()
+        .zip(means)
+        .map(|(x, &m)| {
+            x.iter().fold(0.0, |s, &a| {
+                let d = a - m;
+                s + d * d
+            })
+        })
+        .collect();
+    if ss.iter().any(|&s| !(s > 0.0)) {
+        return None;
+    }
+    let mut r = DMatrix::identity(c, c);
+    let mut put = |i: usize, j: usize, sxy: f64| {
+        let v = (sxy / (ss[i] * ss[j]).sqrt()).clamp(-1.0, 1.0);
+        r[(i, j)] = v;
+        r[(j, i)] = v;
+    };
+    for i in 0..c {
+        let mut j = i + 1;
+        while j + 4 <= c {
+            let ys = [columns[j], columns[j + 1], columns[j + 2], columns[j + 3]];
+            let my = [means[j], means[j + 1], means[j + 2], means[j + 3]];
+            let s = cross_sums(columns[i], means[i], ys, my);
+            for (q, sxy) in s.into_iter().enumerate() {
+                put(i, j + q, sxy);
+            }
+            j += 4;
+        }
+        while j < c {
+            let [sxy] = cross_sums(columns[i], means[i], [columns[j]], [means[j]]);
+            put(i, j, sxy);
+            j += 1;
+        }
+    }
+    Some(r)
+}
+
+/// Σ(x − mx)(y_q − my_q) for each q, each sum in row order (as [`pearson_about`]'s `sxy`).
+fn cross_sums<const B: usize>(x: &[f64], mx: f64, ys: [&[f64]; B], my: [f64; B]) -> [f64; B] {
+    let n = x.len();
+    let ys = ys.map(|y| &y[..n]);
+    let mut acc = [0.0; B];
+    for (k, &a) in x.iter().enumerate() {
+        let dx = a - mx;
+        for q in 0..B {
+            acc[q] += dx * (ys[q][k] - my[q]);
+        }
+    }
+    acc
 }
 
 /// Max–min transitive closure t(R) of a fuzzy similarity matrix, and the number of
@@ -393,6 +469,76 @@ pub fn fuzzy_c_means(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// Eq. (1) for one pair as written (means, then the three sums in row order).
+    fn textbook_r(x: &[f64], y: &[f64]) -> f64 {
+        let n = x.len() as f64;
+        let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+        let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+        for (a, b) in x.iter().zip(y) {
+            sxy += (a - mx) * (b - my);
+            sxx += (a - mx) * (a - mx);
+            syy += (b - my) * (b - my);
+        }
+        (sxy / (sxx * syy).sqrt()).clamp(-1.0, 1.0)
+    }
+
+    #[test]
+    fn correlation_matrix_and_pearson_are_the_pairwise_definition_bit_for_bit() {
+        let mut s = 99u64;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for c in 1..=11 {
+            for n in [2, 3, 7, 250] {
+                // Columns sharing a drift (strongly correlated, large offsets) plus noise.
+                let drift: Vec<f64> = (0..n).map(|_| next()).collect();
+                let cols: Vec<Vec<f64>> = (0..c)
+                    .map(|j| {
+                        let (a, off) = (next() * 4.0 - 2.0, 20.0 + 10.0 * j as f64);
+                        drift.iter().map(|d| off + a * d + 0.1 * next()).collect()
+                    })
+                    .collect();
+                let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+                let names: Vec<String> = (0..c).map(|j| format!("t{j}")).collect();
+                let r = correlation_matrix(&refs, &names).unwrap();
+                for i in 0..c {
+                    assert_eq!(r[(i, i)], 1.0);
+                    for j in i + 1..c {
+                        let want = textbook_r(&cols[i], &cols[j]);
+                        assert_eq!(
+                            r[(i, j)].to_bits(),
+                            want.to_bits(),
+                            "c {c} n {n} ({i}, {j})"
+                        );
+                        let p = pearson(&cols[i], &cols[j], "p").unwrap();
+                        assert_eq!(
+                            p.to_bits(),
+                            want.to_bits(),
+                            "pearson c {c} n {n} ({i}, {j})"
+                        );
+                        assert_eq!(r[(j, i)].to_bits(), want.to_bits());
+                    }
+                }
+            }
+        }
+        // A constant column: the first pair holding it is named, as before.
+        let cols = [
+            vec![1.0, 2.0, 4.0],
+            vec![3.0, 3.0, 3.0],
+            vec![0.0, 1.0, 5.0],
+        ];
+        let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+        let names = ["a".to_string(), "b".to_string(), "c".to_string()];
+        let e = correlation_matrix(&refs, &names).unwrap_err().to_string();
+        assert!(
+            e.contains("correlation(a, b)") && e.contains("constant"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn closure_equals_single_linkage_on_random_similarities() {

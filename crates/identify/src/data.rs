@@ -408,7 +408,10 @@ fn clean_table_in(
     threads: usize,
 ) -> Option<CleanTable> {
     let rest = text.get(start..)?;
-    if text.as_bytes().contains(&b'"') || slots.is_empty() {
+    // A quote in the header is seen here; one in the records declines the piece that holds
+    // it (`field_end` stops at it, and no clean row or blank line holds one), so the text is
+    // not scanned for quotes before the pieces start.
+    if text.as_bytes()[..start].contains(&b'"') || slots.is_empty() {
         return None;
     }
     let first = 1 + text.as_bytes()[..start]
@@ -469,11 +472,13 @@ fn clean_table_in(
     Some(t)
 }
 
-/// The end of the field that starts at `at`: the next `,`, line end or `\r`.
+/// The end of the field that starts at `at`: the next `,`, line end or `\r`, or a quote
+/// (`"`: the row is then not clean, since the byte after a field must be a delimiter or a
+/// line end, and the text goes to the csv crate).
 fn field_end(b: &[u8], at: usize) -> usize {
     b[at..]
         .iter()
-        .position(|&c| matches!(c, b',' | b'\n' | b'\r'))
+        .position(|&c| matches!(c, b',' | b'\n' | b'\r' | b'"'))
         .map_or(b.len(), |p| at + p)
 }
 
@@ -1356,6 +1361,34 @@ mod tests {
             .map_err(|e| e.to_string());
             assert_eq!(fast, slow, "seed {seed}");
         }
+    }
+
+    /// A quote anywhere in the records declines the clean path in every piece (no longer
+    /// found by a scan of the whole text first): in a skipped field where the naive split
+    /// would still see five clean fields (`2,1,"2,3,4`: the csv crate reads a quoted field
+    /// running to the next quote), inside a field, or around a selected value.
+    #[test]
+    fn a_quote_in_the_records_declines_the_clean_path() {
+        let log = |row: &str| {
+            let mut text = String::from("time_s,a_c,skip,b_c,d_um\n");
+            for k in 1..=400 {
+                match k {
+                    200 => text.push_str(&format!("{k},{row}\n")),
+                    _ => text.push_str(&format!("{k},1,2,3,4\n")),
+                }
+            }
+            text
+        };
+        let start = log("").find('\n').unwrap() + 1;
+        for row in ["1,\"2,3,4", "1,x\"y,3,4", "\"1\",2,3,4", "1,2,3,4\""] {
+            let text = log(row);
+            for threads in 1..=4 {
+                let c = clean_table_in(&text, start, 5, &[0, 1, 3, 4], threads);
+                assert!(c.is_none(), "{row:?} read as clean ({threads} pieces)");
+            }
+        }
+        let clean = clean_table_in(&log("1,2,3,4"), start, 5, &[0, 1, 3, 4], 2).unwrap();
+        assert_eq!(clean.cols[0].len(), 400);
     }
 
     /// A number read by fast-float2 (when it reads a whole field, finite) is exactly what
