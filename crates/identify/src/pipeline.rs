@@ -20,12 +20,14 @@ use nalgebra::{DMatrix, DVector};
 pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     let mask: Vec<bool> = match split {
         Split::TimeBefore(s) => {
-            if table.run_count() > 1 {
+            // Runs on one clock (time stamps, or the days of a log cut at its gaps) split
+            // by time as one log does; runs whose time restarts cannot.
+            if table.run_count() > 1 && table.time_s.windows(2).any(|w| w[1] <= w[0]) {
                 return Err(invalid(
                     "--train-before-h",
                     s / 3600.0,
                     &format!(
-                        "no time split on data of {} runs (time restarts in each run): name the test runs with --test-runs (runs: {})",
+                        "no time split on data of {} runs whose time restarts in each run: name the test runs with --test-runs (runs: {})",
                         table.run_count(),
                         table.run_names.join(", ")
                     ),

@@ -867,6 +867,19 @@ fn fit_runs_at_gaps_is_one_file_per_day() {
     // Without the option the log is one run, split at 24 h by time.
     let plain = run(std::slice::from_ref(&one), &[]).unwrap();
     assert_eq!(plain["runs"].as_array().map_or(0, Vec::len), 0);
+    // Runs on one clock split by time too: before 50 h trains (days 1–2 and the first
+    // 2 h of day 3), the rest tests (2 h of day 3 and day 4: 120 + 240 rows at 60 s).
+    let timed = run(
+        std::slice::from_ref(&one),
+        &["--runs-at-gaps", "--train-before-h", "50"],
+    )
+    .unwrap();
+    assert_eq!(timed["test_rows"].as_u64(), Some(360));
+    let method = timed["method"].as_str().unwrap();
+    assert!(
+        method.contains("leave-one-run-out over 3 training runs (1, 2, 3)"),
+        "{method}"
+    );
     // A run that does not exist names the runs there are.
     let err = run(
         std::slice::from_ref(&one),
