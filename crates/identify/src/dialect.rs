@@ -103,7 +103,8 @@ fn counts(line: &str) -> [usize; 3] {
 /// The delimiter of a log: the one of `,` `;` tab that appears most often in the header
 /// line (outside quotes); on a tie or none, `,` before `;` before tab.
 pub fn detect_delimiter(text: &str) -> u8 {
-    let header = text.lines().next().unwrap_or("");
+    // The header: the first line that is not blank (title lines are read as blank ones).
+    let header = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
     let n = counts(header);
     let mut best = 0;
     for k in 1..3 {

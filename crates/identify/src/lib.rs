@@ -36,6 +36,7 @@ pub mod error;
 pub mod fit;
 mod par;
 pub mod pipeline;
+pub mod preamble;
 pub mod regress;
 pub mod report;
 pub mod select;

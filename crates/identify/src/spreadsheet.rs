@@ -649,7 +649,8 @@ fn read_sources(sources: &[Source], sel: &Selection, opts: ReadOptions) -> Resul
                     DataIssue::BadRow { line, reason } | DataIssue::Missing { line, reason } => {
                         *reason = locate(*line, reason);
                     }
-                    DataIssue::Gap { .. } => {}
+                    // Gaps and skipped lines (title lines, a units row) name lines only.
+                    _ => {}
                 }
             }
             Ok(t)

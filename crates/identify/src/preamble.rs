@@ -1,0 +1,278 @@
+//! What stands around the table of a real log: title lines above the header (a data
+//! logger's export names the machine, the test and the date first) and a units row under
+//! it (`s;°C;°C;µm`). Both are found from the selected columns and read as blank lines, so
+//! every line keeps its number in the file and each is reported by it.
+//!
+//! The header is the first line in which every selected column is found: the time column
+//! (or both parts of `DATE+TIME`; none with a sample interval), the run column, and at least
+//! one column for each input and target name or pattern. Only the first
+//! [`MAX_TITLE_LINES`] lines are searched, and only when the first line is not that header.
+//! A units row is the line right under the header when every selected input and target
+//! cell of it is text that is not a number (an empty cell is not a unit: such a line is
+//! data with missing cells, reported as such). When no line names every column, the first
+//! line naming the time column is taken for the header (when the first line does not), so
+//! that the reader's error names the column that header lacks.
+
+use crate::data::Selection;
+use globset::Glob;
+
+/// Lines searched for the header when the first line is not it.
+pub const MAX_TITLE_LINES: usize = 200;
+
+/// A log with its title lines and units row read as blank lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Preamble {
+    /// The text, each skipped line emptied (line numbers unchanged).
+    pub text: String,
+    /// What was skipped: (1-based line, what), in line order.
+    pub skipped: Vec<(u64, String)>,
+}
+
+/// The delimiter of one line: the one of `,` `;` tab found most often outside quotes
+/// (`forced` when the user named one).
+fn line_delimiter(line: &str, forced: Option<u8>) -> u8 {
+    if let Some(d) = forced {
+        return d;
+    }
+    let mut n = [0usize; 3];
+    let mut quoted = false;
+    for b in line.bytes() {
+        match b {
+            b'"' => quoted = !quoted,
+            b',' if !quoted => n[0] += 1,
+            b';' if !quoted => n[1] += 1,
+            b'\t' if !quoted => n[2] += 1,
+            _ => {}
+        }
+    }
+    let best = (1..3).fold(0, |b, k| if n[k] > n[b] { k } else { b });
+    [b',', b';', b'\t'][best]
+}
+
+/// The trimmed fields of one line (quotes as the csv reader reads them).
+fn fields(line: &str, delimiter: u8) -> Vec<String> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .delimiter(delimiter)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(line.as_bytes());
+    rdr.records()
+        .next()
+        .and_then(|r| r.ok())
+        .map(|r| r.iter().map(str::to_string).collect())
+        .unwrap_or_default()
+}
+
+/// Indices of the fields a name or glob pattern selects (exact names first, as the reader).
+fn matches(pattern: &str, header: &[String]) -> Vec<usize> {
+    let exact: Vec<usize> = (0..header.len())
+        .filter(|&i| header[i] == pattern)
+        .collect();
+    if !exact.is_empty() {
+        return exact;
+    }
+    match Glob::new(pattern) {
+        Ok(g) => {
+            let m = g.compile_matcher();
+            (0..header.len())
+                .filter(|&i| m.is_match(header[i].as_str()))
+                .collect()
+        }
+        Err(_) => Vec::new(),
+    }
+}
+
+/// The selected input and target columns of `header`, or None when a selected column is
+/// missing from it.
+fn selected(header: &[String], sel: &Selection, timed: bool) -> Option<Vec<usize>> {
+    if timed && !header.contains(&sel.time) {
+        let (d, t) = sel.time.split_once('+')?;
+        if !(header.iter().any(|h| h == d) && header.iter().any(|h| h == t)) {
+            return None;
+        }
+    }
+    if let Some(run) = &sel.run {
+        if !header.contains(run) {
+            return None;
+        }
+    }
+    let mut cols = Vec::new();
+    for p in sel.inputs.iter().chain(&sel.targets) {
+        let m = matches(p, header);
+        if m.is_empty() {
+            return None;
+        }
+        cols.extend(m);
+    }
+    Some(cols)
+}
+
+/// Whether a cell is a number (a decimal point, or a decimal comma when `,` does not
+/// delimit).
+fn is_number(cell: &str, delimiter: u8) -> bool {
+    let c = cell.trim();
+    c.parse::<f64>().is_ok() || (delimiter != b',' && c.replace(',', ".").parse::<f64>().is_ok())
+}
+
+fn shown(line: &str) -> String {
+    let line = line.trim();
+    let mut s: String = line.chars().take(40).collect();
+    if line.chars().count() > 40 {
+        s.push('…');
+    }
+    s
+}
+
+/// Title lines above the header and a units row under it, when `text` (one log, its BOM
+/// removed) has them; None when the first non-blank line is the header and no units row
+/// follows (the text is then read as it is). `timed`: the log has a time column (no
+/// sample interval); `delimiter`: the one the user forced, if any.
+pub fn find(text: &str, sel: &Selection, timed: bool, delimiter: Option<u8>) -> Option<Preamble> {
+    let lines: Vec<&str> = text
+        .split('\n')
+        .take(MAX_TITLE_LINES + 2)
+        .map(|l| l.strip_suffix('\r').unwrap_or(l))
+        .collect();
+    let first = lines.iter().position(|l| !l.trim().is_empty())?;
+    let header_at = |k: usize| {
+        let d = line_delimiter(lines[k], delimiter);
+        selected(&fields(lines[k], d), sel, timed).map(|c| (d, c))
+    };
+    let search =
+        || (first + 1..lines.len().min(MAX_TITLE_LINES)).filter(|&k| !lines[k].trim().is_empty());
+    // Without a line that names every column, the first that names the time column is
+    // the header, so that the reader's error names what that header lacks.
+    let time_header = |k: usize| {
+        let d = line_delimiter(lines[k], delimiter);
+        let f = fields(lines[k], d);
+        let time = sel
+            .time
+            .split_once('+')
+            .map_or(sel.time.as_str(), |(d, _)| d);
+        (timed && f.iter().any(|h| h == &sel.time || h == time)).then_some(())?;
+        Some((d, Vec::new()))
+    };
+    let (head, (d, cols)) = match header_at(first) {
+        Some(h) => (first, h),
+        None => search()
+            .find_map(|k| header_at(k).map(|h| (k, h)))
+            .or_else(|| {
+                time_header(first).is_none().then_some(())?;
+                search().find_map(|k| time_header(k).map(|h| (k, h)))
+            })?,
+    };
+    let mut skipped: Vec<(u64, String)> = Vec::new();
+    let titles: Vec<usize> = (first..head)
+        .filter(|&k| !lines[k].trim().is_empty())
+        .collect();
+    if let Some(&a) = titles.first() {
+        let what = format!(
+            "{} title line(s) above the header (line {}) skipped, from «{}»",
+            titles.len(),
+            head + 1,
+            shown(lines[a])
+        );
+        skipped.push(((a + 1) as u64, what));
+    }
+    let mut blank: Vec<usize> = titles;
+    if let Some(u) = (head + 1..lines.len()).find(|&k| !lines[k].trim().is_empty()) {
+        let cells = fields(lines[u], d);
+        let units = !cols.is_empty()
+            && cols.iter().all(|&c| {
+                cells
+                    .get(c)
+                    .is_some_and(|v| !v.is_empty() && !is_number(v, d))
+            });
+        if units {
+            skipped.push((
+                (u + 1) as u64,
+                format!("units row under the header skipped: «{}»", shown(lines[u])),
+            ));
+            blank.push(u);
+        }
+    }
+    if blank.is_empty() {
+        return None;
+    }
+    let last = blank.iter().copied().max().unwrap_or(0);
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    for k in 0..=last {
+        let (line, tail) = match rest.find('\n') {
+            Some(p) => (&rest[..p], &rest[p..]),
+            None => (rest, ""),
+        };
+        if !blank.contains(&k) {
+            out.push_str(line);
+        }
+        // The line end stays (its `\r` goes with a blanked line).
+        rest = tail;
+        if let Some(t) = rest.strip_prefix('\n') {
+            out.push('\n');
+            rest = t;
+        }
+    }
+    out.push_str(rest);
+    Some(Preamble { text: out, skipped })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn sel(time: &str, inputs: &[&str], targets: &[&str]) -> Selection {
+        Selection {
+            time: time.into(),
+            inputs: inputs.iter().map(|s| s.to_string()).collect(),
+            targets: targets.iter().map(|s| s.to_string()).collect(),
+            run: None,
+        }
+    }
+
+    #[test]
+    fn plain_logs_are_read_as_they_are() {
+        let s = sel("time_s", &["*_c"], &["*_um"]);
+        assert_eq!(find("time_s,a_c,y_um\n0,1,2\n", &s, true, None), None);
+        assert_eq!(find("time_s;a_c;y_um\r\n0;1,5;2\r\n", &s, true, None), None);
+        // A header that lacks a selected column is left to the reader's own error.
+        assert_eq!(find("time_s,a_c\n0,1\n", &s, true, None), None);
+        // Missing cells under the header are data, not units.
+        assert_eq!(find("time_s,a_c,y_um\n0,,\n", &s, true, None), None);
+    }
+
+    #[test]
+    fn title_lines_and_a_units_row_become_blank_lines() {
+        let s = sel("Zeit", &["T*"], &["D"]);
+        let text =
+            "Maschine: LC 380;;\nPrüfung: Warmlauf\n\nZeit;T1;T2;D\ns;°C;°C;µm\n0;20,5;21;3\n";
+        let p = find(text, &s, true, None).unwrap();
+        assert_eq!(p.text, "\n\n\nZeit;T1;T2;D\n\n0;20,5;21;3\n");
+        assert_eq!(p.skipped.len(), 2);
+        assert_eq!(p.skipped[0].0, 1);
+        assert!(p.skipped[0]
+            .1
+            .contains("2 title line(s) above the header (line 4)"));
+        assert_eq!(p.skipped[1].0, 5);
+        assert!(p.skipped[1].1.contains("units row"), "{:?}", p.skipped);
+        // Only a units row.
+        let p = find(
+            "t,a_c,y_um\r\n[s],[degC],[um]\r\n0,1,2\r\n",
+            &sel("t", &["*_c"], &["y_um"]),
+            true,
+            None,
+        )
+        .unwrap();
+        assert_eq!(p.text, "t,a_c,y_um\r\n\n0,1,2\r\n");
+        // A sample interval: no time column needed to find the header.
+        let p = find(
+            "title\na_c,y_um\n1,2\n",
+            &sel("time_s", &["a_c"], &["y_um"]),
+            false,
+            None,
+        )
+        .unwrap();
+        assert_eq!(p.text, "\na_c,y_um\n1,2\n");
+    }
+}
