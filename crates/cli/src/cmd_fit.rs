@@ -314,6 +314,14 @@ fn load(
         let table = read_paths_with_targets(paths, targets, sel, opts, sheets)?;
         return Ok((table, name));
     }
+    // One plain log: read in chunks and parsed as it comes when it is clean (no copy of
+    // the whole file in memory); any other file is read as text below, as before.
+    if let [p] = paths {
+        let name = p.display().to_string();
+        if let Some(table) = gearcomp_identify::data::read_csv_file(p, &name, sel, opts) {
+            return Ok((table?, name));
+        }
+    }
     let files: Vec<(String, String)> = if paths.is_empty() {
         vec![(
             gearcomp_datasets::fl_thermal_csv()

@@ -107,7 +107,7 @@ fn correlation_matrix_varying(columns: &[&[f64]], means: &[f64]) -> Option<DMatr
             })
         })
         .collect();
-    if ss.iter().any(|&s| !(s > 0.0)) {
+    if !ss.iter().all(|&s| s > 0.0) {
         return None;
     }
     let mut r = DMatrix::identity(c, c);

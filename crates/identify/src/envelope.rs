@@ -18,8 +18,9 @@ use crate::data::Table;
 use crate::error::{IdentifyError, Result};
 use crate::fit::TrainRows;
 use crate::transform::transform_segments;
-use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
+use gearcomp_core::model::{ChannelRange, Envelope, LinearModel, Transform};
 use nalgebra::DMatrix;
+use std::borrow::Cow;
 
 /// The regressor series of each term of `model` over the table (engine semantics).
 pub fn regressors(table: &Table, model: &LinearModel) -> Result<Vec<Vec<f64>>> {
@@ -32,6 +33,57 @@ pub fn regressors(table: &Table, model: &LinearModel) -> Result<Vec<Vec<f64>>> {
             transform_segments(&table.time_s, &table.inputs[i], t.transform, &segs)
         })
         .collect()
+}
+
+/// [`regressors`], with a value term's series borrowed from its input column (the value
+/// transform is the identity: the same numbers without a copy); any other term, or a table
+/// whose series or segments [`transform_segments`] refuses, as [`regressors`] (the same
+/// error).
+fn regressor_series<'t>(table: &'t Table, model: &LinearModel) -> Result<Vec<Cow<'t, [f64]>>> {
+    let segs = table.segment_ranges();
+    let n = table.time_s.len();
+    let mut next = 0usize;
+    let segments_ok = segs.iter().all(|&(s, e)| {
+        let ok = s == next && e <= n && e > s;
+        next = e;
+        ok
+    }) && next == n;
+    model
+        .terms
+        .iter()
+        .map(|t| {
+            let u = &table.inputs[channel(table, &t.channel)?];
+            if t.transform == Transform::Value && segments_ok && u.len() == n {
+                Ok(Cow::Borrowed(u.as_slice()))
+            } else {
+                transform_segments(&table.time_s, u, t.transform, &segs).map(Cow::Owned)
+            }
+        })
+        .collect()
+}
+
+/// `Envelope::d2` of each of the first `n` rows of the regressor series `feats`, bit for
+/// bit: the same products added in the same order (each sum from −0.0, as
+/// `Iterator::sum`), one row of W at a time over all rows instead of row by row.
+fn d2_of_rows(env: &Envelope, feats: &[Cow<[f64]>], n: usize) -> Vec<f64> {
+    let p = env.feature_mean.len();
+    if p == 0 || env.whitening.len() != p * p || feats.len() != p {
+        return vec![0.0; n];
+    }
+    let mut d2 = vec![-0.0f64; n];
+    let mut s = vec![-0.0f64; n];
+    for w_row in env.whitening.chunks(p) {
+        s.fill(-0.0);
+        for ((&w, &m), x) in w_row.iter().zip(&env.feature_mean).zip(feats) {
+            for (si, &xi) in s.iter_mut().zip(&x[..n]) {
+                *si += w * (xi - m);
+            }
+        }
+        for (di, si) in d2.iter_mut().zip(&s) {
+            *di += si.powi(2);
+        }
+    }
+    d2
 }
 
 fn channel(table: &Table, name: &str) -> Result<usize> {
@@ -102,8 +154,8 @@ pub fn training_envelope(
             max,
         });
     }
-    let all = regressors(table, model)?;
-    let feats: Vec<std::borrow::Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
+    let all = regressor_series(table, model)?;
+    let feats: Vec<Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
     let n = feats.first().map_or(0, |f| f.len());
     let p = feats.len();
     let mut env = Envelope {
@@ -151,19 +203,11 @@ pub fn training_envelope(
     Ok(env)
 }
 
-/// The largest d² of the envelope's bound over the training regressors `feats`.
-#[allow(clippy::needless_range_loop)] // rows of column-major series
-fn max_training_d2(env: &Envelope, feats: &[std::borrow::Cow<[f64]>]) -> f64 {
+/// The largest d² of the envelope's bound over the training regressors `feats` (in row
+/// order, from 0, as a running `f64::max`).
+fn max_training_d2(env: &Envelope, feats: &[Cow<[f64]>]) -> f64 {
     let n = feats.first().map_or(0, |f| f.len());
-    let mut row = vec![0.0; feats.len()];
-    let mut max_d2: f64 = 0.0;
-    for i in 0..n {
-        for (j, f) in feats.iter().enumerate() {
-            row[j] = f[i];
-        }
-        max_d2 = max_d2.max(env.d2(&row));
-    }
-    max_d2
+    d2_of_rows(env, feats, n).into_iter().fold(0.0, f64::max)
 }
 
 /// W of a ridge or principal-component fit (see [`training_envelope`]), row-major; None
@@ -223,33 +267,35 @@ fn shrunk_whitening(
 
 /// Per row: outside the envelope, and the 95 % prediction-interval half-width in the
 /// target unit for a validation RMSE `sigma_v`.
-#[allow(clippy::needless_range_loop)] // rows of column-major series
+///
+/// Per row, what `Envelope::check_and_leverage` gives (outside: a channel out of its range,
+/// or d² above `max_d2` when the envelope has a bound; h = 1/n + d²/(n − 1)), with the d²
+/// of every row computed at once ([`d2_of_rows`]).
 pub fn rows_outside_and_intervals(
     table: &Table,
     model: &LinearModel,
     env: &Envelope,
     sigma_v: f64,
 ) -> Result<(Vec<bool>, Vec<f64>)> {
-    let feats = regressors(table, model)?;
-    let chans: Vec<usize> = env
+    let feats = regressor_series(table, model)?;
+    let chans: Vec<&[f64]> = env
         .ranges
         .iter()
-        .map(|r| channel(table, &r.channel))
+        .map(|r| channel(table, &r.channel).map(|i| table.inputs[i].as_slice()))
         .collect::<Result<_>>()?;
     let n = table.time_s.len();
+    let d2 = d2_of_rows(env, &feats, n);
+    let rows = env.rows.max(2) as f64;
+    let bounded = !env.whitening.is_empty();
     let mut outside = Vec::with_capacity(n);
     let mut half = Vec::with_capacity(n);
-    let mut f = vec![0.0; feats.len()];
-    let mut c = vec![0.0; chans.len()];
-    for i in 0..n {
-        for (k, x) in feats.iter().enumerate() {
-            f[k] = x[i];
-        }
-        for (k, &ch) in chans.iter().enumerate() {
-            c[k] = table.inputs[ch][i];
-        }
-        let (out, h) = env.check_and_leverage(&c, &f);
-        outside.push(out.is_some());
+    for (i, &d2) in d2.iter().enumerate() {
+        let out_of_range = env.ranges.iter().zip(&chans).any(|(r, c)| {
+            let v = c[i];
+            v < r.min || v > r.max
+        });
+        outside.push(out_of_range || (d2 > env.max_d2 && bounded));
+        let h = 1.0 / rows + d2 / (rows - 1.0);
         half.push(1.96 * sigma_v * (1.0 + h).sqrt());
     }
     Ok((outside, half))
@@ -262,6 +308,92 @@ mod tests {
     use crate::regress;
     use gearcomp_core::model::{Term, Transform};
     use proptest::prelude::*;
+
+    /// Rows outside and intervals, and the training bound, as `Envelope::check_and_leverage`
+    /// and `Envelope::d2` give them row by row (the engine's definition), bit for bit: value
+    /// and rate terms, two segments, least-squares and ridge envelopes (a full W), rows
+    /// outside the ranges and above the bound.
+    #[test]
+    fn every_row_at_once_is_the_engine_row_by_row() {
+        let mut s = 7u64;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..12 {
+            let (n, c) = (40 + 13 * case, 1 + case % 4);
+            let drift: Vec<f64> = (0..n).map(|i| (i as f64 * 0.05).sin()).collect();
+            let inputs: Vec<Vec<f64>> = (0..c)
+                .map(|j| {
+                    let a = 1.0 + next();
+                    drift
+                        .iter()
+                        .map(|d| 20.0 + j as f64 + a * d + 0.3 * next())
+                        .collect()
+                })
+                .collect();
+            let names: Vec<String> = (0..c).map(|j| format!("x{j}")).collect();
+            let table = Table {
+                time_s: (0..n).map(|i| 15.0 * i as f64).collect(),
+                input_names: names.clone(),
+                inputs,
+                segments: vec![0, n / 2],
+                ..Table::default()
+            };
+            let mut terms: Vec<Term> = names
+                .iter()
+                .map(|ch| Term {
+                    channel: ch.clone(),
+                    coefficient: 1.0,
+                    transform: Transform::Value,
+                })
+                .collect();
+            if case % 2 == 1 {
+                terms.push(Term {
+                    channel: names[0].clone(),
+                    coefficient: 0.5,
+                    transform: Transform::Rate { tau_s: 300.0 },
+                });
+            }
+            let model = LinearModel {
+                intercept: 0.0,
+                terms,
+            };
+            // Train on the first 60 % of the rows: the rest leaves the ranges now and then.
+            let train: Vec<bool> = (0..n).map(|i| i < n * 3 / 5).collect();
+            let kind = match case % 3 {
+                0 => FitKind::LeastSquares,
+                _ => FitKind::Ridge(0.01 * case as f64),
+            };
+            let env = training_envelope(&table, &train, "a", &model, kind).unwrap();
+            let all = regressors(&table, &model).unwrap();
+            let p = all.len();
+            let row = |i: usize| (0..p).map(|j| all[j][i]).collect::<Vec<f64>>();
+            let max_d2 = (0..n)
+                .filter(|&i| train[i])
+                .fold(0.0f64, |m, i| m.max(env.d2(&row(i))));
+            assert_eq!(env.max_d2.to_bits(), max_d2.to_bits(), "case {case}");
+            let sigma = 0.7 + next();
+            let (outside, half) = rows_outside_and_intervals(&table, &model, &env, sigma).unwrap();
+            let chans: Vec<usize> = env
+                .ranges
+                .iter()
+                .map(|r| names.iter().position(|x| *x == r.channel).unwrap())
+                .collect();
+            let mut seen_out = 0;
+            for i in 0..n {
+                let cv: Vec<f64> = chans.iter().map(|&k| table.inputs[k][i]).collect();
+                let (out, h) = env.check_and_leverage(&cv, &row(i));
+                assert_eq!(outside[i], out.is_some(), "case {case} row {i}");
+                let want = 1.96 * sigma * (1.0 + h).sqrt();
+                assert_eq!(half[i].to_bits(), want.to_bits(), "case {case} row {i}");
+                seen_out += usize::from(outside[i]);
+            }
+            assert!(seen_out > 0, "case {case}: no row outside");
+        }
+    }
 
     /// A table of `cols` as inputs read by their current values, and the model reading them.
     fn table_and_model(cols: &[Vec<f64>]) -> (Table, LinearModel) {
