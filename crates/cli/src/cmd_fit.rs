@@ -314,8 +314,22 @@ fn load(
         let table = read_paths_with_targets(paths, targets, sel, opts, sheets)?;
         return Ok((table, name));
     }
-    // One plain log: read in chunks and parsed as it comes when it is clean (no copy of
-    // the whole file in memory); any other file is read as text below, as before.
+    // One plain log, or the embedded FL_THERMAL (its gzip members inflated as they are
+    // parsed): read in chunks and parsed as it comes when it is clean (no copy of the
+    // whole text in memory); anything else is read as text below, as before.
+    if paths.is_empty() {
+        let name = "FL_THERMAL (embedded)".to_string();
+        if let Ok(members) = gearcomp_datasets::fl_thermal_pieces() {
+            let pieces: gearcomp_identify::data::Pieces = members
+                .into_iter()
+                .map(|(r, n)| (Box::new(r) as Box<dyn std::io::Read + Send>, n))
+                .collect();
+            if let Some(table) = gearcomp_identify::data::read_csv_pieces(pieces, &name, sel, opts)
+            {
+                return Ok((table?, name));
+            }
+        }
+    }
     if let [p] = paths {
         let name = p.display().to_string();
         if let Some(table) = gearcomp_identify::data::read_csv_file(p, &name, sel, opts) {

@@ -16,6 +16,78 @@ pub fn fl_thermal_csv() -> std::io::Result<String> {
     gunzip_text(FL_THERMAL_GZ)
 }
 
+/// The embedded FL_THERMAL as its gzip members: per member a reader of its text, inflated
+/// as it is read, and the text's length in bytes (its trailer's). Each member holds whole
+/// lines, the first one starting with the header. A member whose text differs from its
+/// trailer's length or CRC-32 ends in an `InvalidData` read error instead of its end.
+pub fn fl_thermal_pieces() -> std::io::Result<Vec<(impl std::io::Read + Send, usize)>> {
+    Ok(members(FL_THERMAL_GZ)?
+        .into_iter()
+        .map(|m| {
+            let size = m.size;
+            (MemberReader::new(m), size)
+        })
+        .collect())
+}
+
+/// A gzip member read as its text (inflated as it is read, checked at its end).
+struct MemberReader<'a> {
+    member: Member<'a>,
+    inflate: flate2::Decompress,
+    crc: flate2::Crc,
+    done: bool,
+}
+
+impl<'a> MemberReader<'a> {
+    fn new(member: Member<'a>) -> Self {
+        Self {
+            member,
+            inflate: flate2::Decompress::new(false),
+            crc: flate2::Crc::new(),
+            done: false,
+        }
+    }
+}
+
+impl std::io::Read for MemberReader<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let bad = |what: String| Error::new(ErrorKind::InvalidData, format!("gzip: {what}"));
+        if self.done || buf.is_empty() {
+            return Ok(0);
+        }
+        let d = &mut self.inflate;
+        let (in0, out0) = (d.total_in(), d.total_out());
+        let input = usize::try_from(in0)
+            .ok()
+            .and_then(|k| self.member.body.get(k..))
+            .ok_or_else(|| bad("inflate read past its input".into()))?;
+        let status = d
+            .decompress(input, buf, flate2::FlushDecompress::None)
+            .map_err(|e| bad(e.to_string()))?;
+        let n = usize::try_from(d.total_out() - out0).unwrap_or(usize::MAX);
+        let chunk = buf
+            .get(..n)
+            .ok_or_else(|| bad("inflate wrote past its output".into()))?;
+        self.crc.update(chunk);
+        if status == flate2::Status::StreamEnd {
+            self.done = true;
+            if d.total_out() != self.member.size as u64
+                || d.total_in() != self.member.body.len() as u64
+                || self.crc.sum() != self.member.crc
+            {
+                return Err(bad("length or CRC-32 differs from the trailer".into()));
+            }
+        } else if n == 0 && d.total_in() == in0 {
+            return Err(bad("truncated member".into()));
+        }
+        if n == 0 && !self.done {
+            // Input consumed without output yet (block headers): read on.
+            return self.read(buf);
+        }
+        Ok(n)
+    }
+}
+
 /// One gzip member: its deflate data, and the CRC-32 and length of its text (trailer).
 struct Member<'a> {
     body: &'a [u8],
@@ -191,6 +263,55 @@ mod tests {
             head[k] ^= 0x5a;
             assert!(super::gunzip_text(&head).is_err(), "header byte {k}");
         }
+    }
+
+    /// The members read as streams (in reads of 1 B to 1 MB) are the text inflated at once,
+    /// piece after piece, each whole lines; a damaged member is a read error.
+    #[test]
+    fn pieces_read_as_streams_are_the_text() {
+        use std::io::Read;
+        let text = super::fl_thermal_csv().unwrap();
+        for step in [1usize, 7, 4096, 1 << 20] {
+            let mut all = Vec::new();
+            let pieces = super::fl_thermal_pieces().unwrap();
+            assert_eq!(pieces.len(), 4);
+            for (mut r, size) in pieces {
+                let mut piece = Vec::new();
+                let mut buf = vec![0u8; step];
+                loop {
+                    let n = r.read(&mut buf).unwrap();
+                    if n == 0 {
+                        break;
+                    }
+                    piece.extend_from_slice(&buf[..n]);
+                }
+                assert_eq!(piece.len(), size);
+                assert_eq!(piece.last(), Some(&b'\n'));
+                all.extend(piece);
+                if step > 4096 {
+                    break;
+                }
+            }
+            assert!(text.as_bytes().starts_with(&all), "step {step}");
+        }
+        let members = super::members(super::FL_THERMAL_GZ).unwrap();
+        let mut body = members[1].body.to_vec();
+        let mid = body.len() / 2;
+        body[mid] ^= 0x5a;
+        let bad = super::Member {
+            body: &body,
+            crc: members[1].crc,
+            size: members[1].size,
+        };
+        let mut out = Vec::new();
+        assert!(super::MemberReader::new(bad).read_to_end(&mut out).is_err());
+        let cut = super::Member {
+            body: &members[1].body[..members[1].body.len() - 9],
+            crc: members[1].crc,
+            size: members[1].size,
+        };
+        let mut out = Vec::new();
+        assert!(super::MemberReader::new(cut).read_to_end(&mut out).is_err());
     }
 
     /// The embedded copy is several members (inflated at once), and any gzip file of one
