@@ -775,21 +775,28 @@ pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
         .iter()
         .zip(fits)
         .map(|(y, fit)| {
-            let mut row = vec![0.0; table.inputs.len()];
-            let e: Vec<f64> = (0..y.len())
-                .map(|i| {
-                    for (r, x) in row.iter_mut().zip(&table.inputs) {
-                        *r = x[i];
-                    }
-                    y[i] - fit.predict(&row)
-                })
-                .collect();
+            let e = residuals_of(&fit, &table.inputs, y);
             Ok((
                 rmse_where(&e, &train, true).unwrap_or(f64::NAN),
                 rmse_where(&e, &train, false),
             ))
         })
         .collect()
+}
+
+/// y − `fit.predict(row)` of every row of `columns`, bit for bit: the same products added
+/// in the same order as `LinearFit::predict` (Σ b_j·x_j from −0.0 as `Iterator::sum`,
+/// then b0 + Σ), one column at a time over all rows instead of row by row.
+fn residuals_of(fit: &regress::LinearFit, columns: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
+    let n = y.len();
+    let mut s = vec![-0.0f64; n];
+    for (&b, x) in fit.coefficients[1..].iter().zip(columns) {
+        for (si, &xi) in s.iter_mut().zip(&x[..n]) {
+            *si += b * xi;
+        }
+    }
+    let b0 = fit.coefficients[0];
+    y.iter().zip(&s).map(|(&y, &s)| y - (b0 + s)).collect()
 }
 
 /// A note when a run's rows are not together in the log (a run column whose value comes
@@ -911,6 +918,39 @@ mod tests {
     /// running sum over the training rows, |r| ≥ 1 − 1e-12): exact affine copies, copies
     /// with noise of 1e-3 … 1e-9 of the signal (|r| from 1 − 1e-6 down to about
     /// 1 − 1e-18), odd row counts (the four-lane sum's remainder) and a mask of two blocks.
+    #[test]
+    fn floor_residuals_are_predict_row_by_row() {
+        let mut s = 3u64;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 20.0
+        };
+        for c in 0..6 {
+            let n = 50 + 7 * c;
+            let cols: Vec<Vec<f64>> = (0..c).map(|_| (0..n).map(|_| next()).collect()).collect();
+            let y: Vec<f64> = (0..n).map(|_| next()).collect();
+            let fit = regress::LinearFit {
+                coefficients: (0..=c).map(|_| next()).collect(),
+                std_errors: Vec::new(),
+                r2: 0.0,
+                rmse: 0.0,
+                sse: 0.0,
+                residuals: Vec::new(),
+            };
+            let e = residuals_of(&fit, &cols, &y);
+            for i in 0..n {
+                let row: Vec<f64> = cols.iter().map(|x| x[i]).collect();
+                assert_eq!(
+                    e[i].to_bits(),
+                    (y[i] - fit.predict(&row)).to_bits(),
+                    "{c} {i}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn duplicate_inputs_match_the_single_sum_definition() {
         let mut x = 0x2545_f491_4f6c_dd1du64;
