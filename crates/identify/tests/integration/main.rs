@@ -9,6 +9,7 @@ mod fl_thermal;
 mod generalise;
 mod golden_families;
 mod multirun;
+mod preamble;
 mod properties;
 mod runs;
 mod seed003;

@@ -877,3 +877,46 @@ fn runs_of_several_workbooks_are_named_book_and_sheet() {
     assert_eq!(t.run_names, vec!["week1:day 1", "week1:day 2", "week2"]);
     assert_eq!(t.segments, vec![0, 40, 80]);
 }
+
+/// A sheet as data loggers write it: title rows above the header and a units row under
+/// it read as the CSV day without them; both are noted by their row.
+#[test]
+fn title_rows_and_a_units_row_of_a_sheet_are_skipped() {
+    let s = sel("time_s", &["*_c"], &["d_um"]);
+    let cells = csv_cells("day 1.csv");
+    let text = std::fs::read_to_string(cli_fixture("day 1.csv")).unwrap();
+    let want = read_runs(&[(text.as_str(), "day 1.csv")], &s, ReadOptions::default()).unwrap();
+    let mut book = Workbook::new();
+    let ws = book.add_worksheet().set_name("Messung").unwrap();
+    ws.write_string(0, 0, "Prüfstand LC 380, Warmlauf").unwrap();
+    ws.write_string(1, 0, "Bediener: Meier").unwrap();
+    put(ws, &cells[..1], 3, 0);
+    for c in 0..cells[0].len() {
+        let unit = match c {
+            0 => "s",
+            _ if cells[0][c].ends_with("_um") => "µm",
+            _ => "°C",
+        };
+        ws.write_string(4, c as u16, unit).unwrap();
+    }
+    put(ws, &cells[1..], 5, 0);
+    let p = tmp("titles.xlsx");
+    book.save(&p).unwrap();
+    let got = read_paths(&[p], &s, ReadOptions::default(), &sheets(&[], false)).unwrap();
+    assert_eq!(bits(&got.time_s), bits(&want.time_s));
+    for (x, y) in got.inputs.iter().zip(&want.inputs) {
+        assert_eq!(bits(x), bits(y));
+    }
+    assert_eq!(bits(&got.targets[0]), bits(&want.targets[0]));
+    let notes: Vec<String> = got.issues.iter().map(|i| i.to_string()).collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("line 1: 2 title line(s) above the header (line 4)")),
+        "{notes:?}"
+    );
+    assert!(
+        notes.iter().any(|n| n.starts_with("line 5: units row")),
+        "{notes:?}"
+    );
+}
