@@ -75,6 +75,51 @@ fn bench(c: &mut Criterion) {
             read_csv(&t, "fl", &static_sel, ReadOptions::default()).unwrap()
         })
     });
+    // What `fit` does now: the embedded copy's gzip members inflated as they are parsed, and
+    // a `--data` log file read in 256 KB chunks and parsed as they come, against reading the
+    // whole text first (in one process the freed buffers are reused, so the page faults a
+    // fresh process pays for a 4.4 MB text do not show here: see static_vs_numpy.py).
+    r.bench_function("inflate_members_while_parsing-16in-3tg-11115rows", |b| {
+        b.iter(|| {
+            let pieces: gearcomp_identify::data::Pieces = gearcomp_datasets::fl_thermal_pieces()
+                .unwrap()
+                .into_iter()
+                .map(|(m, n)| (Box::new(m) as Box<dyn std::io::Read + Send>, n))
+                .collect();
+            gearcomp_identify::data::read_csv_pieces(
+                pieces,
+                "fl",
+                &static_sel,
+                ReadOptions::default(),
+            )
+            .unwrap()
+            .unwrap()
+        })
+    });
+    let path = std::env::temp_dir().join(format!("gearcomp-bench-{}.csv", std::process::id()));
+    std::fs::write(&path, &text).unwrap();
+    r.bench_function("baseline_read_text_then_parse-16in-3tg-11115rows", |b| {
+        b.iter(|| {
+            let t = std::fs::read_to_string(&path).unwrap();
+            read_csv(&t, "fl", &static_sel, ReadOptions::default()).unwrap()
+        })
+    });
+    r.bench_function(
+        "read_file_in_chunks_while_parsing-16in-3tg-11115rows",
+        |b| {
+            b.iter(|| {
+                gearcomp_identify::data::read_csv_file(
+                    &path,
+                    "fl",
+                    &static_sel,
+                    ReadOptions::default(),
+                )
+                .unwrap()
+                .unwrap()
+            })
+        },
+    );
+    let _ = std::fs::remove_file(&path);
     let static_opts = IdentifyOptions {
         model: gearcomp_identify::ModelKind::Static,
         classes: Some(6),
