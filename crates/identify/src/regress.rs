@@ -143,9 +143,32 @@ fn summarise(
     a: &DMatrix<f64>,
     y: &[f64],
 ) -> LinearFit {
-    let n = y.len();
     let b = DVector::from_column_slice(&coefficients);
     let fitted = a * &b;
+    summarise_fitted(coefficients, std_errors, fitted.as_slice(), y)
+}
+
+/// The fitted values [1 X]·b of the design [`design`] builds from `columns` (n rows), bit
+/// for bit what nalgebra's `a * b` gives: its gemv starts from the first column times b0
+/// (here 1·b0) and adds x_j·b_j column after column.
+fn fitted_of(coefficients: &[f64], columns: &[&[f64]], n: usize) -> Vec<f64> {
+    let mut fitted = vec![coefficients[0]; n];
+    for (&b, x) in coefficients[1..].iter().zip(columns) {
+        for (f, &xi) in fitted.iter_mut().zip(&x[..n]) {
+            *f = xi * b + *f;
+        }
+    }
+    fitted
+}
+
+/// [`summarise`] from the fitted values.
+fn summarise_fitted(
+    coefficients: Vec<f64>,
+    std_errors: Vec<f64>,
+    fitted: &[f64],
+    y: &[f64],
+) -> LinearFit {
+    let n = y.len();
     let residuals: Vec<f64> = y.iter().zip(fitted.iter()).map(|(y, f)| y - f).collect();
     let sse: f64 = residuals.iter().map(|e| e * e).sum();
     let mean = y.iter().sum::<f64>() / n as f64;
@@ -188,17 +211,19 @@ pub fn ols_many(columns: &[&[f64]], ys: &[&[f64]], names: &[String]) -> Result<V
             "targets of equal length",
         ));
     }
-    let solver = QrSolver::new(a.clone(), names)?;
+    // The design goes into the factorisation (no copy); the fitted values come from the
+    // columns (`fitted_of`: the same figures as the design times the coefficients).
+    let p = a.ncols();
+    let solver = QrSolver::new(a, names)?;
     ys.iter()
         .map(|y| {
             let b = solver.solve(&DVector::from_column_slice(y))?;
             let coefficients: Vec<f64> = b.iter().copied().collect();
-            let mut fit = summarise(coefficients, Vec::new(), &a, y);
-            let dof = y.len() - a.ncols();
+            let fitted = fitted_of(&coefficients, columns, y.len());
+            let mut fit = summarise_fitted(coefficients, Vec::new(), &fitted, y);
+            let dof = y.len() - p;
             let sigma = (fit.sse / dof as f64).sqrt();
-            fit.std_errors = (0..a.ncols())
-                .map(|j| sigma * solver.r_inv.row(j).norm())
-                .collect();
+            fit.std_errors = (0..p).map(|j| sigma * solver.r_inv.row(j).norm()).collect();
             Ok(fit)
         })
         .collect()
@@ -379,6 +404,30 @@ pub(crate) fn augmented_r<F: AsRef<[f64]>, T: AsRef<[f64]>>(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fitted_values_from_the_columns_are_the_design_times_b() {
+        let mut s = 11u64;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 60.0 - 30.0
+        };
+        for c in 0..7 {
+            let n = 20 + 9 * c;
+            let cols: Vec<Vec<f64>> = (0..c).map(|_| (0..n).map(|_| next()).collect()).collect();
+            let refs: Vec<&[f64]> = cols.iter().map(|v| v.as_slice()).collect();
+            let y: Vec<f64> = (0..n).map(|_| next()).collect();
+            let b: Vec<f64> = (0..=c).map(|_| next()).collect();
+            let a = design(&refs, &y, &[]).unwrap();
+            let want = &a * DVector::from_column_slice(&b);
+            let got = fitted_of(&b, &refs, n);
+            for i in 0..n {
+                assert_eq!(got[i].to_bits(), want[i].to_bits(), "{c} {i}");
+            }
+        }
+    }
 
     #[test]
     fn exact_line_and_textbook_standard_errors() {
