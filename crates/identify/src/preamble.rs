@@ -28,25 +28,10 @@ pub struct Preamble {
     pub skipped: Vec<(u64, String)>,
 }
 
-/// The delimiter of one line: the one of `,` `;` tab found most often outside quotes
-/// (`forced` when the user named one).
+/// The delimiter of one line, as the reader detects a header's (`forced` when the user
+/// named one).
 fn line_delimiter(line: &str, forced: Option<u8>) -> u8 {
-    if let Some(d) = forced {
-        return d;
-    }
-    let mut n = [0usize; 3];
-    let mut quoted = false;
-    for b in line.bytes() {
-        match b {
-            b'"' => quoted = !quoted,
-            b',' if !quoted => n[0] += 1,
-            b';' if !quoted => n[1] += 1,
-            b'\t' if !quoted => n[2] += 1,
-            _ => {}
-        }
-    }
-    let best = (1..3).fold(0, |b, k| if n[k] > n[b] { k } else { b });
-    [b',', b';', b'\t'][best]
+    forced.unwrap_or_else(|| crate::dialect::detect_delimiter(line))
 }
 
 /// The trimmed fields of one line (quotes as the csv reader reads them).
