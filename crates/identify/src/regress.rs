@@ -155,7 +155,8 @@ fn fitted_of(coefficients: &[f64], columns: &[&[f64]], n: usize) -> Vec<f64> {
     let mut fitted = vec![coefficients[0]; n];
     for (&b, x) in coefficients[1..].iter().zip(columns) {
         for (f, &xi) in fitted.iter_mut().zip(&x[..n]) {
-            *f = xi * b + *f;
+            // nalgebra's x_j·b_j + y, the same sum (addition commutes exactly).
+            *f += xi * b;
         }
     }
     fitted
