@@ -114,8 +114,8 @@ proptest! {
         }
         text += &body.concat();
         let opts = ReadOptions::default();
-        let want = read_csv(&plain, "log.csv", &sel(), opts.clone()).unwrap();
-        let got = read_csv(&text, "log.csv", &sel(), opts.clone()).unwrap();
+        let want = read_csv(&plain, "log.csv", &sel(), opts).unwrap();
+        let got = read_csv(&text, "log.csv", &sel(), opts).unwrap();
         prop_assert!(same_values(&got, &want));
         // The file reader (chunked, for clean logs) gives the same table or leaves the file
         // to the text reader.
@@ -124,7 +124,7 @@ proptest! {
             std::process::id()
         ));
         std::fs::write(&path, &text).unwrap();
-        let from_file = read_csv_file(&path, "log.csv", &sel(), opts.clone());
+        let from_file = read_csv_file(&path, "log.csv", &sel(), opts);
         std::fs::remove_file(&path).unwrap();
         if let Some(f) = from_file {
             let f = f.unwrap();

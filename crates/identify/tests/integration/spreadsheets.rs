@@ -891,10 +891,10 @@ fn title_rows_and_a_units_row_of_a_sheet_are_skipped() {
     ws.write_string(0, 0, "Prüfstand LC 380, Warmlauf").unwrap();
     ws.write_string(1, 0, "Bediener: Meier").unwrap();
     put(ws, &cells[..1], 3, 0);
-    for c in 0..cells[0].len() {
+    for (c, name) in cells[0].iter().enumerate() {
         let unit = match c {
             0 => "s",
-            _ if cells[0][c].ends_with("_um") => "µm",
+            _ if name.ends_with("_um") => "µm",
             _ => "°C",
         };
         ws.write_string(4, c as u16, unit).unwrap();
