@@ -29,6 +29,10 @@
 //!   LS 4.244, ridge 2.996; B 3.804 vs LS 3.969, static 3.770; 3.539 and 4.046 before ridge
 //!   became the reference of the one-standard-error rule with leave-one-run-out). With that
 //!   change A is 2.011 µm (was 2.006), B 3.564 (3.562), A with drift 3.006 (3.094).
+//!   Then the coordinator's two changes (a family that halves the reference's pooled
+//!   held-out MSE is kept without the consistency test; the k-step model of a forward path
+//!   is the best-fitting of the k-step paths, `select::best_fitting`): A 1.963, B 3.564,
+//!   A with drift 2.975, A re-mounted 3.094 (1.033 × ridge), B with offsets 3.811.
 //!
 //! `GEARCOMP_LOOKALIKE_FAMILIES=1` adds each family alone to the table,
 //! `GEARCOMP_LOOKALIKE_DETAIL=1` prints the default's comparison per held-out run,
@@ -827,9 +831,9 @@ fn repeat_runs_with_sensor_drift_default_is_not_the_worst() {
     assert!(p[0] <= 1.25 * p[3], "default {} vs ridge {}", p[0], p[3]);
 }
 
-/// The bound reached on [`A_REMOUNTED`] (the brief's 1.05 is not met: measured 1.10, see
-/// the test's doc).
-const A_REMOUNTED_BOUND: f64 = 1.12;
+/// The bound on [`A_REMOUNTED`]: 1.05 × the better fixed kind (measured 1.033 over seeds
+/// 1–8 since the k-step model became the best-fitting of the k-step paths; 1.10 before).
+const A_REMOUNTED_BOUND: f64 = 1.05;
 
 /// Shape A with re-mounted sensors ([`A_REMOUNTED`], the reporters' fingerprint A: static and
 /// ridge far ahead of plain LS on all 22 inputs): the default must follow them.

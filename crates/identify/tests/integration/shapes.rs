@@ -466,15 +466,14 @@ fn invalid_splits_and_options_are_named() {
     assert!(e.contains("--train-before-h"), "{e}");
 }
 
-/// Known limit (issue 12 shapes, not fixed here): forward selection keeps the first k steps
-/// of the path chosen on every training row, and that greedy path can start with a sensor
-/// outside an exact relation that correlates more with the target (integer-valued log,
-/// 9 sensors, 132 rows: train RMSE 26.8 µm of sd 62 µm while every fold's own path found
-/// the relation, validation 3e-13). A replacement pass in `select::greedy` (each chosen
-/// sensor swapped for any unused one while the training residual falls) would fix it.
+/// Was a known limit: forward selection kept the first k steps of the path chosen on every
+/// training row, and that greedy path can start with a sensor outside an exact relation that
+/// correlates more with the target (integer-valued log, 9 sensors, 132 rows: train RMSE
+/// 26.8 µm of sd 62 µm while every fold's own path found the relation, validation 3e-13).
+/// The k-step model is now the best-fitting on every training row of the k-step states of
+/// the full path and of each fold's path (`select::best_fitting`).
 #[test]
-#[ignore = "known limit of the greedy forward path; see the doc comment"]
-fn known_limit_greedy_misses_an_exact_pair() {
+fn greedy_paths_that_differ_keep_the_exact_pair() {
     for seed in [8_236_796_937_727_463_424u64, 11_298_533_596_199_042_260] {
         check_strict(&random_case(seed), Split::None)
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
