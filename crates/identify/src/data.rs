@@ -809,6 +809,41 @@ struct Reader<'a> {
     declined: bool,
 }
 
+impl<'a> Reader<'a> {
+    fn new(
+        sel: &'a Selection,
+        opts: ReadOptions,
+        file_runs: &'a [String],
+        source: Source<'a>,
+    ) -> Self {
+        Reader {
+            sel,
+            opts,
+            t: Table::default(),
+            bad: Vec::new(),
+            run_label: Vec::new(),
+            missing: Vec::new(),
+            skipped: Vec::new(),
+            forced: Vec::new(),
+            file_runs,
+            source,
+            declined: false,
+        }
+    }
+
+    /// The table of one log whose header line is `head` and whose records come from the
+    /// reader's source; None when the header is refused or the source declines (the
+    /// caller then reads the text, whose messages are the ones a user sees).
+    fn read_after_header(mut self, head: &str, name: &str) -> Option<Result<Table>> {
+        self.t.files.push(name.to_string());
+        if self.file(0, head, name, false).is_err() || self.declined {
+            return None;
+        }
+        let opts = self.opts;
+        Some(finish_read(self, &[name], opts))
+    }
+}
+
 /// Reads one or several CSV files (`(text, name)` pairs) into one [`Table`]; with several
 /// files, each file is a run named after the file (or `file:run` with a run column).
 ///
@@ -829,19 +864,7 @@ pub(crate) fn read_named_runs(
     if files.is_empty() {
         return Err(invalid("data", "no files", "at least one CSV file"));
     }
-    let mut r = Reader {
-        sel,
-        opts,
-        t: Table::default(),
-        bad: Vec::new(),
-        run_label: Vec::new(),
-        missing: Vec::new(),
-        skipped: Vec::new(),
-        forced: Vec::new(),
-        file_runs,
-        source: Source::Text,
-        declined: false,
-    };
+    let mut r = Reader::new(sel, opts, file_runs, Source::Text);
     for (fi, (text, name)) in files.iter().enumerate() {
         r.t.files.push(name.to_string());
         r.file(fi, text, name, files.len() > 1)?;
@@ -868,24 +891,7 @@ pub fn read_csv_file(
         return None;
     }
     let head = header_line(path)?;
-    let mut r = Reader {
-        sel,
-        opts,
-        t: Table::default(),
-        bad: Vec::new(),
-        run_label: Vec::new(),
-        missing: Vec::new(),
-        skipped: Vec::new(),
-        forced: Vec::new(),
-        file_runs: &[],
-        source: Source::File(path),
-        declined: false,
-    };
-    r.t.files.push(name.to_string());
-    if r.file(0, &head, name, false).is_err() || r.declined {
-        return None;
-    }
-    Some(finish_read(r, &[name], opts))
+    Reader::new(sel, opts, &[], Source::File(path)).read_after_header(&head, name)
 }
 
 /// A log given in pieces of whole lines (e.g. the members of a gzip file), each a reader
@@ -941,24 +947,7 @@ pub fn read_csv_pieces(
         rest_len,
     )];
     all.extend(pieces);
-    let mut r = Reader {
-        sel,
-        opts,
-        t: Table::default(),
-        bad: Vec::new(),
-        run_label: Vec::new(),
-        missing: Vec::new(),
-        skipped: Vec::new(),
-        forced: Vec::new(),
-        file_runs: &[],
-        source: Source::Pieces(all),
-        declined: false,
-    };
-    r.t.files.push(name.to_string());
-    if r.file(0, &head, name, false).is_err() || r.declined {
-        return None;
-    }
-    Some(finish_read(r, &[name], opts))
+    Reader::new(sel, opts, &[], Source::Pieces(all)).read_after_header(&head, name)
 }
 
 /// [`clean_table`] of a log in pieces after its header line `head` (`start`: where the

@@ -914,10 +914,8 @@ fn min_norm_least_squares(columns: &[&[f64]], ys: &[&[f64]]) -> Vec<regress::Lin
 mod tests {
     use super::*;
 
-    /// The duplicate-input check against the definition written here (Pearson r by one
-    /// running sum over the training rows, |r| ≥ 1 − 1e-12): exact affine copies, copies
-    /// with noise of 1e-3 … 1e-9 of the signal (|r| from 1 − 1e-6 down to about
-    /// 1 − 1e-18), odd row counts (the four-lane sum's remainder) and a mask of two blocks.
+    /// The floor's residuals, column by column over all rows, are y − `LinearFit::predict`
+    /// of each row, bit for bit.
     #[test]
     fn floor_residuals_are_predict_row_by_row() {
         let mut s = 3u64;
@@ -951,6 +949,10 @@ mod tests {
         }
     }
 
+    /// The duplicate-input check against the definition written here (Pearson r by one
+    /// running sum over the training rows, |r| ≥ 1 − 1e-12): exact affine copies, copies
+    /// with noise of 1e-3 … 1e-9 of the signal (|r| from 1 − 1e-6 down to about
+    /// 1 − 1e-18), odd row counts (the four-lane sum's remainder) and a mask of two blocks.
     #[test]
     fn duplicate_inputs_match_the_single_sum_definition() {
         let mut x = 0x2545_f491_4f6c_dd1du64;
