@@ -314,27 +314,8 @@ fn load(
         let table = read_paths_with_targets(paths, targets, sel, opts, sheets)?;
         return Ok((table, name));
     }
-    // One plain log, or the embedded FL_THERMAL (its gzip members inflated as they are
-    // parsed): read in chunks and parsed as it comes when it is clean (no copy of the
-    // whole text in memory); anything else is read as text below, as before.
-    if paths.is_empty() {
-        let name = "FL_THERMAL (embedded)".to_string();
-        if let Ok(members) = gearcomp_datasets::fl_thermal_pieces() {
-            let pieces: gearcomp_identify::data::Pieces = members
-                .into_iter()
-                .map(|(r, n)| (Box::new(r) as Box<dyn std::io::Read + Send>, n))
-                .collect();
-            if let Some(table) = gearcomp_identify::data::read_csv_pieces(pieces, &name, sel, opts)
-            {
-                return Ok((table?, name));
-            }
-        }
-    }
-    if let [p] = paths {
-        let name = p.display().to_string();
-        if let Some(table) = gearcomp_identify::data::read_csv_file(p, &name, sel, opts) {
-            return Ok((table?, name));
-        }
+    if let Some(read) = read_streamed(paths, sel, opts) {
+        return read;
     }
     let files: Vec<(String, String)> = if paths.is_empty() {
         vec![(
@@ -363,6 +344,52 @@ fn load(
         .collect::<Vec<_>>()
         .join(", ");
     Ok((read_runs(&refs, sel, opts)?, name))
+}
+
+/// One plain log, or the embedded FL_THERMAL (its gzip members inflated as they are
+/// parsed), read in chunks and parsed as it comes when it is clean (no copy of the whole
+/// text in memory); None for anything else, which `load` reads as text, as before.
+fn read_streamed(
+    paths: &[PathBuf],
+    sel: &Selection,
+    opts: ReadOptions,
+) -> Option<anyhow::Result<(Table, String)>> {
+    if paths.is_empty() {
+        let name = "FL_THERMAL (embedded)".to_string();
+        let members = gearcomp_datasets::fl_thermal_pieces().ok()?;
+        let pieces: gearcomp_identify::data::Pieces = members
+            .into_iter()
+            .map(|(r, n)| (Box::new(r) as Box<dyn std::io::Read + Send>, n))
+            .collect();
+        let table = gearcomp_identify::data::read_csv_pieces(pieces, &name, sel, opts)?;
+        return Some(table.map(|t| (t, name)).map_err(Into::into));
+    }
+    let [p] = paths else {
+        return None;
+    };
+    let name = p.display().to_string();
+    let table = gearcomp_identify::data::read_csv_file(p, &name, sel, opts)?;
+    Some(table.map(|t| (t, name)).map_err(Into::into))
+}
+
+/// `--runs-at-gaps` (every stretch between time gaps made a run) and the train/test split,
+/// with the notes saying what was chosen.
+fn runs_and_split(args: &Args, table: &mut Table) -> anyhow::Result<(Split, Option<String>)> {
+    let gap_note = args.runs_at_gaps.then(|| {
+        let before = table.run_count();
+        let n = table.make_segments_runs();
+        if n > before {
+            format!("--runs-at-gaps: {n} runs between the time gaps")
+        } else {
+            "--runs-at-gaps: no time gap cuts a run; the runs are as read".to_string()
+        }
+    });
+    let (split, split_note) = split_of(args, table)?;
+    let note = match (gap_note, split_note) {
+        (Some(g), Some(s)) => Some(format!("{g}; {s}")),
+        (g, s) => g.or(s),
+    };
+    Ok((split, note))
 }
 
 /// The train/test split the options ask for, and a note when it was chosen by default.
@@ -499,20 +526,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &sheets,
         &args.target_data,
     )?;
-    let gap_note = args.runs_at_gaps.then(|| {
-        let before = table.run_count();
-        let n = table.make_segments_runs();
-        if n > before {
-            format!("--runs-at-gaps: {n} runs between the time gaps")
-        } else {
-            "--runs-at-gaps: no time gap cuts a run; the runs are as read".to_string()
-        }
-    });
-    let (split, split_note) = split_of(&args, &table)?;
-    let split_note = match (gap_note, split_note) {
-        (Some(g), Some(s)) => Some(format!("{g}; {s}")),
-        (g, s) => g.or(s),
-    };
+    let (split, split_note) = runs_and_split(&args, &mut table)?;
     let opts = options(&args, &split);
     opts.check()?;
     let (id, base) = identify_with_floor(&table, &opts)?;

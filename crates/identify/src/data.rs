@@ -1210,8 +1210,16 @@ impl Reader<'_> {
             true => None,
             false => crate::preamble::find(
                 text,
-                sel,
-                self.opts.sample_interval_s.is_none(),
+                &crate::preamble::Wanted {
+                    time: self
+                        .opts
+                        .sample_interval_s
+                        .is_none()
+                        .then_some(sel.time.as_str()),
+                    run: sel.run.as_deref(),
+                    inputs: &sel.inputs,
+                    targets: &sel.targets,
+                },
                 self.opts.delimiter.or(hint),
             ),
         };

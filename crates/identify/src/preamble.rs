@@ -13,7 +13,6 @@
 //! line naming the time column is taken for the header (when the first line does not), so
 //! that the reader's error names the column that header lacks.
 
-use crate::data::Selection;
 use globset::Glob;
 
 /// Lines searched for the header when the first line is not it.
@@ -68,22 +67,35 @@ fn matches(pattern: &str, header: &[String]) -> Vec<usize> {
     }
 }
 
+/// The columns a log's reader looks for (borrowed from its selection).
+#[derive(Debug, Clone, Copy)]
+pub struct Wanted<'a> {
+    /// The time column (or `DATE+TIME`); None when the log has a sample interval instead.
+    pub time: Option<&'a str>,
+    /// The run column, if any.
+    pub run: Option<&'a str>,
+    /// Input names or glob patterns.
+    pub inputs: &'a [String],
+    /// Target names or glob patterns.
+    pub targets: &'a [String],
+}
+
 /// The selected input and target columns of `header`, or None when a selected column is
 /// missing from it.
-fn selected(header: &[String], sel: &Selection, timed: bool) -> Option<Vec<usize>> {
-    if timed && !header.contains(&sel.time) {
-        let (d, t) = sel.time.split_once('+')?;
+fn selected(header: &[String], w: &Wanted) -> Option<Vec<usize>> {
+    if let Some(time) = w.time.filter(|t| !header.iter().any(|h| h == t)) {
+        let (d, t) = time.split_once('+')?;
         if !(header.iter().any(|h| h == d) && header.iter().any(|h| h == t)) {
             return None;
         }
     }
-    if let Some(run) = &sel.run {
-        if !header.contains(run) {
+    if let Some(run) = w.run {
+        if !header.iter().any(|h| h == run) {
             return None;
         }
     }
     let mut cols = Vec::new();
-    for p in sel.inputs.iter().chain(&sel.targets) {
+    for p in w.inputs.iter().chain(w.targets) {
         let m = matches(p, header);
         if m.is_empty() {
             return None;
@@ -111,9 +123,8 @@ fn shown(line: &str) -> String {
 
 /// Title lines above the header and a units row under it, when `text` (one log, its BOM
 /// removed) has them; None when the first non-blank line is the header and no units row
-/// follows (the text is then read as it is). `timed`: the log has a time column (no
-/// sample interval); `delimiter`: the one the user forced, if any.
-pub fn find(text: &str, sel: &Selection, timed: bool, delimiter: Option<u8>) -> Option<Preamble> {
+/// follows (the text is then read as it is). `delimiter`: the one the user forced, if any.
+pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamble> {
     let lines: Vec<&str> = text
         .split('\n')
         .take(MAX_TITLE_LINES + 2)
@@ -122,7 +133,7 @@ pub fn find(text: &str, sel: &Selection, timed: bool, delimiter: Option<u8>) -> 
     let first = lines.iter().position(|l| !l.trim().is_empty())?;
     let header_at = |k: usize| {
         let d = line_delimiter(lines[k], delimiter);
-        selected(&fields(lines[k], d), sel, timed).map(|c| (d, c))
+        selected(&fields(lines[k], d), wanted).map(|c| (d, c))
     };
     let search =
         || (first + 1..lines.len().min(MAX_TITLE_LINES)).filter(|&k| !lines[k].trim().is_empty());
@@ -131,11 +142,9 @@ pub fn find(text: &str, sel: &Selection, timed: bool, delimiter: Option<u8>) -> 
     let time_header = |k: usize| {
         let d = line_delimiter(lines[k], delimiter);
         let f = fields(lines[k], d);
-        let time = sel
-            .time
-            .split_once('+')
-            .map_or(sel.time.as_str(), |(d, _)| d);
-        (timed && f.iter().any(|h| h == &sel.time || h == time)).then_some(())?;
+        let full = wanted.time?;
+        let time = full.split_once('+').map_or(full, |(d, _)| d);
+        f.iter().any(|h| h == full || h == time).then_some(())?;
         Some((d, Vec::new()))
     };
     let (head, (d, cols)) = match header_at(first) {
@@ -207,32 +216,47 @@ pub fn find(text: &str, sel: &Selection, timed: bool, delimiter: Option<u8>) -> 
 mod tests {
     use super::*;
 
-    fn sel(time: &str, inputs: &[&str], targets: &[&str]) -> Selection {
-        Selection {
-            time: time.into(),
-            inputs: inputs.iter().map(|s| s.to_string()).collect(),
-            targets: targets.iter().map(|s| s.to_string()).collect(),
+    /// The columns wanted, from owned pattern lists (kept alive by the caller).
+    fn owned(inputs: &[&str], targets: &[&str]) -> (Vec<String>, Vec<String>) {
+        (
+            inputs.iter().map(|s| s.to_string()).collect(),
+            targets.iter().map(|s| s.to_string()).collect(),
+        )
+    }
+
+    fn find_in(
+        text: &str,
+        time: Option<&str>,
+        inputs: &[&str],
+        targets: &[&str],
+    ) -> Option<Preamble> {
+        let (i, t) = owned(inputs, targets);
+        let w = Wanted {
+            time,
             run: None,
-        }
+            inputs: &i,
+            targets: &t,
+        };
+        find(text, &w, None)
     }
 
     #[test]
     fn plain_logs_are_read_as_they_are() {
-        let s = sel("time_s", &["*_c"], &["*_um"]);
-        assert_eq!(find("time_s,a_c,y_um\n0,1,2\n", &s, true, None), None);
-        assert_eq!(find("time_s;a_c;y_um\r\n0;1,5;2\r\n", &s, true, None), None);
+        let (c, u) = (&["*_c"][..], &["*_um"][..]);
+        let t = Some("time_s");
+        assert_eq!(find_in("time_s,a_c,y_um\n0,1,2\n", t, c, u), None);
+        assert_eq!(find_in("time_s;a_c;y_um\r\n0;1,5;2\r\n", t, c, u), None);
         // A header that lacks a selected column is left to the reader's own error.
-        assert_eq!(find("time_s,a_c\n0,1\n", &s, true, None), None);
+        assert_eq!(find_in("time_s,a_c\n0,1\n", t, c, u), None);
         // Missing cells under the header are data, not units.
-        assert_eq!(find("time_s,a_c,y_um\n0,,\n", &s, true, None), None);
+        assert_eq!(find_in("time_s,a_c,y_um\n0,,\n", t, c, u), None);
     }
 
     #[test]
     fn title_lines_and_a_units_row_become_blank_lines() {
-        let s = sel("Zeit", &["T*"], &["D"]);
         let text =
             "Maschine: LC 380;;\nPrüfung: Warmlauf\n\nZeit;T1;T2;D\ns;°C;°C;µm\n0;20,5;21;3\n";
-        let p = find(text, &s, true, None).unwrap();
+        let p = find_in(text, Some("Zeit"), &["T*"], &["D"]).unwrap();
         assert_eq!(p.text, "\n\n\nZeit;T1;T2;D\n\n0;20,5;21;3\n");
         assert_eq!(p.skipped.len(), 2);
         assert_eq!(p.skipped[0].0, 1);
@@ -242,22 +266,11 @@ mod tests {
         assert_eq!(p.skipped[1].0, 5);
         assert!(p.skipped[1].1.contains("units row"), "{:?}", p.skipped);
         // Only a units row.
-        let p = find(
-            "t,a_c,y_um\r\n[s],[degC],[um]\r\n0,1,2\r\n",
-            &sel("t", &["*_c"], &["y_um"]),
-            true,
-            None,
-        )
-        .unwrap();
+        let text = "t,a_c,y_um\r\n[s],[degC],[um]\r\n0,1,2\r\n";
+        let p = find_in(text, Some("t"), &["*_c"], &["y_um"]).unwrap();
         assert_eq!(p.text, "t,a_c,y_um\r\n\n0,1,2\r\n");
         // A sample interval: no time column needed to find the header.
-        let p = find(
-            "title\na_c,y_um\n1,2\n",
-            &sel("time_s", &["a_c"], &["y_um"]),
-            false,
-            None,
-        )
-        .unwrap();
+        let p = find_in("title\na_c,y_um\n1,2\n", None, &["a_c"], &["y_um"]).unwrap();
         assert_eq!(p.text, "\na_c,y_um\n1,2\n");
     }
 }
