@@ -485,13 +485,7 @@ mod tests {
 
     #[test]
     fn correlation_matrix_and_pearson_are_the_pairwise_definition_bit_for_bit() {
-        let mut s = 99u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_uniform(99);
         for c in 1..=11 {
             for n in [2, 3, 7, 250] {
                 // Columns sharing a drift (strongly correlated, large offsets) plus noise.

@@ -315,13 +315,7 @@ mod tests {
     /// outside the ranges and above the bound.
     #[test]
     fn every_row_at_once_is_the_engine_row_by_row() {
-        let mut s = 7u64;
-        let mut next = move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_uniform(7);
         for case in 0..12 {
             let (n, c) = (40 + 13 * case, 1 + case % 4);
             let drift: Vec<f64> = (0..n).map(|i| (i as f64 * 0.05).sin()).collect();
@@ -442,13 +436,6 @@ mod tests {
             .sum()
     }
 
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
         /// The envelope's leverage 1/n + d²/(n − 1) is the fitted model's own leverage, for
@@ -464,9 +451,10 @@ mod tests {
             k_pick in 0usize..8,
             collinear in any::<bool>(),
         ) {
-            let mut s = seed | 1;
+            let mut u = crate::test_uniform(seed | 1);
+            let mut lcg = move || u() - 0.5;
             let mut cols: Vec<Vec<f64>> = (0..p)
-                .map(|j| (0..n).map(|_| 20.0 + (j + 1) as f64 * lcg(&mut s)).collect())
+                .map(|j| (0..n).map(|_| 20.0 + (j + 1) as f64 * lcg()).collect())
                 .collect();
             // Shrunk fits stay well defined on nearly collinear regressors.
             let kind = match kind_pick {
@@ -476,7 +464,7 @@ mod tests {
             };
             if collinear && p > 1 && matches!(kind, FitKind::Ridge(_)) {
                 let c0 = cols[0].clone();
-                cols[p - 1] = c0.iter().map(|v| v + 1e-4 * lcg(&mut s)).collect();
+                cols[p - 1] = c0.iter().map(|v| v + 1e-4 * lcg()).collect();
             }
             let (table, model) = table_and_model(&cols);
             let train = vec![true; n];
@@ -494,7 +482,7 @@ mod tests {
             let bound = 1.0 / n as f64 + env.max_d2 / (n - 1) as f64;
             prop_assert!((bound - max_h).abs() <= 1e-7 * max_h, "{} vs {}", bound, max_h);
             for _ in 0..4 {
-                let x: Vec<f64> = (0..p).map(|j| 20.0 + 4.0 * (j + 1) as f64 * lcg(&mut s)).collect();
+                let x: Vec<f64> = (0..p).map(|j| 20.0 + 4.0 * (j + 1) as f64 * lcg()).collect();
                 let want = leverage_by_unit_fits(&cols, kind, &x);
                 let got = env.leverage(&x);
                 prop_assert!((got - want).abs() <= 1e-7 * want, "{:?}: {} vs {}", x, got, want);

@@ -45,6 +45,19 @@ pub mod stack;
 pub mod transform;
 pub mod workpiece;
 
+/// Seeded uniform numbers in [0, 1) for the unit tests: Knuth's MMIX linear congruential
+/// generator, its top 53 bits.
+#[cfg(test)]
+pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 pub use error::{IdentifyError, Result};
 
 pub use fit::{

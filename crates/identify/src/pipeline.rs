@@ -918,13 +918,8 @@ mod tests {
     /// of each row, bit for bit.
     #[test]
     fn floor_residuals_are_predict_row_by_row() {
-        let mut s = 3u64;
-        let mut next = move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 20.0
-        };
+        let mut u = crate::test_uniform(3);
+        let mut next = move || u() * 40.0 - 20.0;
         for c in 0..6 {
             let n = 50 + 7 * c;
             let cols: Vec<Vec<f64>> = (0..c).map(|_| (0..n).map(|_| next()).collect()).collect();

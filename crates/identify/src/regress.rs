@@ -408,13 +408,8 @@ mod tests {
 
     #[test]
     fn fitted_values_from_the_columns_are_the_design_times_b() {
-        let mut s = 11u64;
-        let mut next = move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 60.0 - 30.0
-        };
+        let mut u = crate::test_uniform(11);
+        let mut next = move || u() * 60.0 - 30.0;
         for c in 0..7 {
             let n = 20 + 9 * c;
             let cols: Vec<Vec<f64>> = (0..c).map(|_| (0..n).map(|_| next()).collect()).collect();
