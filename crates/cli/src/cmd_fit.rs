@@ -72,7 +72,8 @@ impl From<FamilyArg> for Family {
     }
 }
 
-/// Rows with an empty or NaN cell in a used column (`--missing`).
+/// Rows with an empty or NaN cell in a used input column (`--missing`); an empty target cell
+/// is a row without a measurement, read in either case.
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum MissingArg {
     /// Such a row is a bad row: the fit stops (or drops it with --skip-bad-rows).
@@ -228,7 +229,9 @@ pub struct Args {
     /// Numbers use a decimal comma (20,125). Default: detected on the data of ';' or tab logs.
     #[arg(long)]
     pub decimal_comma: bool,
-    /// Rows with an empty or NaN cell in a used input or target column (sensor dropouts).
+    /// Rows with an empty or NaN cell in a used input column (sensor dropouts). An empty or
+    /// NaN target cell is a row without a measurement (a probe every few minutes): kept, it
+    /// drives the filters and lags but is neither fitted nor scored.
     #[arg(long, value_enum, default_value = "error")]
     pub missing: MissingArg,
     /// Axis name of each target's model, in target order (default: the target's name).

@@ -167,7 +167,8 @@ pub struct Table {
     pub inputs: Vec<Vec<f64>>,
     /// Names of the target columns.
     pub target_names: Vec<String>,
-    /// Target columns.
+    /// Target columns; NaN on the rows where a target was not measured (an empty or NaN
+    /// cell: see [`Table::measured`]).
     pub targets: Vec<Vec<f64>>,
     /// Run of each row (index into `run_names`), when the data has runs (a run column or
     /// several files).
@@ -213,6 +214,48 @@ impl Table {
             })
             .collect();
         (lines.len(), lines.into_iter().take(10).collect())
+    }
+
+    /// The rows on which every target was measured. A log often probes the displacement
+    /// every few minutes while it writes the temperatures every few seconds: the other
+    /// rows hold NaN in a target, still drive every filter, lag and transfer function at
+    /// the full rate, and are neither fitted nor scored.
+    pub fn measured(&self) -> Vec<bool> {
+        (0..self.time_s.len())
+            .map(|i| self.targets.iter().all(|y| y[i].is_finite()))
+            .collect()
+    }
+
+    /// The note on targets not measured on every row (`None` when each is): how many rows
+    /// each is measured on and what the other rows do.
+    pub fn measured_note(&self) -> Option<String> {
+        let n = self.time_s.len();
+        let counts: Vec<usize> = self
+            .targets
+            .iter()
+            .map(|y| y.iter().filter(|v| v.is_finite()).count())
+            .collect();
+        if counts.iter().all(|&c| c == n) {
+            return None;
+        }
+        let each: Vec<String> = self
+            .target_names
+            .iter()
+            .zip(&counts)
+            .map(|(name, c)| format!("{name} on {c}"))
+            .collect();
+        let all = self.measured().iter().filter(|&&m| m).count();
+        let both = if self.targets.len() > 1 && counts.iter().any(|&c| c != all) {
+            format!(
+                "; {all} rows have every target, and only those are fitted and scored (fit the targets one at a time to use every measurement)"
+            )
+        } else {
+            String::new()
+        };
+        Some(format!(
+            "targets measured on some rows only ({} of {n} rows){both}: the rows without a target value drive the filters, lags and transfer functions at the full rate and are neither fitted nor scored",
+            each.join(", ")
+        ))
     }
 
     /// Number of runs (1 without run information).
@@ -1187,6 +1230,15 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
     if t.runs.is_none() && names.len() > 1 {
         return Err(invalid("data", "several files", "one run per file"));
     }
+    for (name, y) in t.target_names.iter().zip(&t.targets) {
+        if !y.iter().any(|v| v.is_finite()) {
+            return Err(invalid(
+                &format!("target {name}"),
+                "empty or NaN on every row",
+                "a target column with a measured value on at least some rows",
+            ));
+        }
+    }
     Ok(t)
 }
 
@@ -1524,14 +1576,20 @@ impl Reader<'_> {
         let this_ordinal = st.ordinal;
         st.ordinal += 1;
         let dc = c.dialect.decimal_comma;
-        // Every used cell: the first failure decides the reason (inputs, then targets).
+        // Every used cell: the first failure decides the reason (inputs, then targets). An
+        // empty or NaN target cell is a target not measured on this row (a displacement
+        // probed every few minutes in a log of temperatures every few seconds): the row is
+        // kept with NaN there, and drives the filters and lags without being fitted or
+        // scored (`Table::measured`).
         let mut vals = Vec::with_capacity(c.input_idx.len() + c.target_idx.len());
         let mut first: Option<CellError> = None;
         let mut first_bad: Option<String> = None;
-        for i in c.input_idx.iter().chain(&c.target_idx) {
+        let n_in = c.input_idx.len();
+        for (k, i) in c.input_idx.iter().chain(&c.target_idx).enumerate() {
             let s = rec.get(*i).copied().unwrap_or("");
             match dialect::parse_number(s, &c.header[*i], dc) {
                 Ok(v) => vals.push(v),
+                Err(CellError::Missing(_)) if k >= n_in => vals.push(f64::NAN),
                 Err(e) => {
                     if let (CellError::Bad(b), None) = (&e, &first_bad) {
                         first_bad = Some(b.clone());
@@ -1824,7 +1882,8 @@ mod tests {
                 },
             )
             .map_err(|e| e.to_string());
-            assert_eq!(fast, slow, "seed {seed}");
+            // Debug text: an unmeasured target is NaN in both (NaN ≠ NaN for PartialEq).
+            assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "seed {seed}");
         }
     }
 
@@ -2069,6 +2128,65 @@ mod tests {
         assert!(e.to_string().contains("\"x*\" not found"), "{e}");
     }
 
+    /// A target cell left empty or NaN is a target not measured on that row: the row is kept
+    /// (time and inputs as written, NaN in that target), splits nothing, is not a bad row,
+    /// and `measured` / `measured_note` say so; an empty input cell is still a bad row; a
+    /// target with no value on any row is refused, naming it.
+    #[test]
+    fn an_empty_target_cell_is_a_row_without_a_measurement() {
+        let text = "time_s,a_c,b_c,d_um,e_um\n0,1,2,5,1\n15,1.5,2,,\n30,2,2.5,NaN,2\n45,2,3,7,3\n60,2.5,3,8,\n75,3,3.5,9,4\n";
+        let t = read_csv(
+            text,
+            "log.csv",
+            &sel(&["*_c"], &["*_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(t.time_s, [0.0, 15.0, 30.0, 45.0, 60.0, 75.0]);
+        assert_eq!(t.inputs[0], [1.0, 1.5, 2.0, 2.0, 2.5, 3.0]);
+        assert_eq!(t.segments, [0]);
+        assert!(t.issues.is_empty(), "{:?}", t.issues);
+        let nan = |v: &[f64]| v.iter().map(|x| x.is_nan()).collect::<Vec<_>>();
+        assert_eq!(nan(&t.targets[0]), [false, true, true, false, false, false]);
+        assert_eq!(nan(&t.targets[1]), [false, true, false, false, true, false]);
+        assert_eq!(t.measured(), [true, false, false, true, false, true]);
+        let note = t.measured_note().unwrap();
+        assert!(note.contains("d_um on 4, e_um on 4 of 6 rows"), "{note}");
+        assert!(note.contains("3 rows have every target"), "{note}");
+        // One target: every row of it measured, no note.
+        let one = read_csv(
+            text,
+            "log.csv",
+            &sel(&["*_c"], &["d_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap();
+        assert!(one.measured_note().is_some());
+        let full = "time_s,a_c,d_um\n0,1,5\n15,2,6\n30,3,7\n";
+        let f = read_csv(full, "f", &sel(&["a_c"], &["d_um"]), ReadOptions::default()).unwrap();
+        assert_eq!((f.measured(), f.measured_note()), (vec![true; 3], None));
+        // An empty input is a sensor dropout, as before.
+        let e = read_csv(
+            "time_s,a_c,d_um\n0,1,5\n15,,6\n30,3,7\n",
+            "f",
+            &sel(&["a_c"], &["d_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("line(s) 3") && e.contains("a_c is empty"), "{e}");
+        // A target never measured is refused by name.
+        let e = read_csv(
+            "time_s,a_c,d_um\n0,1,\n15,2,NaN\n30,3,\n",
+            "f",
+            &sel(&["a_c"], &["d_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("target d_um") && e.contains("every row"), "{e}");
+    }
+
     /// CRLF line ends (the FL_THERMAL log has them) give the same line numbers as LF.
     #[test]
     fn bad_row_lines_are_the_same_for_crlf_files() {
@@ -2088,7 +2206,7 @@ mod tests {
 
     #[test]
     fn bad_rows_are_listed_by_line_and_never_dropped_silently() {
-        let text = "time_s,a_c,d_um\n0,1,5\n15,oops,6\n30,2\n45,2,\n20,3,8\n10,3,8\n60,3,NaN\n100,4,9\n115,4,9\n130,4,9\n";
+        let text = "time_s,a_c,d_um\n0,1,5\n15,oops,6\n30,2\n45,,7\n20,3,8\n10,3,8\n60,NaN,8\n100,4,9\n115,4,9\n130,4,9\n";
         let e = read_csv(
             text,
             "log.csv",

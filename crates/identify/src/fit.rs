@@ -204,6 +204,9 @@ pub struct Identification {
     pub dendrogram: Dendrogram,
     /// Whether each row trains.
     pub train: Vec<bool>,
+    /// Whether each row is a test row: not training, and every target measured on it
+    /// ([`crate::data::Table::measured`]).
+    pub test: Vec<bool>,
     /// Validation fold of each row (training rows only).
     pub fold: Vec<Option<usize>>,
     /// One model per target.
@@ -296,10 +299,12 @@ impl Identification {
 }
 
 pub(crate) fn rmse_where(e: &[f64], mask: &[bool], want: bool) -> Option<f64> {
+    // A residual is NaN exactly where the target was not measured (`Table::measured`;
+    // the inputs are finite on every row): such rows are not scored.
     let (s, n) = e
         .iter()
         .zip(mask)
-        .filter(|(_, &m)| m == want)
+        .filter(|(v, &m)| m == want && v.is_finite())
         .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
     (n > 0).then(|| (s / n as f64).sqrt())
 }

@@ -71,7 +71,18 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
         }
         Split::None => vec![true; table.time_s.len()],
     };
+    // Only rows with every target measured are fitted and scored (`Table::measured`).
+    let measured = table.measured();
+    let sparse = measured.iter().any(|&m| !m);
+    let mask: Vec<bool> = mask.iter().zip(&measured).map(|(&a, &b)| a && b).collect();
     let n = mask.iter().filter(|&&m| m).count();
+    if n < 10 && sparse && !matches!(split, Split::None) {
+        return Err(invalid(
+            "training rows",
+            format!("{n} with every target measured"),
+            "at least 10 training rows on which every target has a value",
+        ));
+    }
     if n < 10 {
         // Name the option that left too few training rows (issue 12 shapes: "training rows
         // of the split: 0 row(s)" did not say that --test-runs named every run).
@@ -97,6 +108,16 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
         });
     }
     Ok(mask)
+}
+
+/// The test rows: the rows of neither training (`train`, from [`train_mask`]) nor a
+/// target left unmeasured ([`Table::measured`]).
+pub fn test_mask(table: &Table, train: &[bool]) -> Vec<bool> {
+    train
+        .iter()
+        .zip(table.measured())
+        .map(|(&t, m)| !t && m)
+        .collect()
 }
 
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
@@ -287,6 +308,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     let train = train_mask(table, &opts.split)?;
     let (reduced, mut notes) = drop_degenerate_inputs(table, &train);
     notes.extend(split_runs_note(table));
+    notes.extend(table.measured_note());
     let table = &reduced;
     let c = table.inputs.len();
     if c == 0 {
@@ -503,10 +525,12 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             "contiguous time block"
         },
     );
+    let test = crate::pipeline::test_mask(table, &train);
     Ok(Identification {
         correlation: corr,
         dendrogram,
         train,
+        test,
         fold,
         targets: out,
         method,

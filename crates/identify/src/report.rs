@@ -96,13 +96,13 @@ pub struct Extrapolation {
 }
 
 impl Extrapolation {
-    /// Counts from the training mask `train` and the per-row `outside` flags and interval
+    /// Counts from the test-row mask `test` and the per-row `outside` flags and interval
     /// half-widths of a model (a missing `outside` entry counts as inside).
-    pub fn of(train: &[bool], outside: &[bool], interval_um: &[f64]) -> Self {
+    pub fn of(test: &[bool], outside: &[bool], interval_um: &[f64]) -> Self {
         let mut test_rows = 0;
         let mut outside_rows = 0;
-        for (i, &tr) in train.iter().enumerate() {
-            if !tr {
+        for (i, &te) in test.iter().enumerate() {
+            if te {
                 test_rows += 1;
                 outside_rows += usize::from(outside.get(i).copied().unwrap_or(false));
             }
@@ -121,7 +121,7 @@ impl Extrapolation {
 
     /// The counts of a target model of `id`.
     pub fn of_model(id: &Identification, m: &TargetModel) -> Self {
-        Self::of(&id.train, &m.outside, &m.interval_um)
+        Self::of(&id.test, &m.outside, &m.interval_um)
     }
 }
 
@@ -214,7 +214,7 @@ impl FitReport<'_> {
             table.inputs.len(),
             table.targets.len(),
             n_train,
-            table.time_s.len() - n_train
+            id.test.iter().filter(|&&t| t).count()
         );
         if let Some(n) = self.split_note {
             let _ = writeln!(out, "  note: {n}");
@@ -342,7 +342,7 @@ impl FitReport<'_> {
             "data": self.data_name,
             "rows": table.time_s.len(),
             "training_rows": n_train,
-            "test_rows": table.time_s.len() - n_train,
+            "test_rows": id.test.iter().filter(|&&t| t).count(),
             "runs": table.run_names,
             "inputs": id.input_names,
             "notes": id.notes,
@@ -509,6 +509,8 @@ impl FitReport<'_> {
             .iter()
             .zip(self.table.targets[j].iter().zip(&m.predicted))
             .map(|(h, (y, p))| (*h, y - p))
+            // Rows without a measured target have no residual.
+            .filter(|(_, e)| e.is_finite())
             .collect();
         r.chart(
             &Chart::new(
@@ -525,7 +527,13 @@ impl FitReport<'_> {
     /// the training envelope.
     fn prediction_chart(&self, hours: &[f64], j: usize, m: &TargetModel) -> Chart {
         let along = |ys: &[f64]| -> Vec<(f64, f64)> {
-            let pts = hours.iter().copied().zip(ys.iter().copied()).collect();
+            // Rows without a measured target are not drawn (NaN there).
+            let pts = hours
+                .iter()
+                .copied()
+                .zip(ys.iter().copied())
+                .filter(|(_, y)| y.is_finite())
+                .collect();
             thin(pts, MAX_LINE_POINTS)
         };
         let band = |sign: f64| -> Vec<(f64, f64)> {
@@ -679,7 +687,7 @@ mod tests {
     fn extrapolation_counts_only_test_rows() {
         // Rows 0, 1 train; rows 2, 3, 4 test; rows 1, 2, 4 outside → 2 test rows outside.
         let e = Extrapolation::of(
-            &[true, true, false, false, false],
+            &[false, false, true, true, true],
             &[false, true, true, false, true],
             &[1.0, 2.0, 3.0, 4.0, 6.0],
         );
@@ -688,7 +696,7 @@ mod tests {
         // (1 + 2 + 3 + 4 + 6) / 5 = 3.2, over every row.
         assert!((e.mean_half_width_um - 3.2).abs() < 1e-15);
         // Missing flags count as inside; no intervals → NaN.
-        let e = Extrapolation::of(&[false, false], &[true], &[]);
+        let e = Extrapolation::of(&[true, true], &[true], &[]);
         assert_eq!((e.test_rows, e.outside_rows), (2, 1));
         assert!(e.mean_half_width_um.is_nan());
     }

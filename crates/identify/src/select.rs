@@ -1502,10 +1502,12 @@ pub fn identify_auto(
         opts.max_sensors
     );
     let fold: Vec<Option<usize>> = scheme.block.clone();
+    let test = crate::pipeline::test_mask(table, &train);
     Ok(Identification {
         correlation: corr,
         dendrogram,
         train,
+        test,
         fold,
         targets: out,
         method,

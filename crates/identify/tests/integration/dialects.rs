@@ -347,7 +347,10 @@ proptest! {
         let mut cells: Vec<Vec<String>> = (0..rows).map(|k| vec![
             format!("{}", log.t[k]), format!("{}", log.a[k]), "NaN".into(), format!("{}", log.b[k]), format!("{}", log.d[k]),
         ]).collect();
+        // A hole in an input (a_c, b_c) is a sensor dropout; one in the target (d_um) is a
+        // row without a measurement, kept with NaN there.
         let mut left_out: Vec<usize> = Vec::new();
+        let mut unmeasured: Vec<usize> = Vec::new();
         for (p, how) in &holes {
             let k = (p % rows as u64) as usize;
             let col = [1, 3, 4][(p >> 32) as usize % 3];
@@ -355,20 +358,29 @@ proptest! {
             if how >= &2 {
                 cells[k][2] = String::new();
             }
-            if !left_out.contains(&k) {
-                left_out.push(k);
+            let list = if col == 4 { &mut unmeasured } else { &mut left_out };
+            if !list.contains(&k) {
+                list.push(k);
             }
         }
         left_out.sort_unstable();
+        unmeasured.retain(|k| !left_out.contains(k));
         let text = format!("time_s,a_c,note,b_c,d_um\n{}",
             cells.iter().map(|c| c.join(",") + "\n").collect::<String>());
-        let e = read(&text, ReadOptions::default()).unwrap_err();
-        prop_assert!(e.contains("--missing split"), "{e}");
-        let sep = if left_out.len() > 1 { "," } else { ":" };
-        prop_assert!(e.contains(&format!("at line(s) {}{sep}", left_out[0] + 2)), "{e}");
         let kept: Vec<usize> = (0..rows).filter(|k| !left_out.contains(k)).collect();
+        let any_measured = kept.iter().any(|k| !unmeasured.contains(k));
+        let plain = read(&text, ReadOptions::default());
+        if left_out.is_empty() {
+            // Only targets missing: every row is read, nothing split.
+            prop_assert_eq!(plain.is_ok(), any_measured, "{:?}", plain.as_ref().err());
+        } else {
+            let e = plain.unwrap_err();
+            prop_assert!(e.contains("--missing split"), "{e}");
+            let sep = if left_out.len() > 1 { "," } else { ":" };
+            prop_assert!(e.contains(&format!("at line(s) {}{sep}", left_out[0] + 2)), "{e}");
+        }
         let got = read(&text, ReadOptions { missing: MissingCells::Split, ..ReadOptions::default() });
-        if kept.len() < 3 {
+        if kept.len() < 3 || !any_measured {
             prop_assert!(got.is_err());
             return Ok(());
         }
@@ -376,7 +388,9 @@ proptest! {
         prop_assert_eq!(&t.time_s, &kept.iter().map(|&k| log.t[k]).collect::<Vec<_>>());
         prop_assert_eq!(&t.inputs[0], &kept.iter().map(|&k| log.a[k]).collect::<Vec<_>>());
         prop_assert_eq!(&t.inputs[1], &kept.iter().map(|&k| log.b[k]).collect::<Vec<_>>());
-        prop_assert_eq!(&t.targets[0], &kept.iter().map(|&k| log.d[k]).collect::<Vec<_>>());
+        let want_d: Vec<Option<f64>> = kept.iter().map(|&k| (!unmeasured.contains(&k)).then_some(log.d[k])).collect();
+        let got_d: Vec<Option<f64>> = t.targets[0].iter().map(|&v| v.is_finite().then_some(v)).collect();
+        prop_assert_eq!(&got_d, &want_d);
         prop_assert_eq!(&t.lines, &kept.iter().map(|&k| k as u64 + 2).collect::<Vec<_>>());
         // A segment starts at the first kept row and at every kept row after a hole.
         let segments: Vec<usize> = (0..kept.len()).filter(|&j| j == 0 || kept[j - 1] + 1 != kept[j]).collect();

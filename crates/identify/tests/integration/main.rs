@@ -14,5 +14,6 @@ mod properties;
 mod runs;
 mod seed003;
 mod shapes;
+mod sparse_targets;
 mod spreadsheets;
 mod stack;

@@ -224,7 +224,7 @@ fn ods_and_xls_workbooks_equal_their_csv() {
 }
 
 /// Error, empty and text cells are named by sheet and cell; a number written as text is a
-/// number.
+/// number; an empty target cell is a row without a measurement (kept, NaN there).
 #[test]
 fn bad_cells_name_the_sheet_and_the_cell() {
     let path = fixture("cells.xlsx");
@@ -240,7 +240,7 @@ fn bad_cells_name_the_sheet_and_the_cell() {
     let e = read(ReadOptions::default()).unwrap_err().to_string();
     assert!(
         e.starts_with(&format!(
-            "{}: 3 bad row(s) at line(s) 10, 12, 17: Sheet 'day 3' cell B10: a_c is empty",
+            "{}: 2 bad row(s) at line(s) 10, 17: Sheet 'day 3' cell B10: a_c is empty",
             path.display()
         )),
         "{e}"
@@ -252,21 +252,20 @@ fn bad_cells_name_the_sheet_and_the_cell() {
     })
     .unwrap();
     let issues: Vec<String> = t.issues.iter().map(|i| i.to_string()).collect();
-    assert_eq!(issues.len(), 3, "{issues:?}");
-    assert!(
-        issues[1].starts_with("line 12: bad row: Sheet 'day 3' cell D12: d_um is empty"),
-        "{issues:?}"
-    );
+    assert_eq!(issues.len(), 2, "{issues:?}");
+    let row12 = t.lines.iter().position(|&l| l == 12).unwrap();
+    assert!(t.targets[0][row12].is_nan());
+    assert_eq!(t.measured().iter().filter(|&&m| !m).count(), 1);
     assert_eq!(
-        issues[2],
+        issues[1],
         "line 17: bad row: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number"
     );
     // Row 5's b_c is the text "21.5"; the value of row k (sheet row k + 2) is 21 + 0.05 k².
     let row5 = t.lines.iter().position(|&l| l == 5).unwrap();
     assert_eq!(t.inputs[1][row5], 21.5);
     assert_eq!(t.inputs[1][0], 21.0);
-    assert_eq!(t.time_s.len(), 17);
-    // --missing split: the error and the empty cell split the run; the text cell is still a
+    assert_eq!(t.time_s.len(), 18);
+    // --missing split: the error cell of an input splits the run; the text cell is still a
     // bad row.
     let e = read(ReadOptions {
         missing: MissingCells::Split,
@@ -292,12 +291,8 @@ fn bad_cells_name_the_sheet_and_the_cell() {
         .filter(|i| matches!(i, DataIssue::Missing { .. }))
         .map(|i| i.to_string())
         .collect();
-    assert_eq!(missing.len(), 2, "{missing:?}");
+    assert_eq!(missing.len(), 1, "{missing:?}");
     assert!(missing[0].starts_with("line 10: left out (Sheet 'day 3' cell B10: a_c is empty (the cell holds the error #DIV/0!);"), "{missing:?}");
-    assert!(
-        missing[1].starts_with("line 12: left out (Sheet 'day 3' cell D12: d_um is empty;"),
-        "{missing:?}"
-    );
 }
 
 /// `--no-header`: a header-less CSV and a header-less sheet read as the CSV with a header,

@@ -1,0 +1,220 @@
+//! Targets measured on some rows only: a thermal test that probes the displacement every few
+//! minutes while it logs the temperatures every few seconds. The rows without a target value
+//! drive every filter and lag at the full rate; they are neither fitted nor scored.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
+use gearcomp_identify::select::Family;
+use gearcomp_identify::{identify, predict, IdentifyOptions, Split};
+use proptest::prelude::*;
+
+/// Independent reference for a first-order lag: τ·ẏ + y = u, u held at each new sample over
+/// the step that ends at it, y₀ = u₀ (the engine's convention), integrated by classical
+/// Runge–Kutta with 64 sub-steps per sample step.
+fn lag_rk4(t: &[f64], u: &[f64], tau: f64) -> Vec<f64> {
+    let mut y = u[0];
+    let mut out = vec![y];
+    for k in 1..t.len() {
+        let h = (t[k] - t[k - 1]) / 64.0;
+        let f = |y: f64| (u[k] - y) / tau;
+        for _ in 0..64 {
+            let k1 = f(y);
+            let k2 = f(y + 0.5 * h * k1);
+            let k3 = f(y + 0.5 * h * k2);
+            let k4 = f(y + h * k3);
+            y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        }
+        out.push(y);
+    }
+    out
+}
+
+/// A case: full-rate time and three temperatures (irregular steps of 5–20 s, warm-up ramps
+/// and cycles), the target y = c₀ + a·x₁ + b·lag(x₂, τ) at every row, and which rows keep
+/// their measurement.
+struct Case {
+    t: Vec<f64>,
+    x: [Vec<f64>; 3],
+    y: Vec<f64>,
+    keep: Vec<bool>,
+}
+
+fn case(seed: u64, n: usize, tau: f64, keep_every: usize) -> Case {
+    let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+    let mut uni = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut t = vec![0.0];
+    for _ in 1..n {
+        let last = *t.last().unwrap();
+        t.push(last + 5.0 + (15.0 * uni()).round());
+    }
+    let x: [Vec<f64>; 3] = std::array::from_fn(|k| {
+        let (rise, tr, amp, w, ph) = (
+            3.0 + 8.0 * uni(),
+            600.0 + 3000.0 * uni(),
+            0.5 + 2.0 * uni(),
+            2.0 * std::f64::consts::PI / (900.0 + 2700.0 * uni()),
+            6.0 * uni(),
+        );
+        t.iter()
+            .map(|&ti| {
+                20.0 + k as f64 + rise * (1.0 - (-ti / tr).exp()) + amp * (w * ti + ph).sin()
+            })
+            .collect()
+    });
+    let (c0, a, b) = (-40.0 + 80.0 * uni(), -3.0 + 6.0 * uni(), 2.0 + 6.0 * uni());
+    let lag = lag_rk4(&t, &x[1], tau);
+    let y: Vec<f64> = (0..n).map(|i| c0 + a * x[0][i] + b * lag[i]).collect();
+    // Measured every `keep_every` rows, with a random offset of the first.
+    let first = (uni() * keep_every as f64) as usize;
+    let keep: Vec<bool> = (0..n).map(|i| i % keep_every == first).collect();
+    Case { t, x, y, keep }
+}
+
+/// The log as CSV; `all` writes every row (the target empty where not measured), else only
+/// the measured rows (the log thinned to the probe's instants).
+fn csv(c: &Case, all: bool) -> String {
+    let mut s = String::from("time_s,a_c,b_c,c_c,y_um\n");
+    for i in 0..c.t.len() {
+        let y = if c.keep[i] {
+            format!("{}", c.y[i])
+        } else if all {
+            String::new()
+        } else {
+            continue;
+        };
+        s += &format!("{},{},{},{},{y}\n", c.t[i], c.x[0][i], c.x[1][i], c.x[2][i]);
+    }
+    s
+}
+
+fn read(text: &str) -> Table {
+    let sel = Selection {
+        targets: vec!["y_um".into()],
+        ..Selection::default()
+    };
+    read_csv(text, "log.csv", &sel, ReadOptions::default()).unwrap()
+}
+
+fn opts(families: &[Family], taus: &[f64]) -> IdentifyOptions {
+    IdentifyOptions {
+        families: families.to_vec(),
+        taus_s: taus.to_vec(),
+        split: Split::None,
+        ..IdentifyOptions::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// An exact lag law measured on one row in 6–15 is recovered at every row, the
+    /// unmeasured ones included, when the full-rate rows drive the lag (the reference is the
+    /// RK4 lag above); the same log thinned to the measured rows cannot recover it (its lag
+    /// sees one sample per probe interval).
+    #[test]
+    fn an_exact_lag_law_is_recovered_from_sparse_measurements(
+        seed in any::<u64>(),
+        n in 400usize..900,
+        tau in prop::sample::select(vec![300.0, 600.0, 1200.0]),
+        keep_every in 6usize..16,
+    ) {
+        let c = case(seed, n, tau, keep_every);
+        let full = read(&csv(&c, true));
+        prop_assert_eq!(full.time_s.len(), n);
+        prop_assert_eq!(full.segments.clone(), vec![0]);
+        let measured = c.keep.iter().filter(|&&k| k).count();
+        prop_assert_eq!(full.measured(), c.keep.clone());
+        let id = identify(&full, &opts(&[Family::LeadLag], &[tau])).unwrap();
+        prop_assert_eq!(id.train.iter().filter(|&&m| m).count(), measured);
+        prop_assert!(id.test.iter().all(|&t| !t));
+        let m = &id.targets[0];
+        let p = predict(&full, &m.model).unwrap();
+        let err = p.iter().zip(&c.y).map(|(p, y)| (p - y).abs()).fold(0.0, f64::max);
+        prop_assert!(err < 1e-6, "max error {err:e} µm over all {n} rows ({measured} measured)");
+        prop_assert!(m.train_rmse < 1e-6 && m.cv_rmse < 1e-6, "{} {}", m.train_rmse, m.cv_rmse);
+        prop_assert!(m.train_rmse.is_finite() && m.test_rmse.is_none());
+
+        // Thinned to the probe's instants, the lag is computed from those samples only.
+        let thin = read(&csv(&c, false));
+        let idt = identify(&thin, &opts(&[Family::LeadLag], &[tau])).unwrap();
+        let pt = predict(&full, &idt.targets[0].model).unwrap();
+        let err_thin = pt.iter().zip(&c.y).map(|(p, y)| (p - y).abs()).fold(0.0, f64::max);
+        prop_assert!(err_thin > 1e3 * err.max(1e-9), "thinned {err_thin:e}, full rate {err:e}");
+    }
+
+    /// Static families see the measured rows only: on a log probed every k rows (evenly, so
+    /// that the thinned log has the same time blocks), static least squares, ridge and PCR
+    /// give the fit of the log thinned to those rows, to 1e-12 relative.
+    #[test]
+    fn static_families_fit_the_measured_rows_only(
+        seed in any::<u64>(),
+        n in 300usize..700,
+        keep_every in 2usize..8,
+    ) {
+        let c = case(seed, n, 600.0, keep_every);
+        let full = read(&csv(&c, true));
+        let thin = read(&csv(&c, false));
+        for fam in [Family::Static, Family::Ridge, Family::Pcr] {
+            let o = IdentifyOptions { split: Split::None, families: vec![fam], ..IdentifyOptions::default() };
+            let a = identify(&full, &o).unwrap();
+            let b = identify(&thin, &o).unwrap();
+            let (ma, mb) = (&a.targets[0], &b.targets[0]);
+            prop_assert_eq!(&ma.family, &mb.family);
+            prop_assert_eq!(ma.model.terms.len(), mb.model.terms.len());
+            let close = |u: f64, v: f64| (u - v).abs() <= 1e-12 * (1.0 + u.abs().max(v.abs()));
+            prop_assert!(close(ma.model.intercept, mb.model.intercept), "{fam:?}");
+            for (ta, tb) in ma.model.terms.iter().zip(&mb.model.terms) {
+                prop_assert_eq!(&ta.channel, &tb.channel);
+                prop_assert!(close(ta.coefficient, tb.coefficient), "{fam:?}: {} vs {}", ta.coefficient, tb.coefficient);
+            }
+            prop_assert!(close(ma.cv_rmse, mb.cv_rmse), "{fam:?}: cv {} vs {}", ma.cv_rmse, mb.cv_rmse);
+            prop_assert!(close(ma.train_rmse, mb.train_rmse));
+        }
+    }
+}
+
+/// With a time split, the test rows are the measured rows after it: counted, scored, and
+/// nothing printed from the unmeasured ones is NaN.
+#[test]
+fn a_time_split_scores_the_measured_test_rows_only() {
+    let c = case(7, 800, 600.0, 10);
+    let full = read(&csv(&c, true));
+    let split_s = full.time_s[500];
+    let o = IdentifyOptions {
+        split: Split::TimeBefore(split_s),
+        families: vec![Family::LeadLag, Family::Static],
+        taus_s: vec![600.0],
+        ..IdentifyOptions::default()
+    };
+    let id = identify(&full, &o).unwrap();
+    let want_test = (0..800)
+        .filter(|&i| c.keep[i] && full.time_s[i] >= split_s)
+        .count();
+    let want_train = (0..800)
+        .filter(|&i| c.keep[i] && full.time_s[i] < split_s)
+        .count();
+    assert_eq!(id.test.iter().filter(|&&t| t).count(), want_test);
+    assert_eq!(id.train.iter().filter(|&&t| t).count(), want_train);
+    let m = &id.targets[0];
+    let test = m.test_rmse.unwrap();
+    assert!(test.is_finite() && test < 1e-6, "{test}");
+    assert!(m.predicted.iter().all(|p| p.is_finite()));
+    assert!(m.fold_rmse.iter().all(|v| v.is_finite()));
+    // Too few measured training rows: refused, saying why.
+    let early = full.time_s[40];
+    let e = identify(
+        &full,
+        &IdentifyOptions {
+            split: Split::TimeBefore(early),
+            ..o
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("every target measured"), "{e}");
+}
