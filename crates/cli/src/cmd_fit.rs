@@ -80,6 +80,9 @@ pub enum MissingArg {
     Error,
     /// Such a row is left out and listed, and the run is split there (filters restart).
     Split,
+    /// The cell holds the input's last value in its run (channels logged at different
+    /// rates); rows before an input's first value in a run are left out and listed.
+    Hold,
 }
 
 /// Class formation (`--grouping`).
@@ -294,6 +297,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         missing: match args.missing {
             MissingArg::Error => MissingCells::Error,
             MissingArg::Split => MissingCells::Split,
+            MissingArg::Hold => MissingCells::Hold,
         },
         no_header: args.no_header,
         ..ReadOptions::default()

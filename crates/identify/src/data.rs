@@ -120,13 +120,25 @@ pub enum DataIssue {
         /// Time after the gap in s.
         to_s: f64,
     },
-    /// A row with an empty or NaN used cell, left out under [`MissingCells::Split`]: the
-    /// run is split there (every model state restarts at the next row).
+    /// A row with an empty or NaN used cell, left out under [`MissingCells::Split`] (the
+    /// run is split there: every model state restarts at the next row), or under
+    /// [`MissingCells::Hold`] before the run's first value of that input.
     Missing {
         /// 1-based line number in the file.
         line: u64,
         /// Which cell.
         reason: String,
+        /// Under [`MissingCells::Hold`]: no earlier value in the run to hold.
+        hold: bool,
+    },
+    /// Empty or NaN cells of an input that hold its last value ([`MissingCells::Hold`]).
+    Held {
+        /// Line of the first such cell.
+        line: u64,
+        /// The input column.
+        column: String,
+        /// How many cells of it hold a value.
+        cells: usize,
     },
     /// Lines that are not data: title lines above the header, a units row under it
     /// ([`crate::preamble`]).
@@ -148,9 +160,29 @@ impl std::fmt::Display for DataIssue {
                 to_s - from_s
             ),
             DataIssue::Skipped { line, reason } => write!(f, "line {line}: {reason}"),
-            DataIssue::Missing { line, reason } => write!(
+            DataIssue::Missing {
+                line,
+                reason,
+                hold: false,
+            } => write!(
                 f,
                 "line {line}: left out ({reason}; --missing split): the run is split there, filters restart"
+            ),
+            DataIssue::Missing {
+                line,
+                reason,
+                hold: true,
+            } => write!(
+                f,
+                "line {line}: left out ({reason}, with no earlier value in its run to hold; --missing hold)"
+            ),
+            DataIssue::Held {
+                line,
+                column,
+                cells,
+            } => write!(
+                f,
+                "line {line}: {column}: {cells} empty or NaN cell(s) from here on hold the last value before them (--missing hold)"
             ),
         }
     }
@@ -210,7 +242,7 @@ impl Table {
             .iter()
             .filter_map(|i| match i {
                 DataIssue::BadRow { line, .. } | DataIssue::Missing { line, .. } => Some(*line),
-                DataIssue::Gap { .. } | DataIssue::Skipped { .. } => None,
+                DataIssue::Gap { .. } | DataIssue::Skipped { .. } | DataIssue::Held { .. } => None,
             })
             .collect();
         (lines.len(), lines.into_iter().take(10).collect())
@@ -395,6 +427,8 @@ struct RowState {
     has_offset: Option<bool>,
     /// A row was left out for a missing cell: the next kept row starts a segment.
     split_pending: bool,
+    /// Under [`MissingCells::Hold`]: each input's value on the last kept row of the run.
+    held: Vec<Option<f64>>,
 }
 
 /// The records of quote-free CSV text from byte `start` (just after the header): each line
@@ -837,8 +871,12 @@ struct Reader<'a> {
     t: Table,
     bad: Vec<(usize, u64, String)>,
     run_label: Vec<String>,
-    /// Rows left out for missing cells (`--missing split`).
-    missing: Vec<(usize, u64, String)>,
+    /// Rows left out for missing cells (`--missing split`, or `hold` before a first value):
+    /// file, line, reason, under `hold`.
+    missing: Vec<(usize, u64, String, bool)>,
+    /// Inputs whose empty cells held a value (`--missing hold`): file and line of the first,
+    /// column, count.
+    held: Vec<(usize, String, u64, usize)>,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
@@ -866,6 +904,7 @@ impl<'a> Reader<'a> {
             bad: Vec::new(),
             run_label: Vec::new(),
             missing: Vec::new(),
+            held: Vec::new(),
             skipped: Vec::new(),
             forced: Vec::new(),
             file_runs,
@@ -1111,6 +1150,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         mut t,
         bad,
         missing,
+        held,
         skipped,
         forced,
         ..
@@ -1160,13 +1200,29 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             (fi, line, DataIssue::BadRow { line, reason })
         })
         .collect();
-    issues.extend(missing.into_iter().map(|(fi, line, reason)| {
+    issues.extend(missing.into_iter().map(|(fi, line, reason, hold)| {
         let reason = if many {
             format!("{}: {reason}", names[fi])
         } else {
             reason
         };
-        (fi, line, DataIssue::Missing { line, reason })
+        (fi, line, DataIssue::Missing { line, reason, hold })
+    }));
+    issues.extend(held.into_iter().map(|(fi, column, line, cells)| {
+        let column = if many {
+            format!("{}: {column}", names[fi])
+        } else {
+            column
+        };
+        (
+            fi,
+            line,
+            DataIssue::Held {
+                line,
+                column,
+                cells,
+            },
+        )
     }));
     issues.extend(skipped.into_iter().map(|(fi, line, reason)| {
         let reason = if many {
@@ -1572,6 +1628,7 @@ impl Reader<'_> {
             st.ordinal = 0;
             st.prev_t = None;
             st.t0 = None;
+            st.held.clear();
         }
         let this_ordinal = st.ordinal;
         st.ordinal += 1;
@@ -1585,11 +1642,26 @@ impl Reader<'_> {
         let mut first: Option<CellError> = None;
         let mut first_bad: Option<String> = None;
         let n_in = c.input_idx.len();
+        let hold = self.opts.missing == MissingCells::Hold;
+        st.held.resize(n_in, None);
+        let mut held_here: Vec<usize> = Vec::new();
+        // Under hold: the inputs written on this row (they are held from here on even when
+        // the row itself is left out for another input's empty cell).
+        let mut written: Vec<Option<f64>> = vec![None; if hold { n_in } else { 0 }];
         for (k, i) in c.input_idx.iter().chain(&c.target_idx).enumerate() {
             let s = rec.get(*i).copied().unwrap_or("");
             match dialect::parse_number(s, &c.header[*i], dc) {
-                Ok(v) => vals.push(v),
+                Ok(v) => {
+                    if let Some(w) = written.get_mut(k) {
+                        *w = Some(v);
+                    }
+                    vals.push(v)
+                }
                 Err(CellError::Missing(_)) if k >= n_in => vals.push(f64::NAN),
+                Err(CellError::Missing(_)) if hold && st.held[k].is_some() => {
+                    vals.push(st.held[k].unwrap_or(f64::NAN));
+                    held_here.push(k);
+                }
                 Err(e) => {
                     if let (CellError::Bad(b), None) = (&e, &first_bad) {
                         first_bad = Some(b.clone());
@@ -1613,7 +1685,7 @@ impl Reader<'_> {
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };
-        let split = self.opts.missing == MissingCells::Split;
+        let split = matches!(self.opts.missing, MissingCells::Split | MissingCells::Hold);
         let cell_error = if split {
             first_bad
         } else {
@@ -1632,7 +1704,12 @@ impl Reader<'_> {
             }
         };
         if let (true, Some(CellError::Missing(m))) = (split, first) {
-            self.missing.push((fi, line, m));
+            for (h, w) in st.held.iter_mut().zip(&written) {
+                if w.is_some() {
+                    *h = *w;
+                }
+            }
+            self.missing.push((fi, line, m, hold));
             st.split_pending = true;
             return;
         }
@@ -1668,6 +1745,18 @@ impl Reader<'_> {
         self.t.time_s.push(time);
         for (c, v) in self.t.inputs.iter_mut().zip(&vals) {
             c.push(*v);
+        }
+        if hold {
+            for (h, v) in st.held.iter_mut().zip(&vals) {
+                *h = Some(*v);
+            }
+            for k in held_here {
+                let name = &c.header[c.input_idx[k]];
+                match self.held.iter_mut().find(|h| h.0 == fi && h.1 == *name) {
+                    Some(h) => h.3 += 1,
+                    None => self.held.push((fi, name.clone(), line, 1)),
+                }
+            }
         }
         for (c, v) in self.t.targets.iter_mut().zip(&vals[c.input_idx.len()..]) {
             c.push(*v);

@@ -12,8 +12,9 @@
 
 use chrono::NaiveDateTime;
 
-/// What to do with a row whose used input or target cell is empty or NaN (a sensor
-/// dropout).
+/// What to do with a row whose used input cell is empty or NaN (a sensor dropout, or a
+/// channel logged at a slower rate than the others). An empty target cell is a row without
+/// a measurement in every case (`Table::measured`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum MissingCells {
     /// The row is a bad row (an error unless bad rows are skipped).
@@ -22,6 +23,11 @@ pub enum MissingCells {
     /// The row is left out, listed, and the run is split there: every model state restarts
     /// at the next row.
     Split,
+    /// The cell holds the input's last value in its run (a zero-order hold, as the engine
+    /// holds a sensor's last sample between updates): the log of channels written at
+    /// different rates, merged into one table with empty cells. Rows before a run's first
+    /// value of an input are left out and listed; each held column is counted in one note.
+    Hold,
 }
 
 /// The dialect of one file, detected from its header and first rows unless forced.

@@ -646,7 +646,8 @@ fn read_sources(sources: &[Source], sel: &Selection, opts: ReadOptions) -> Resul
         Ok(mut t) => {
             for issue in &mut t.issues {
                 match issue {
-                    DataIssue::BadRow { line, reason } | DataIssue::Missing { line, reason } => {
+                    DataIssue::BadRow { line, reason }
+                    | DataIssue::Missing { line, reason, .. } => {
                         *reason = locate(*line, reason);
                     }
                     // Gaps and skipped lines (title lines, a units row) name lines only.

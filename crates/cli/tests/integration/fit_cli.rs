@@ -374,6 +374,33 @@ fn fit_missing_cells_error_or_split() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// `--missing hold`: a temperature logged every second row (the cell empty between) holds
+/// its last value; every row is fitted and the held cells are counted in one note.
+#[test]
+fn fit_missing_hold_reads_a_slower_channel() {
+    let d = tmp("hold");
+    let mut rows = plain_rows();
+    for r in rows.iter_mut().skip(1).step_by(2) {
+        r[1] = String::new();
+    }
+    let text = format!(
+        "time_s,a_c,b_c,y_um\n{}",
+        rows.iter().map(|r| r.join(",") + "\n").collect::<String>()
+    );
+    let e = fit_json(&d, "h.csv", &text, &[]).unwrap_err();
+    assert!(e.contains("--missing split"), "{e}");
+    let v = fit_json(&d, "h.csv", &text, &["--missing", "hold"]).unwrap();
+    assert_eq!(v["rows"].as_u64(), Some(240));
+    assert_eq!(v["rows_left_out"].as_u64(), Some(0));
+    assert_eq!(
+        v["data_issues"],
+        serde_json::json!([
+            "line 3: a_c: 120 empty or NaN cell(s) from here on hold the last value before them (--missing hold)"
+        ])
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// A displacement probed on one row in 8 of a log of temperatures every minute (the target
 /// cell empty on the other rows): every row is read, the 30 measured rows are fitted, the
 /// lag runs over all 240 rows, and the exact law y = 2·a + 3·lag(b, 900 s) comes back; the

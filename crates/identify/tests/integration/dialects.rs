@@ -404,6 +404,123 @@ proptest! {
     }
 }
 
+proptest! {
+    /// `MissingCells::Hold` (channels logged at different rates, merged with empty cells):
+    /// each empty or NaN input cell takes the column's last value written before it, the
+    /// table built here by a forward fill of the generated values; rows before a column's
+    /// first value are left out and listed (`--missing hold`), each held column is counted in
+    /// one note at its first held cell, and nothing is split.
+    #[test]
+    fn missing_hold_is_a_forward_fill(seed in any::<u64>(), rows in 4usize..60, density in 0.05f64..0.7) {
+        let log = random_log(seed, rows, false);
+        let mut r = Rng::new(seed ^ 0x5eed);
+        // Which input cells are written: each blank with probability `density`.
+        let written: Vec<[bool; 2]> = (0..rows)
+            .map(|_| [r.real(0.0, 1.0) >= density, r.real(0.0, 1.0) >= density])
+            .collect();
+        let mut text = String::from("time_s,a_c,note,b_c,d_um\n");
+        for (k, w) in written.iter().enumerate() {
+            let cell = |w: bool, v: f64, nan: bool| match (w, nan) {
+                (true, _) => format!("{v}"),
+                (false, true) => "NaN".to_string(),
+                (false, false) => String::new(),
+            };
+            text += &format!(
+                "{},{},,{},{}\n",
+                log.t[k],
+                cell(w[0], log.a[k], k % 3 == 0),
+                cell(w[1], log.b[k], k % 3 == 1),
+                log.d[k]
+            );
+        }
+        // Independent reference: forward fill; a row is kept once both inputs have a value.
+        let mut last = [None::<f64>; 2];
+        let (mut kept, mut left, mut held) = (Vec::new(), Vec::new(), [(0usize, None::<u64>); 2]);
+        for (k, w) in written.iter().enumerate() {
+            let vals = [log.a[k], log.b[k]];
+            for c in 0..2 {
+                if w[c] {
+                    last[c] = Some(vals[c]);
+                }
+            }
+            if last.iter().all(Option::is_some) {
+                kept.push((k, last[0].unwrap(), last[1].unwrap()));
+                for c in 0..2 {
+                    if !w[c] {
+                        held[c].0 += 1;
+                        held[c].1.get_or_insert(k as u64 + 2);
+                    }
+                }
+            } else {
+                left.push(k as u64 + 2);
+            }
+        }
+        let got = read(&text, ReadOptions { missing: MissingCells::Hold, ..ReadOptions::default() });
+        if kept.len() < 3 {
+            prop_assert!(got.is_err());
+            return Ok(());
+        }
+        let t = got.unwrap();
+        prop_assert_eq!(&t.time_s, &kept.iter().map(|&(k, ..)| log.t[k]).collect::<Vec<_>>());
+        prop_assert_eq!(&t.inputs[0], &kept.iter().map(|&(_, a, _)| a).collect::<Vec<_>>());
+        prop_assert_eq!(&t.inputs[1], &kept.iter().map(|&(.., b)| b).collect::<Vec<_>>());
+        prop_assert_eq!(&t.targets[0], &kept.iter().map(|&(k, ..)| log.d[k]).collect::<Vec<_>>());
+        prop_assert_eq!(t.segments.len(), 1 + t.issues.iter().filter(|i| matches!(i, DataIssue::Gap { .. })).count());
+        let listed: Vec<u64> = t.issues.iter().filter_map(|i| match i {
+            DataIssue::Missing { line, hold: true, .. } => Some(*line),
+            _ => None,
+        }).collect();
+        prop_assert_eq!(&listed, &left);
+        prop_assert_eq!(t.rows_left_out().0, left.len());
+        for (c, name) in ["a_c", "b_c"].iter().enumerate() {
+            let note = t.issues.iter().find_map(|i| match i {
+                DataIssue::Held { line, column, cells } if column == name => Some((*cells, Some(*line))),
+                _ => None,
+            });
+            match held[c] {
+                (0, _) => prop_assert!(note.is_none()),
+                (n, first) => prop_assert_eq!(note, Some((n, first))),
+            }
+        }
+        // The default still refuses the log naming the option, unless nothing is blank.
+        if written.iter().any(|w| !w[0] || !w[1]) {
+            let e = read(&text, ReadOptions::default()).unwrap_err();
+            prop_assert!(e.contains("--missing split"), "{e}");
+        }
+    }
+}
+
+/// `--missing hold` never carries a value across runs: a run's first rows without a value
+/// of an input are left out, even when the run before ended with one.
+#[test]
+fn missing_hold_restarts_at_each_run() {
+    let text = "run,time_s,a_c,b_c,d_um\nr1,0,1,2,3\nr1,10,,2.5,4\nr1,20,1.5,,5\nr2,0,,3,6\nr2,10,2,,7\nr2,20,2.5,3.5,8\nr2,30,,4,9\n";
+    let s = Selection {
+        run: Some("run".into()),
+        ..sel()
+    };
+    let opts = ReadOptions {
+        missing: MissingCells::Hold,
+        ..ReadOptions::default()
+    };
+    let t = read_csv(text, "log.csv", &s, opts).unwrap();
+    assert_eq!(t.run_names, ["r1", "r2"]);
+    assert_eq!(t.time_s, [0.0, 10.0, 20.0, 10.0, 20.0, 30.0]);
+    assert_eq!(t.inputs[0], [1.0, 1.0, 1.5, 2.0, 2.5, 2.5]);
+    assert_eq!(t.inputs[1], [2.0, 2.5, 2.5, 3.0, 3.5, 4.0]);
+    let issues: Vec<String> = t.issues.iter().map(|i| i.to_string()).collect();
+    assert!(
+        issues[0].starts_with("line 3: a_c: 2 empty or NaN cell(s)"),
+        "{issues:?}"
+    );
+    assert!(
+        issues.iter().any(|i| i
+            == "line 5: left out (a_c is empty, with no earlier value in its run to hold; --missing hold)"),
+        "{issues:?}"
+    );
+    assert_eq!(t.rows_left_out(), (1, vec![5]));
+}
+
 /// Local wall time without an offset going back (the DST fall-back hour, or a repeated row)
 /// is a bad row naming its line, as any time that does not increase; with offsets the same
 /// wall times are distinct instants and read fine.
