@@ -183,6 +183,12 @@ pub struct Args {
     /// Train on all rows (no test error is reported).
     #[arg(long)]
     pub no_test: bool,
+    /// Fit on bin means over this many seconds (within each run segment, never across the
+    /// train/test split). Default: none, unless the dynamic families' search would exceed
+    /// its budget on every row of a long high-rate log; then the shortest step that fits,
+    /// up to a tenth of the shortest --tau-s / --delay-s, with a note.
+    #[arg(long)]
+    pub resample_s: Option<f64>,
     /// Model kind.
     #[arg(long, value_enum, default_value = "auto")]
     pub model: ModelArg,
@@ -399,6 +405,50 @@ fn runs_and_split(args: &Args, table: &mut Table) -> anyhow::Result<(Split, Opti
     Ok((split, note))
 }
 
+/// `--resample-s`, or the default's step for a log too long to search at its own rate
+/// (`gearcomp_identify::resample`): the table of bin means and the note saying so (after
+/// `note`, the split's).
+fn resample(
+    args: &Args,
+    table: Table,
+    split: &Split,
+    opts: &IdentifyOptions,
+    note: Option<String>,
+) -> anyhow::Result<(Table, Option<String>)> {
+    let step = match args.resample_s {
+        Some(s) => Some(s),
+        None => {
+            let n = gearcomp_identify::train_mask(&table, split)?
+                .iter()
+                .filter(|&&m| m)
+                .count();
+            gearcomp_identify::resample::search_step_s(&table, n, opts)
+        }
+    };
+    let Some(step) = step else {
+        return Ok((table, note));
+    };
+    let cut = match split {
+        Split::TimeBefore(s) => Some(*s),
+        _ => None,
+    };
+    let r = table.resample(step, cut)?;
+    let why = match args.resample_s {
+        Some(_) => "--resample-s".to_string(),
+        None => "the default: the dynamic families' search on every row would exceed its budget; --resample-s sets the step, --family searches every row".to_string(),
+    };
+    let this = format!(
+        "{} rows resampled to {} bin means of {step} s ({why})",
+        table.time_s.len(),
+        r.time_s.len()
+    );
+    let note = Some(match note {
+        Some(n) => format!("{n}; {this}"),
+        None => this,
+    });
+    Ok((r, note))
+}
+
 /// The train/test split the options ask for, and a note when it was chosen by default.
 fn split_of(args: &Args, table: &Table) -> anyhow::Result<(Split, Option<String>)> {
     let mut split_note = None;
@@ -536,6 +586,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (split, split_note) = runs_and_split(&args, &mut table)?;
     let opts = options(&args, &split);
     opts.check()?;
+    let (table, split_note) = resample(&args, table, &split, &opts, split_note)?;
     let (id, base) = identify_with_floor(&table, &opts)?;
     if !args.axis.is_empty() && args.axis.len() != table.targets.len() {
         anyhow::bail!(

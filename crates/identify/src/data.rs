@@ -258,6 +258,16 @@ impl Table {
             .collect()
     }
 
+    /// The test rows: neither training rows (`train`, from `pipeline::train_mask`) nor rows
+    /// with a target left unmeasured ([`Table::measured`]).
+    pub fn test_mask(&self, train: &[bool]) -> Vec<bool> {
+        train
+            .iter()
+            .zip(self.measured())
+            .map(|(&t, m)| !t && m)
+            .collect()
+    }
+
     /// The note on targets not measured on every row (`None` when each is): how many rows
     /// each is measured on and what the other rows do.
     pub fn measured_note(&self) -> Option<String> {

@@ -39,6 +39,7 @@ pub mod pipeline;
 pub mod preamble;
 pub mod regress;
 pub mod report;
+pub mod resample;
 pub mod select;
 pub mod spreadsheet;
 pub mod stack;

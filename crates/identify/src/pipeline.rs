@@ -110,16 +110,6 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     Ok(mask)
 }
 
-/// The test rows: the rows of neither training (`train`, from [`train_mask`]) nor a
-/// target left unmeasured ([`Table::measured`]).
-pub fn test_mask(table: &Table, train: &[bool]) -> Vec<bool> {
-    train
-        .iter()
-        .zip(table.measured())
-        .map(|(&t, m)| !t && m)
-        .collect()
-}
-
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
 /// groups in order of appearance) or, without runs, `folds` contiguous blocks of equal
 /// time span.
@@ -525,7 +515,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             "contiguous time block"
         },
     );
-    let test = crate::pipeline::test_mask(table, &train);
+    let test = table.test_mask(&train);
     Ok(Identification {
         correlation: corr,
         dendrogram,

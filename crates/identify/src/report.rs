@@ -344,6 +344,7 @@ impl FitReport<'_> {
             "training_rows": n_train,
             "test_rows": id.test.iter().filter(|&&t| t).count(),
             "runs": table.run_names,
+            "split_note": self.split_note,
             "inputs": id.input_names,
             "notes": id.notes,
             "data_issues": table.issues.iter().map(|i| i.to_string()).collect::<Vec<_>>(),

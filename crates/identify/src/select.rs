@@ -1502,7 +1502,7 @@ pub fn identify_auto(
         opts.max_sensors
     );
     let fold: Vec<Option<usize>> = scheme.block.clone();
-    let test = crate::pipeline::test_mask(table, &train);
+    let test = table.test_mask(&train);
     Ok(Identification {
         correlation: corr,
         dendrogram,

@@ -37,6 +37,7 @@ fn fit_help_lists_every_option() {
         "--module-mm",
         "--shrink-reference",
         "--sample-interval-s",
+        "--resample-s",
         "--json",
         "--family",
         "--delay-s",
@@ -370,6 +371,109 @@ fn fit_missing_cells_error_or_split() {
     assert!(
         summary.contains("rows left out: 2 (first at line(s) 102, 152)"),
         "{summary}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A long 1 s log (30 sensors, 8.3 h): the dynamic search on every row would exceed its
+/// budget, so the default fits bin means of the shortest step that fits (2 s, with a note)
+/// and still finds the lag law y = 5 + 2·s0 − 1.5·lag(s3, 900 s) (the law computed here at
+/// 1 s with the engine's discretisation); naming static families searches every row.
+/// `--resample-s` sets the step; a bad one is refused naming it.
+#[test]
+fn fit_a_long_high_rate_log_is_resampled_for_the_dynamic_search() {
+    let d = tmp("long");
+    let (n, p) = (30_000usize, 30usize);
+    let mut vals: Vec<f64> = (0..p).map(|k| 20.0 + 0.3 * k as f64).collect();
+    let mut lag: Option<f64> = None;
+    let a = 1.0 - (-1.0f64 / 900.0).exp();
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    let mut text = String::from("time_s,");
+    text += &(0..p)
+        .map(|k| format!("s{k}_c"))
+        .collect::<Vec<_>>()
+        .join(",");
+    text += ",y_um\n";
+    for i in 0..n {
+        let heat = if (i / 5400) % 2 == 0 { 1.0 } else { 0.0 };
+        for (k, v) in vals.iter_mut().enumerate() {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let noise = ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004;
+            *v += 4e-4 * (k % 5 + 1) as f64 * heat - 2e-4 * (*v - 20.0 - 0.3 * k as f64) + noise;
+        }
+        let l = match lag {
+            None => vals[3],
+            Some(l) => l + a * (vals[3] - l),
+        };
+        lag = Some(l);
+        let y = 5.0 + 2.0 * vals[0] - 1.5 * l;
+        text += &format!("{i},");
+        text += &vals
+            .iter()
+            .map(|v| format!("{v}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        text += &format!(",{y}\n");
+    }
+    let path = d.join("long.csv");
+    std::fs::write(&path, &text).unwrap();
+    let fit = |extra: &[&str]| {
+        let out = bin()
+            .args([
+                "fit",
+                "--target",
+                "y_um",
+                "--train-before-h",
+                "6.5",
+                "--json",
+                "--data",
+            ])
+            .arg(&path)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let v = fit(&[]);
+    let note = v["split_note"].as_str().unwrap();
+    assert!(
+        note.contains("30000 rows resampled to 15000 bin means of 2 s"),
+        "{note}"
+    );
+    // A dynamic family won (the lag law has an exact lead-lag and transfer-function form),
+    // far below what the static families reach.
+    let m = &v["targets"][0];
+    assert!(m["test_rmse_um"].as_f64().unwrap() < 0.01, "{m}");
+    let scores = m["comparison"].as_array().unwrap();
+    let score = |f: &str| {
+        scores.iter().find(|c| c["family"] == f).unwrap()["validation_rmse_um"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(score("lead-lag (value + lag, shared τ)") < 0.01, "{m}");
+    assert!(score("static least squares") > 0.1, "{m}");
+    // Static families named: every row, no resampling.
+    let s = fit(&["--family", "static"]);
+    assert_eq!(s["rows"].as_u64(), Some(30_000));
+    // An explicit step.
+    let e = fit(&["--resample-s", "60"]);
+    assert_eq!(e["rows"].as_u64(), Some(500));
+    let out = bin()
+        .args(["fit", "--target", "y_um", "--resample-s", "0", "--data"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--resample-s"),
+        "{err}"
     );
     std::fs::remove_dir_all(&d).unwrap();
 }

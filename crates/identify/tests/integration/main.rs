@@ -11,6 +11,7 @@ mod golden_families;
 mod multirun;
 mod preamble;
 mod properties;
+mod resample;
 mod runs;
 mod seed003;
 mod shapes;
