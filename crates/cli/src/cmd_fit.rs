@@ -12,6 +12,7 @@ use gearcomp_identify::dialect::parse_delimiter;
 use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
 use gearcomp_identify::spreadsheet::{is_workbook, read_paths_with_targets, SheetChoice};
+use gearcomp_identify::target_unit::{LengthUnit, TargetUnit};
 use gearcomp_identify::workpiece::workpiece_shrink;
 use gearcomp_identify::{
     identify, pipeline::identify_with_floor, Grouping, IdentifyOptions, ModelKind, Origin,
@@ -68,6 +69,37 @@ impl From<FamilyArg> for Family {
             FamilyArg::LeadLag => Family::LeadLag,
             FamilyArg::Tf1 => Family::Tf1,
             FamilyArg::Tf2 => Family::Tf2,
+        }
+    }
+}
+
+/// The unit of the target columns (`--target-unit`).
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum TargetUnitArg {
+    /// From the log's units row under the header, else the column name (z_mm, Weg [mm]),
+    /// else µm.
+    Auto,
+    /// Micrometres.
+    Um,
+    /// Millimetres.
+    Mm,
+    /// Nanometres.
+    Nm,
+    /// Metres.
+    M,
+    /// Inches.
+    Inch,
+}
+
+impl From<TargetUnitArg> for TargetUnit {
+    fn from(u: TargetUnitArg) -> Self {
+        match u {
+            TargetUnitArg::Auto => TargetUnit::Auto,
+            TargetUnitArg::Um => TargetUnit::Given(LengthUnit::Um),
+            TargetUnitArg::Mm => TargetUnit::Given(LengthUnit::Mm),
+            TargetUnitArg::Nm => TargetUnit::Given(LengthUnit::Nm),
+            TargetUnitArg::M => TargetUnit::Given(LengthUnit::M),
+            TargetUnitArg::Inch => TargetUnit::Given(LengthUnit::Inch),
         }
     }
 }
@@ -243,6 +275,11 @@ pub struct Args {
     /// drives the filters and lags but is neither fitted nor scored.
     #[arg(long, value_enum, default_value = "error")]
     pub missing: MissingArg,
+    /// Unit of the target columns; the model's offsets are µm, so another unit is converted
+    /// on reading, with a note. auto: the log's units row, else the column name (z_mm,
+    /// Weg [mm]), else µm; a units-row cell that is no length unit is refused.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub target_unit: TargetUnitArg,
     /// Axis name of each target's model, in target order (default: the target's name).
     #[arg(long, num_args = 1..)]
     pub axis: Vec<String>,
@@ -306,6 +343,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
             MissingArg::Hold => MissingCells::Hold,
         },
         no_header: args.no_header,
+        target_unit: Some(args.target_unit.into()),
         ..ReadOptions::default()
     })
 }
@@ -526,7 +564,11 @@ fn workpiece_model(
     let (wt, _) = load(
         std::slice::from_ref(path),
         &wsel,
-        read_options(args)?,
+        // The workpiece target is a temperature, read as written.
+        ReadOptions {
+            target_unit: None,
+            ..read_options(args)?
+        },
         &SheetChoice::default(),
         &[],
     )?;

@@ -61,6 +61,10 @@ pub fn rad_s2_to_rev_s2(rad_s2: f64) -> f64 {
 
 /// Seconds per hour.
 pub const S_PER_H: f64 = 3600.0;
+/// Micrometres per metre.
+pub const UM_PER_M: f64 = 1e6;
+/// Micrometres per nanometre.
+pub const UM_PER_NM: f64 = 1e-3;
 /// Micrometres per inch (exact by definition of the inch).
 pub const UM_PER_INCH: f64 = 25_400.0;
 

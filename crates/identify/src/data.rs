@@ -60,6 +60,9 @@ pub struct ReadOptions {
     /// The first row is data, not a header: columns are named by position, `c1` … `cN`
     /// ([`positional_name`]).
     pub no_header: bool,
+    /// The unit of the target columns, converted to µm on reading
+    /// ([`crate::target_unit`]); `None`: the values as written.
+    pub target_unit: Option<crate::target_unit::TargetUnit>,
 }
 
 impl Default for ReadOptions {
@@ -72,6 +75,7 @@ impl Default for ReadOptions {
             decimal_comma: None,
             missing: MissingCells::Error,
             no_header: false,
+            target_unit: None,
         }
     }
 }
@@ -131,6 +135,15 @@ pub enum DataIssue {
         /// Under [`MissingCells::Hold`]: no earlier value in the run to hold.
         hold: bool,
     },
+    /// A target column converted to µm ([`ReadOptions::target_unit`]).
+    Unit {
+        /// The target column.
+        column: String,
+        /// Its unit.
+        unit: crate::target_unit::LengthUnit,
+        /// Where the unit came from (`the units row`, `the column name`, `--target-unit`).
+        from: &'static str,
+    },
     /// Empty or NaN cells of an input that hold its last value ([`MissingCells::Hold`]).
     Held {
         /// Line of the first such cell.
@@ -175,6 +188,12 @@ impl std::fmt::Display for DataIssue {
             } => write!(
                 f,
                 "line {line}: left out ({reason}, with no earlier value in its run to hold; --missing hold)"
+            ),
+            DataIssue::Unit { column, unit, from } => write!(
+                f,
+                "{column}: in {} ({from}), read as µm (× {})",
+                unit.symbol(),
+                unit.um_per_unit()
             ),
             DataIssue::Held {
                 line,
@@ -242,7 +261,10 @@ impl Table {
             .iter()
             .filter_map(|i| match i {
                 DataIssue::BadRow { line, .. } | DataIssue::Missing { line, .. } => Some(*line),
-                DataIssue::Gap { .. } | DataIssue::Skipped { .. } | DataIssue::Held { .. } => None,
+                DataIssue::Gap { .. }
+                | DataIssue::Skipped { .. }
+                | DataIssue::Held { .. }
+                | DataIssue::Unit { .. } => None,
             })
             .collect();
         (lines.len(), lines.into_iter().take(10).collect())
@@ -887,6 +909,8 @@ struct Reader<'a> {
     /// Inputs whose empty cells held a value (`--missing hold`): file and line of the first,
     /// column, count.
     held: Vec<(usize, String, u64, usize)>,
+    /// The first file's units-row cell of each target (none without a units row).
+    target_unit_cells: Vec<Option<String>>,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
@@ -915,6 +939,7 @@ impl<'a> Reader<'a> {
             run_label: Vec::new(),
             missing: Vec::new(),
             held: Vec::new(),
+            target_unit_cells: Vec::new(),
             skipped: Vec::new(),
             forced: Vec::new(),
             file_runs,
@@ -1153,6 +1178,33 @@ fn check_read_options(opts: ReadOptions) -> Result<()> {
     Ok(())
 }
 
+/// Converts each target column to µm by its unit ([`crate::target_unit::resolve`]; `cells`:
+/// its units-row cell), with a note first in the issues for each one converted.
+fn to_micrometres(
+    t: &mut Table,
+    choice: crate::target_unit::TargetUnit,
+    cells: &[Option<String>],
+) -> Result<()> {
+    use crate::target_unit::{resolve, LengthUnit};
+    let mut notes = Vec::new();
+    for (j, name) in t.target_names.iter().enumerate() {
+        let (unit, from) = resolve(choice, name, cells.get(j).and_then(|c| c.as_deref()))?;
+        if unit != LengthUnit::Um {
+            let k = unit.um_per_unit();
+            for v in &mut t.targets[j] {
+                *v *= k;
+            }
+            notes.push(DataIssue::Unit {
+                column: name.clone(),
+                unit,
+                from,
+            });
+        }
+    }
+    t.issues.splice(0..0, notes);
+    Ok(())
+}
+
 /// The table of a [`Reader`] that has read every file (`names[k]`: file k in messages):
 /// bad rows refused or listed, segments at runs and time gaps, the issues in line order.
 fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table> {
@@ -1161,6 +1213,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         bad,
         missing,
         held,
+        target_unit_cells,
         skipped,
         forced,
         ..
@@ -1295,6 +1348,9 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
     }
     if t.runs.is_none() && names.len() > 1 {
         return Err(invalid("data", "several files", "one run per file"));
+    }
+    if let Some(choice) = opts.target_unit {
+        to_micrometres(&mut t, choice, &target_unit_cells)?;
     }
     for (name, y) in t.target_names.iter().zip(&t.targets) {
         if !y.iter().any(|v| v.is_finite()) {
@@ -1465,6 +1521,10 @@ impl Reader<'_> {
         let in_names: Vec<String> = input_idx.iter().map(|&i| header[i].clone()).collect();
         let tg_names: Vec<String> = target_idx.iter().map(|&i| header[i].clone()).collect();
         if fi == 0 {
+            self.target_unit_cells = target_idx
+                .iter()
+                .map(|&i| pre.as_ref().and_then(|p| p.units.get(i).cloned()))
+                .collect();
             self.t.input_names = in_names;
             self.t.target_names = tg_names;
             self.t.inputs = vec![Vec::new(); input_idx.len()];

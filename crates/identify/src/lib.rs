@@ -43,6 +43,7 @@ pub mod resample;
 pub mod select;
 pub mod spreadsheet;
 pub mod stack;
+pub mod target_unit;
 pub mod transform;
 pub mod workpiece;
 

@@ -25,6 +25,8 @@ pub struct Preamble {
     pub text: String,
     /// What was skipped: (1-based line, what), in line order.
     pub skipped: Vec<(u64, String)>,
+    /// The fields of the units row, by the header's column positions (empty without one).
+    pub units: Vec<String>,
 }
 
 /// The delimiter of one line, as the reader detects a header's (`forced` when the user
@@ -170,6 +172,7 @@ pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamb
         skipped.push(((a + 1) as u64, what));
     }
     let mut blank: Vec<usize> = titles;
+    let mut units_row = Vec::new();
     if let Some(u) = (head + 1..lines.len()).find(|&k| !lines[k].trim().is_empty()) {
         let cells = fields(lines[u], d);
         let units = !cols.is_empty()
@@ -184,6 +187,7 @@ pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamb
                 format!("units row under the header skipped: «{}»", shown(lines[u])),
             ));
             blank.push(u);
+            units_row = cells;
         }
     }
     if blank.is_empty() {
@@ -208,7 +212,11 @@ pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamb
         }
     }
     out.push_str(rest);
-    Some(Preamble { text: out, skipped })
+    Some(Preamble {
+        text: out,
+        skipped,
+        units: units_row,
+    })
 }
 
 #[cfg(test)]

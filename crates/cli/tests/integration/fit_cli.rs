@@ -38,6 +38,7 @@ fn fit_help_lists_every_option() {
         "--shrink-reference",
         "--sample-interval-s",
         "--resample-s",
+        "--target-unit",
         "--json",
         "--family",
         "--delay-s",
@@ -475,6 +476,56 @@ fn fit_a_long_high_rate_log_is_resampled_for_the_dynamic_search() {
         !out.status.success() && err.contains("--resample-s"),
         "{err}"
     );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A displacement logged in mm (a units row under the header, or a column named `*_mm`, or
+/// `--target-unit mm`) fits the model of the same log in µm, with a note; a units row whose
+/// target cell is no length is refused naming `--target-unit`.
+#[test]
+fn fit_converts_a_target_in_mm_to_micrometres() {
+    let d = tmp("unit");
+    let want = fit_json(&d, "um.csv", &run_csv(0, true), &[]).unwrap();
+    let rows = plain_rows();
+    let body = |rows: &[Vec<String>]| -> String {
+        rows.iter()
+            .map(|r| {
+                let y: f64 = r[3].parse().unwrap();
+                format!("{},{},{},{:e}\n", r[0], r[1], r[2], y / 1000.0)
+            })
+            .collect()
+    };
+    let close = |got: &serde_json::Value| {
+        let (g, w) = (&got["targets"][0], &want["targets"][0]);
+        let (gi, wi) = (
+            g["intercept"].as_f64().unwrap(),
+            w["intercept"].as_f64().unwrap(),
+        );
+        assert!((gi - wi).abs() <= 1e-9 * (1.0 + wi.abs()), "{gi} vs {wi}");
+        assert_eq!(g["family"], w["family"]);
+        let v = |x: &serde_json::Value| x["validation_rmse_um"].as_f64().unwrap();
+        assert!(
+            (v(g) - v(w)).abs() <= 1e-9 + 1e-6 * v(w),
+            "{} vs {}",
+            v(g),
+            v(w)
+        );
+    };
+    let units_row = format!("time_s,a_c,b_c,y_um\ns,°C,°C,mm\n{}", body(&rows));
+    let v = fit_json(&d, "mm.csv", &units_row, &[]).unwrap();
+    assert!(
+        v["data_issues"]
+            .to_string()
+            .contains("y_um: in mm (the units row), read as µm (× 1000)"),
+        "{}",
+        v["data_issues"]
+    );
+    close(&v);
+    let given = format!("time_s,a_c,b_c,y_um\n{}", body(&rows));
+    close(&fit_json(&d, "given.csv", &given, &["--target-unit", "mm"]).unwrap());
+    let volts = format!("time_s,a_c,b_c,y_um\ns,°C,°C,V\n{}", body(&rows));
+    let e = fit_json(&d, "v.csv", &volts, &[]).unwrap_err();
+    assert!(e.contains("«V»") && e.contains("--target-unit"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
 }
 

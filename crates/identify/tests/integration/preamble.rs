@@ -187,3 +187,131 @@ fn the_first_line_that_names_every_column_is_the_header() {
     .to_string();
     assert!(e.contains("Weg") && e.contains("Zeit, T1, T2"), "{e}");
 }
+
+mod target_units {
+    use gearcomp_identify::data::{read_csv, DataIssue, ReadOptions, Selection};
+    use gearcomp_identify::target_unit::{LengthUnit, TargetUnit};
+    use gearcomp_identify::{identify, IdentifyOptions, ModelKind, Split};
+    use proptest::prelude::*;
+
+    const UNITS: [LengthUnit; 5] = [
+        LengthUnit::Um,
+        LengthUnit::Mm,
+        LengthUnit::Nm,
+        LengthUnit::M,
+        LengthUnit::Inch,
+    ];
+
+    fn sel(target: &str) -> Selection {
+        Selection {
+            targets: vec![target.into()],
+            ..Selection::default()
+        }
+    }
+
+    fn static_model(t: &gearcomp_identify::data::Table) -> Vec<f64> {
+        let o = IdentifyOptions {
+            model: ModelKind::Static,
+            classes: Some(2),
+            split: Split::None,
+            ..IdentifyOptions::default()
+        };
+        let m = identify(t, &o).unwrap().targets[0].model.clone();
+        std::iter::once(m.intercept)
+            .chain(m.terms.iter().map(|t| t.coefficient))
+            .collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+        /// A displacement logged in mm, nm, m or inch (named by the units row, by the
+        /// column name, or by --target-unit) reads as the same log written in µm: every
+        /// target value to 1e-12 relative (the conversion factors are exact), the same static
+        /// model to 1e-9, with one note naming the unit and where it came from; the library
+        /// default (no target unit) reads the values as written.
+        #[test]
+        fn a_target_in_another_unit_reads_as_micrometres(seed in any::<u64>(), unit in 0usize..5, how in 0usize..3) {
+            let unit = UNITS[unit];
+            let mut s = seed | 1;
+            let mut uni = move || {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let n = 40;
+            let rows: Vec<(f64, f64, f64)> = (0..n)
+                .map(|_| {
+                    let a = 20.0 + 5.0 * uni();
+                    let b = 22.0 + 5.0 * uni();
+                    (a, b, 3.0 * a - 2.0 * b + 0.1 * uni())
+                })
+                .collect();
+            let write = |name: &str, units_row: Option<&str>, k: f64| {
+                let mut text = format!("time_s,a_c,b_c,{name}\n");
+                if let Some(u) = units_row {
+                    text += &format!("s,°C,°C,{u}\n");
+                }
+                for (i, r) in rows.iter().enumerate() {
+                    text += &format!("{},{},{},{:e}\n", i * 60, r.0, r.1, r.2 / k);
+                }
+                text
+            };
+            let auto = ReadOptions { target_unit: Some(TargetUnit::Auto), ..ReadOptions::default() };
+            let want = read_csv(&write("z", None, 1.0), "um.csv", &sel("z"), auto).unwrap();
+            let k = unit.um_per_unit();
+            let (text, name, opts) = match how {
+                0 => (write("z", Some(unit.symbol()), k), "z", auto),
+                1 if matches!(unit, LengthUnit::Mm | LengthUnit::Nm | LengthUnit::Um) =>
+                    (write(&format!("z_{}", unit.symbol()), None, k), "z_*", auto),
+                _ => (write("z", None, k), "z", ReadOptions { target_unit: Some(TargetUnit::Given(unit)), ..ReadOptions::default() }),
+            };
+            let got = read_csv(&text, "log.csv", &sel(name), opts).unwrap();
+            for (g, w) in got.targets[0].iter().zip(&want.targets[0]) {
+                prop_assert!((g - w).abs() <= 1e-12 * w.abs(), "{g} vs {w}");
+            }
+            let (a, b) = (static_model(&got), static_model(&want));
+            for (x, y) in a.iter().zip(&b) {
+                prop_assert!((x - y).abs() <= 1e-9 * (1.0 + y.abs()), "{a:?} vs {b:?}");
+            }
+            let notes: Vec<&DataIssue> = got.issues.iter().filter(|i| matches!(i, DataIssue::Unit { .. })).collect();
+            if unit == LengthUnit::Um {
+                prop_assert!(notes.is_empty());
+            } else {
+                prop_assert_eq!(notes.len(), 1);
+                let note = notes[0].to_string();
+                prop_assert!(note.contains(&format!("in {} (", unit.symbol())), "{note}");
+            }
+            // As written without a target unit.
+            if unit != LengthUnit::Um {
+                let raw = read_csv(&text, "log.csv", &sel(name), ReadOptions::default()).unwrap();
+                prop_assert!((raw.targets[0][0] - want.targets[0][0] / k).abs() <= 1e-12 * want.targets[0][0].abs() / k);
+            }
+        }
+    }
+
+    /// A units-row cell that is no length unit is refused, naming the target, the cell and
+    /// --target-unit; naming the unit reads it.
+    #[test]
+    fn a_units_row_without_a_length_is_refused() {
+        let text = "time_s,a_c,z\ns,°C,V\n0,20,1\n60,21,2\n120,22,3\n";
+        let auto = ReadOptions {
+            target_unit: Some(TargetUnit::Auto),
+            ..ReadOptions::default()
+        };
+        let e = read_csv(text, "log.csv", &sel("z"), auto)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("unit of target z in the units row = «V»") && e.contains("--target-unit"),
+            "{e}"
+        );
+        let given = ReadOptions {
+            target_unit: Some(TargetUnit::Given(LengthUnit::Mm)),
+            ..ReadOptions::default()
+        };
+        let t = read_csv(text, "log.csv", &sel("z"), given).unwrap();
+        assert_eq!(t.targets[0], [1000.0, 2000.0, 3000.0]);
+    }
+}
