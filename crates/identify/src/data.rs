@@ -2321,28 +2321,22 @@ mod tests {
         )
         .unwrap();
         assert!(one.measured_note().is_some());
-        let full = "time_s,a_c,d_um\n0,1,5\n15,2,6\n30,3,7\n";
-        let f = read_csv(full, "f", &sel(&["a_c"], &["d_um"]), ReadOptions::default()).unwrap();
+        let small = |body: &str| {
+            let text = format!("time_s,a_c,d_um\n{body}");
+            read_csv(
+                &text,
+                "f",
+                &sel(&["a_c"], &["d_um"]),
+                ReadOptions::default(),
+            )
+        };
+        let f = small("0,1,5\n15,2,6\n30,3,7\n").unwrap();
         assert_eq!((f.measured(), f.measured_note()), (vec![true; 3], None));
         // An empty input is a sensor dropout, as before.
-        let e = read_csv(
-            "time_s,a_c,d_um\n0,1,5\n15,,6\n30,3,7\n",
-            "f",
-            &sel(&["a_c"], &["d_um"]),
-            ReadOptions::default(),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = small("0,1,5\n15,,6\n30,3,7\n").unwrap_err().to_string();
         assert!(e.contains("line(s) 3") && e.contains("a_c is empty"), "{e}");
         // A target never measured is refused by name.
-        let e = read_csv(
-            "time_s,a_c,d_um\n0,1,\n15,2,NaN\n30,3,\n",
-            "f",
-            &sel(&["a_c"], &["d_um"]),
-            ReadOptions::default(),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = small("0,1,\n15,2,NaN\n30,3,\n").unwrap_err().to_string();
         assert!(e.contains("target d_um") && e.contains("every row"), "{e}");
     }
 

@@ -271,6 +271,12 @@ fn plain_rows() -> Vec<Vec<String>> {
         .collect()
 }
 
+/// The plain log of `rows` (cells as `plain_rows` gives them, some changed by a test).
+fn plain_text(rows: &[Vec<String>]) -> String {
+    let body: String = rows.iter().map(|r| r.join(",") + "\n").collect();
+    format!("time_s,a_c,b_c,y_um\n{body}")
+}
+
 /// hh:mm:00 of `minutes` after midnight.
 fn clock(minutes: i64) -> String {
     format!("{:02}:{:02}:00", minutes / 60, minutes % 60)
@@ -334,10 +340,7 @@ fn fit_missing_cells_error_or_split() {
     let mut rows = plain_rows();
     rows[100][1] = String::new();
     rows[150][2] = "NaN".into();
-    let text = format!(
-        "time_s,a_c,b_c,y_um\n{}",
-        rows.iter().map(|r| r.join(",") + "\n").collect::<String>()
-    );
+    let text = plain_text(&rows);
     let e = fit_json(&d, "m.csv", &text, &[]).unwrap_err();
     assert!(
         e.contains("2 bad row(s) at line(s) 102, 152") && e.contains("--missing split"),
@@ -538,10 +541,7 @@ fn fit_missing_hold_reads_a_slower_channel() {
     for r in rows.iter_mut().skip(1).step_by(2) {
         r[1] = String::new();
     }
-    let text = format!(
-        "time_s,a_c,b_c,y_um\n{}",
-        rows.iter().map(|r| r.join(",") + "\n").collect::<String>()
-    );
+    let text = plain_text(&rows);
     let e = fit_json(&d, "h.csv", &text, &[]).unwrap_err();
     assert!(e.contains("--missing split"), "{e}");
     let v = fit_json(&d, "h.csv", &text, &["--missing", "hold"]).unwrap();
@@ -570,10 +570,7 @@ fn fit_a_target_measured_on_some_rows_only() {
             r[3] = String::new();
         }
     }
-    let text = format!(
-        "time_s,a_c,b_c,y_um\n{}",
-        rows.iter().map(|r| r.join(",") + "\n").collect::<String>()
-    );
+    let text = plain_text(&rows);
     let v = fit_json(&d, "s.csv", &text, &["--tau-s", "900"]).unwrap();
     assert_eq!(
         (&v["rows"], &v["training_rows"], &v["test_rows"]),
