@@ -453,38 +453,13 @@ fn resample(
     opts: &IdentifyOptions,
     note: Option<String>,
 ) -> anyhow::Result<(Table, Option<String>)> {
-    let step = match args.resample_s {
-        Some(s) => Some(s),
-        None => {
-            let n = gearcomp_identify::train_mask(&table, split)?
-                .iter()
-                .filter(|&&m| m)
-                .count();
-            gearcomp_identify::resample::search_step_s(&table, n, opts)
-        }
-    };
-    let Some(step) = step else {
-        return Ok((table, note));
-    };
-    let cut = match split {
-        Split::TimeBefore(s) => Some(*s),
-        _ => None,
-    };
-    let r = table.resample(step, cut)?;
-    let why = match args.resample_s {
-        Some(_) => "--resample-s".to_string(),
-        None => "the default: the dynamic families' search on every row would exceed its budget; --resample-s sets the step, --family searches every row".to_string(),
-    };
-    let this = format!(
-        "{} rows resampled to {} bin means of {step} s ({why})",
-        table.time_s.len(),
-        r.time_s.len()
-    );
-    let note = Some(match note {
-        Some(n) => format!("{n}; {this}"),
-        None => this,
-    });
-    Ok((r, note))
+    match gearcomp_identify::resample::for_fit(&table, split, opts, args.resample_s)? {
+        None => Ok((table, note)),
+        Some((r, this)) => Ok((
+            r,
+            Some(note.map_or(this.clone(), |n| format!("{n}; {this}"))),
+        )),
+    }
 }
 
 /// The train/test split the options ask for, and a note when it was chosen by default.

@@ -13,8 +13,8 @@
 
 use crate::data::Table;
 use crate::error::{invalid, Result};
-use crate::fit::IdentifyOptions;
-use crate::pipeline::DYNAMIC_SEARCH_BUDGET;
+use crate::fit::{IdentifyOptions, Split};
+use crate::pipeline::{train_mask, DYNAMIC_SEARCH_BUDGET};
 
 /// The shortest time constant or delay of the search over this step is the longest step
 /// [`search_step_s`] chooses (a lag then sees at least this many bins per τ).
@@ -136,4 +136,48 @@ pub fn search_step_s(table: &Table, training_rows: usize, opts: &IdentifyOptions
         .copied()
         .fold(f64::INFINITY, f64::min);
     (step.is_finite() && step * BINS_PER_TAU <= shortest).then_some(step)
+}
+
+/// The table a fit runs on: bin means over `step_s` (`--resample-s`) when given, else over
+/// the default's [`search_step_s`] when the search needs it; `None` to fit the table as it
+/// is. With the table of bin means comes the note saying so (rows before and after, the
+/// step, and why).
+///
+/// # Errors
+/// A bad split of `table` (as `pipeline::train_mask` names it); a step that is not > 0 s,
+/// or that leaves fewer than 10 training rows, naming `--resample-s`.
+pub fn for_fit(
+    table: &Table,
+    split: &Split,
+    opts: &IdentifyOptions,
+    step_s: Option<f64>,
+) -> Result<Option<(Table, String)>> {
+    let before = train_mask(table, split)?.iter().filter(|&&m| m).count();
+    let Some(step) = step_s.or_else(|| search_step_s(table, before, opts)) else {
+        return Ok(None);
+    };
+    let cut = match split {
+        Split::TimeBefore(s) => Some(*s),
+        _ => None,
+    };
+    let r = table.resample(step, cut)?;
+    if train_mask(&r, split).is_err() {
+        return Err(invalid(
+            "--resample-s",
+            format!("{step} s"),
+            &format!(
+                "a step that leaves at least 10 training rows (fewer are left of the {before})"
+            ),
+        ));
+    }
+    let why = match step_s {
+        Some(_) => "--resample-s",
+        None => "the default: the dynamic families' search on every row would exceed its budget; --resample-s sets the step, --family searches every row",
+    };
+    let note = format!(
+        "{} rows resampled to {} bin means of {step} s ({why})",
+        table.time_s.len(),
+        r.time_s.len()
+    );
+    Ok(Some((r, note)))
 }

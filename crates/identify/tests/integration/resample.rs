@@ -148,3 +148,39 @@ fn the_default_step_fits_the_budget_and_the_shortest_tau() {
         assert!(e.contains("--resample-s"), "{e}");
     }
 }
+
+/// `resample::for_fit`: nothing to do within the budget; an explicit step gives the bin
+/// means and the note; a step leaving fewer than 10 training rows is refused naming
+/// `--resample-s`; a bad split is named as before.
+#[test]
+fn for_fit_resamples_or_refuses_naming_the_option() {
+    use gearcomp_identify::resample::for_fit;
+    use gearcomp_identify::Split;
+    let t = log(11, 300);
+    let o = IdentifyOptions::default();
+    let none = Split::None;
+    assert!(for_fit(&t, &none, &o, None).unwrap().is_none());
+    let (r, note) = for_fit(&t, &none, &o, Some(20.0)).unwrap().unwrap();
+    // Debug text: a bin without a measured target is NaN in both.
+    assert_eq!(
+        format!("{r:?}"),
+        format!("{:?}", t.resample(20.0, None).unwrap())
+    );
+    assert!(
+        note.starts_with(&format!(
+            "{} rows resampled to {} bin means of 20 s (--resample-s)",
+            t.time_s.len(),
+            r.time_s.len()
+        )),
+        "{note}"
+    );
+    let e = for_fit(&t, &none, &o, Some(1e9)).unwrap_err().to_string();
+    assert!(
+        e.contains("--resample-s = 1000000000 s") && e.contains("10 training rows"),
+        "{e}"
+    );
+    let e = for_fit(&t, &Split::TestRuns(vec!["nope".into()]), &o, Some(20.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--test-runs"), "{e}");
+}
