@@ -49,6 +49,17 @@ pub enum IdentifyError {
         /// The threshold used.
         tolerance: f64,
     },
+    /// No candidate model of a target could be validated (every fold's training rows too
+    /// few for its regressors, or every design singular on them).
+    #[error("no candidate model of {target} could be validated on its {training_rows} training row(s) ({validation}): each fold must train on more rows than the model has terms, with inputs that vary on them; give more measured rows or runs, fewer --folds, --max-sensors, --tau-s/--delay-s, or --no-test to train on every row")]
+    NothingValidated {
+        /// The target column.
+        target: String,
+        /// Training rows (with the target measured).
+        training_rows: usize,
+        /// The validation scheme.
+        validation: String,
+    },
     /// Too few rows for the requested fit or validation.
     #[error("{what}: {rows} row(s), need at least {needed}")]
     TooFewRows {

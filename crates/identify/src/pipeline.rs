@@ -481,10 +481,17 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
                 }
             }
         }
-        let choice = best.ok_or_else(|| IdentifyError::RankDeficient {
-            columns: format!("every candidate model of {}", table.target_names[j]),
-            pivot: 0.0,
-            tolerance: 0.0,
+        let choice = best.ok_or_else(|| IdentifyError::NothingValidated {
+            target: table.target_names[j].clone(),
+            training_rows: rows.mask.iter().filter(|&&m| m).count(),
+            validation: format!(
+                "{k_folds}-fold cross-validation by {}",
+                if table.runs.is_some() {
+                    "run"
+                } else {
+                    "contiguous time block"
+                }
+            ),
         })?;
         finish(
             table, &rows, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,

@@ -1440,10 +1440,10 @@ pub fn identify_auto(
         if let Some(k) = kept {
             comparison[k].kept = true;
         }
-        let b = best.ok_or_else(|| IdentifyError::RankDeficient {
-            columns: format!("every candidate model of {}", table.target_names[j]),
-            pivot: 0.0,
-            tolerance: 0.0,
+        let b = best.ok_or_else(|| IdentifyError::NothingValidated {
+            target: table.target_names[j].clone(),
+            training_rows: train.iter().filter(|&&m| m).count(),
+            validation: scheme.description.clone(),
         })?;
         if b.family == Family::Differences {
             if let Some(e) = &eng_d {

@@ -305,3 +305,29 @@ fn model_file_of_an_identification() {
         .unwrap_err();
     assert!(e.to_string().contains("axis"), "{e}");
 }
+
+/// When no candidate model can be validated (here every input is constant within each
+/// training run, so every leave-one-run-out fold trains on a singular design), the error
+/// says so, naming the target, its training rows, the validation and what to change.
+#[test]
+fn nothing_validated_is_named_with_what_to_change() {
+    let mut text = String::from("run,time_s,a_c,b_c,y_um\n");
+    for run in 1..=3 {
+        for i in 0..10 {
+            let a = 20.0 + run as f64;
+            let b = 25.0 - 2.0 * run as f64 + if run == 3 { 0.1 * i as f64 } else { 0.0 };
+            text += &format!("r{run},{},{a},{b},{}\n", i * 60, 2.0 * a + i as f64);
+        }
+    }
+    let t = read_csv(&text, "log.csv", &sel(Some("run")), ReadOptions::default()).unwrap();
+    let o = IdentifyOptions {
+        split: Split::TestRuns(vec!["r3".into()]),
+        ..IdentifyOptions::default()
+    };
+    let e = identify(&t, &o).unwrap_err().to_string();
+    assert!(
+        e.starts_with("no candidate model of y_um could be validated on its 20 training row(s) (leave-one-run-out")
+            && e.contains("--no-test"),
+        "{e}"
+    );
+}
