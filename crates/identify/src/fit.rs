@@ -125,6 +125,16 @@ impl IdentifyOptions {
                 "at least 2 validation folds",
             ));
         }
+        // The families are those of the default's comparison: with a fixed kind they would
+        // be ignored without a word.
+        if self.model != ModelKind::Auto && !self.families.is_empty() {
+            let named: Vec<&str> = self.families.iter().map(|f| f.name()).collect();
+            return Err(invalid(
+                "--family",
+                named.join(", "),
+                "families only with --model auto (the default); a fixed --model fits its own kind",
+            ));
+        }
         Ok(())
     }
 }

@@ -76,7 +76,7 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     let sparse = measured.iter().any(|&m| !m);
     let mask: Vec<bool> = mask.iter().zip(&measured).map(|(&a, &b)| a && b).collect();
     let n = mask.iter().filter(|&&m| m).count();
-    if n < 10 && sparse && !matches!(split, Split::None) {
+    if n < 10 && sparse {
         return Err(invalid(
             "training rows",
             format!("{n} with every target measured"),

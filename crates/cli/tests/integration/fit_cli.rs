@@ -925,6 +925,14 @@ fn fit_refuses_unusable_candidate_grids_naming_the_option() {
             "invalid --folds = 1: expected at least 2",
         ),
         (vec!["--max-sensors", "0"], "invalid --max-sensors = 0"),
+        (
+            vec!["--model", "static", "--family", "ridge"],
+            "invalid --family = ridge: expected families only with --model auto",
+        ),
+        (
+            vec!["--resample-s", "-5"],
+            "invalid --resample-s = -5: expected a time step > 0 s",
+        ),
     ] {
         let out = bin()
             .args(["fit", "--target", "y_um", "--no-test", "--data"])
