@@ -476,17 +476,25 @@ fn split_of(args: &Args, table: &Table) -> anyhow::Result<(Split, Option<String>
         ));
         Split::TestRuns(vec![last])
     } else if args.train_before_h.is_none()
-        && table.time_s.last().is_some_and(|&t| t <= 24.0 * 3600.0)
+        && table
+            .time_s
+            .last()
+            .zip(table.time_s.first())
+            .is_some_and(|(&b, &a)| b - a <= 24.0 * 3600.0)
     {
         split_note = Some(
             "the data ends before the default 24 h split: every row trains, no test error (give --train-before-h to hold out a test period)".into(),
         );
         Split::None
     } else {
-        let h = args.train_before_h.unwrap_or(24.0);
+        let (h, note) = match args.train_before_h {
+            Some(h) => (h, None),
+            None => gearcomp_identify::pipeline::default_split_h(&table.time_s),
+        };
         if !(h.is_finite() && h > 0.0) {
             anyhow::bail!("invalid --train-before-h = {h}: expected hours > 0");
         }
+        split_note = note;
         Split::TimeBefore(h * 3600.0)
     };
     Ok((split, split_note))

@@ -110,6 +110,33 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     Ok(mask)
 }
 
+/// Longest log span (h) that the default split trains on its first 24 h, as the FL_THERMAL
+/// protocol does (train on the first 24 h of the 46 h test).
+pub const DEFAULT_SPLIT_SPAN_H: f64 = 72.0;
+
+/// The default train/test split of one run by time (`fit` without `--train-before-h`), in h
+/// on the log's time axis, and the note saying so when it is not the plain 24 h: the first
+/// 24 h from the first row while the log spans at most [`DEFAULT_SPLIT_SPAN_H`]; a longer
+/// log (a production log of many days) trains on its first two thirds, in whole hours, and
+/// tests on the last third, where 24 h would train on the first day alone.
+pub fn default_split_h(time_s: &[f64]) -> (f64, Option<String>) {
+    let (t0, t1) = match (time_s.first(), time_s.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => return (24.0, None),
+    };
+    let span_h = (t1 - t0) / 3600.0;
+    if span_h <= DEFAULT_SPLIT_SPAN_H {
+        return (t0 / 3600.0 + 24.0, None);
+    }
+    let h = (t0 / 3600.0 + 2.0 * span_h / 3.0).round();
+    (
+        h,
+        Some(format!(
+            "the log spans {span_h:.1} h: the default trains on its first two thirds (before {h} h) and tests on the rest (the first 24 h only up to a {DEFAULT_SPLIT_SPAN_H} h log; choose with --train-before-h)"
+        )),
+    )
+}
+
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
 /// groups in order of appearance) or, without runs, `folds` contiguous blocks of equal
 /// time span.
@@ -1047,5 +1074,25 @@ mod tests {
                 assert!(!want.iter().any(|w| w.contains("c1_c")));
             }
         }
+    }
+
+    /// The default split: 24 h after the first row up to a 72 h log (also on an absolute
+    /// time axis), the first two thirds in whole hours beyond, with a note.
+    #[test]
+    fn default_split_is_24_h_or_two_thirds_of_a_long_log() {
+        let hours = |h: &[f64]| h.iter().map(|x| x * 3600.0).collect::<Vec<f64>>();
+        assert_eq!(default_split_h(&hours(&[0.0, 46.0])), (24.0, None));
+        assert_eq!(default_split_h(&hours(&[0.0, 72.0])), (24.0, None));
+        assert_eq!(default_split_h(&hours(&[1000.0, 1046.0])), (1024.0, None));
+        let (h, note) = default_split_h(&hours(&[0.0, 100.0]));
+        assert_eq!(h, 67.0);
+        let note = note.unwrap();
+        assert!(
+            note.contains("spans 100.0 h") && note.contains("before 67 h"),
+            "{note}"
+        );
+        let (h, _) = default_split_h(&hours(&[500.0, 932.0]));
+        assert_eq!(h, 788.0);
+        assert_eq!(default_split_h(&[]), (24.0, None));
     }
 }

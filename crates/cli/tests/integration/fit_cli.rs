@@ -532,6 +532,50 @@ fn fit_converts_a_target_in_mm_to_micrometres() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// The default split of a long log: a 100 h log trains on its first two thirds (before
+/// 67 h), with a note, not on its first day alone; a 46 h log keeps the first 24 h.
+#[test]
+fn fit_default_split_of_a_long_log_is_two_thirds() {
+    let d = tmp("split");
+    let log = |hours: usize| {
+        let mut text = String::from("time_s,a_c,b_c,y_um\n");
+        for i in 0..hours * 6 {
+            let t = i as f64 * 600.0;
+            let (a, b) = (20.0 + (t / 7e4).sin(), 22.0 + (t / 3e4).cos());
+            text += &format!("{t},{a},{b},{}\n", 2.0 * a - b);
+        }
+        text
+    };
+    let run = |name: &str, hours: usize| {
+        let p = d.join(name);
+        std::fs::write(&p, log(hours)).unwrap();
+        let out = bin()
+            .args(["fit", "--target", "y_um", "--json", "--data"])
+            .arg(&p)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let v = run("long.csv", 100);
+    // Rows at t < 67 h: 67 × 6.
+    assert_eq!(v["training_rows"].as_u64(), Some(402));
+    assert_eq!(v["test_rows"].as_u64(), Some(600 - 402));
+    let note = v["split_note"].as_str().unwrap();
+    assert!(
+        note.contains("spans 99.8 h") && note.contains("before 67 h"),
+        "{note}"
+    );
+    let v = run("short.csv", 46);
+    assert_eq!(v["training_rows"].as_u64(), Some(144));
+    assert!(v["split_note"].is_null(), "{}", v["split_note"]);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// `--missing hold`: a temperature logged every second row (the cell empty between) holds
 /// its last value; every row is fitted and the held cells are counted in one note.
 #[test]
