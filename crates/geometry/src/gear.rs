@@ -187,6 +187,36 @@ impl BasicRack {
     };
 }
 
+impl BasicRack {
+    /// The largest root fillet radius ρ_fP* (in m_n) this rack's addendum and dedendum admit
+    /// at the normal pressure angle `alpha_n_rad`: the full-radius tool tip, and no longer
+    /// than the dedendum's straight part allows.
+    ///
+    /// # Formula
+    /// s_tip = π/2 − 2·h_fP*·tan α_n;  ρ_max* = min(s_tip·cos α_n / (2·(1 − sin α_n)),
+    /// h_fP* / (1 − sin α_n))
+    /// # Source
+    /// geometry of the basic rack, ISO 53:1998, 4 [DERIVED]
+    pub fn max_root_radius_coeff(&self, alpha_n_rad: f64) -> f64 {
+        let s_tip = FRAC_PI_2 - 2.0 * self.dedendum_coeff * alpha_n_rad.tan();
+        let full = s_tip * alpha_n_rad.cos() / (2.0 * (1.0 - alpha_n_rad.sin()));
+        full.min(self.dedendum_coeff / (1.0 - alpha_n_rad.sin()))
+    }
+
+    /// The DIN 867 rack for the pressure angle `alpha_n_rad`: DIN 867 is drawn for 20°; at a
+    /// pressure angle whose narrower rack tip cannot carry ρ_fP* = 0.25 (above about 25°)
+    /// the root radius is the largest it can carry (a full-radius tool tip).
+    pub fn din_867_at(alpha_n_rad: f64) -> BasicRack {
+        let r = BasicRack::DIN_867;
+        BasicRack {
+            root_radius_coeff: r
+                .root_radius_coeff
+                .min(r.max_root_radius_coeff(alpha_n_rad)),
+            ..r
+        }
+    }
+}
+
 impl Default for BasicRack {
     fn default() -> Self {
         BasicRack::DIN_867
@@ -641,10 +671,7 @@ fn check_rack(rack: &BasicRack, alpha_n: f64) -> Result<()> {
         "",
         true,
     )?;
-    let s_tip = FRAC_PI_2 - 2.0 * rack.dedendum_coeff * alpha_n.tan();
-    let rho_max = s_tip * alpha_n.cos() / (2.0 * (1.0 - alpha_n.sin()));
-    // ρ may reach the full radius and the dedendum's straight part must not vanish below 0.
-    let rho_max = rho_max.min(rack.dedendum_coeff / (1.0 - alpha_n.sin()));
+    let rho_max = rack.max_root_radius_coeff(alpha_n);
     check_range(
         "root_radius_coeff",
         rack.root_radius_coeff,

@@ -171,7 +171,8 @@ pub struct FlankLimits {
 }
 
 impl InvoluteGear {
-    /// The gear as the gear-geometry crate sees it (external teeth, DIN 867 basic rack, the
+    /// The gear as the gear-geometry crate sees it (external teeth, DIN 867 basic rack with
+    /// the root radius it carries at this pressure angle, `BasicRack::din_867_at`; the
     /// pressure angle of `flank`); this validates the gear as a gear (3 ≤ z ≤ 10 000,
     /// |β| < 60°, no pointed tooth, root circle above 0, no undercut by the rack where the
     /// geometry crate refuses it).
@@ -190,7 +191,7 @@ impl InvoluteGear {
             mesh: Mesh::External,
             profile_shift: self.x_shift,
             face_width_mm: None,
-            rack: BasicRack::DIN_867,
+            rack: BasicRack::din_867_at(self.alpha_n_rad(flank)),
         };
         Ok(Gear::new(spec)?)
     }

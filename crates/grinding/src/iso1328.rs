@@ -238,6 +238,12 @@ impl DeviationMap {
                 xs.push(x);
             }
         }
+        // A coarse grid (--grid-w/--grid-z 2 … 4) may leave no grid point inside the range:
+        // the trace is then the bilinear map's straight line between the ends, sampled at
+        // its middle too (F = |f_H|, f_f = 0), not a refusal of a valid grid.
+        if xs.len() == 1 {
+            xs.push(0.5 * (range_mm.0 + range_mm.1));
+        }
         xs.push(range_mm.1);
         let fs = xs
             .iter()
@@ -359,6 +365,32 @@ mod tests {
     /// Mean line slope 0.2 (the parabola is symmetric) ⇒ f_H = 2.0 µm; mean of (x−5)² = 10 ⇒
     /// residual 0.05((x−5)² − 10) ∈ [−0.5, 0.75] ⇒ f_f = 1.25 µm; f(0) = 1.25, f(10) = 3.25,
     /// min at x = 3: 0.8 ⇒ F = 2.45 µm.
+    /// A coarse grid (2 or 3 points per direction, none inside an evaluation range) is
+    /// evaluated, not refused: on the bilinear map of a plane f = a·w + c·z the profile and
+    /// helix traces are its lines, so f_H = a·L_α and c·L_β, F = |f_H|, f_f = 0, as on a
+    /// fine grid of the same plane.
+    #[test]
+    fn a_coarse_grid_evaluates_the_plane_it_spans() {
+        let (a, c) = (2e-4, -1.5e-4); // mm per mm
+        let tol = tolerances(80.0, 2.0, 20.0, 6).unwrap();
+        for (n_w, n_z) in [(2, 2), (2, 31), (25, 2), (3, 3), (25, 31)] {
+            let g = FlankGrid::new((8.0, 22.0), (-10.0, 10.0), n_w, n_z).unwrap();
+            let f: Vec<f64> = (0..n_w)
+                .flat_map(|i| (0..n_z).map(move |j| (i, j)))
+                .map(|(i, j)| a * g.w_mm(i) + c * g.z_mm(j))
+                .collect();
+            let e = DeviationMap::new(g, f).unwrap().evaluate(tol, 2.0).unwrap();
+            let pr = profile_evaluation_range((8.0, 22.0));
+            let hr = helix_evaluation_range((-10.0, 10.0), 2.0);
+            assert_relative_eq!(e.profile.slope_um, a * (pr.1 - pr.0) * 1e3, epsilon = 1e-9);
+            assert_relative_eq!(e.profile.total_um, e.profile.slope_um.abs(), epsilon = 1e-9);
+            assert!(e.profile.form_um.abs() < 1e-9, "{n_w}×{n_z}: {e:?}");
+            assert_relative_eq!(e.helix.slope_um, c * (hr.1 - hr.0) * 1e3, epsilon = 1e-9);
+            assert_relative_eq!(e.helix.total_um, e.helix.slope_um.abs(), epsilon = 1e-9);
+            assert!(e.helix.form_um.abs() < 1e-9, "{n_w}×{n_z}: {e:?}");
+        }
+    }
+
     #[test]
     fn hand_computed_trace() {
         let x: Vec<f64> = (0..=10).map(f64::from).collect();

@@ -360,3 +360,54 @@ fn recommended_ball_tends_to_the_rack_ball() {
         );
     }
 }
+
+/// `BasicRack::din_867_at`: DIN 867 itself up to the pressure angle whose rack tip carries
+/// ρ_fP* = 0.25; above it the largest root radius the tip carries, which the gear accepts
+/// (it refused the DIN 867 rack there) and any larger radius it refuses. The bound is checked
+/// against the full-radius tip written here: a fillet of radius ρ tangent to both flanks
+/// spans ρ·(1 − sin α)/cos α either side of the tip's centre line, which the half tip width
+/// π/4 − h_fP*·tan α (in m_n) must hold.
+#[test]
+fn din_867_at_a_high_pressure_angle_carries_the_largest_root_radius() {
+    use gearcomp_geometry::{BasicRack, Gear, GearSpec, Hand, Mesh};
+    let spec = |alpha_deg: f64, rack: BasicRack| GearSpec {
+        normal_module_mm: 3.0,
+        normal_pressure_angle_rad: alpha_deg.to_radians(),
+        helix_angle_rad: 0.0,
+        hand: Hand::Right,
+        teeth: 40,
+        mesh: Mesh::External,
+        profile_shift: 0.0,
+        face_width_mm: None,
+        rack,
+    };
+    for alpha_deg in [14.5f64, 20.0, 22.5, 25.0] {
+        assert_eq!(
+            BasicRack::din_867_at(alpha_deg.to_radians()),
+            BasicRack::DIN_867,
+            "{alpha_deg}°"
+        );
+    }
+    for alpha_deg in [27.0, 28.0, 30.0, 32.0] {
+        let a = f64::to_radians(alpha_deg);
+        assert!(
+            Gear::new(spec(alpha_deg, BasicRack::DIN_867)).is_err(),
+            "{alpha_deg}°"
+        );
+        let r = BasicRack::din_867_at(a);
+        // Independent form of the full-radius tip: half the tip width of the tooth space
+        // s_tip/2 = π/4 − h_fP*·tan α equals ρ·(1 − sin α)/cos α.
+        let rho = (std::f64::consts::FRAC_PI_4 - 1.25 * a.tan()) * a.cos() / (1.0 - a.sin());
+        assert!(
+            (r.root_radius_coeff - rho).abs() < 1e-12,
+            "{alpha_deg}°: {r:?} vs {rho}"
+        );
+        assert!(r.root_radius_coeff < 0.25);
+        assert!(Gear::new(spec(alpha_deg, r)).is_ok(), "{alpha_deg}°");
+        let over = BasicRack {
+            root_radius_coeff: rho * (1.0 + 1e-9),
+            ..r
+        };
+        assert!(Gear::new(spec(alpha_deg, over)).is_err(), "{alpha_deg}°");
+    }
+}
