@@ -262,6 +262,22 @@ fn fit_json(
     }
 }
 
+/// `gearcomp fit --json --data path args…`, which must succeed: its JSON.
+fn fit_json_of(path: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let out = bin()
+        .args(["fit", "--json", "--data"])
+        .arg(path)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 /// The cells of `run_csv(0, true)` (time in s first).
 fn plain_rows() -> Vec<Vec<String>> {
     run_csv(0, true)
@@ -424,26 +440,8 @@ fn fit_a_long_high_rate_log_is_resampled_for_the_dynamic_search() {
     let path = d.join("long.csv");
     std::fs::write(&path, &text).unwrap();
     let fit = |extra: &[&str]| {
-        let out = bin()
-            .args([
-                "fit",
-                "--target",
-                "y_um",
-                "--train-before-h",
-                "6.5",
-                "--json",
-                "--data",
-            ])
-            .arg(&path)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+        let args = [&["--target", "y_um", "--train-before-h", "6.5"][..], extra].concat();
+        fit_json_of(&path, &args)
     };
     let v = fit(&[]);
     let note = v["split_note"].as_str().unwrap();
@@ -549,17 +547,7 @@ fn fit_default_split_of_a_long_log_is_two_thirds() {
     let run = |name: &str, hours: usize| {
         let p = d.join(name);
         std::fs::write(&p, log(hours)).unwrap();
-        let out = bin()
-            .args(["fit", "--target", "y_um", "--json", "--data"])
-            .arg(&p)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+        fit_json_of(&p, &["--target", "y_um"])
     };
     let v = run("long.csv", 100);
     // Rows at t < 67 h: 67 × 6.
