@@ -464,40 +464,18 @@ fn resample(
 
 /// The train/test split the options ask for, and a note when it was chosen by default.
 fn split_of(args: &Args, table: &Table) -> anyhow::Result<(Split, Option<String>)> {
-    let mut split_note = None;
-    let split = if args.no_test {
-        Split::None
+    Ok(if args.no_test {
+        (Split::None, None)
     } else if !args.test_runs.is_empty() {
-        Split::TestRuns(args.test_runs.clone())
-    } else if args.train_before_h.is_none() && table.run_count() > 1 {
-        let last = table.run_names.last().cloned().unwrap_or_default();
-        split_note = Some(format!(
-            "test run: {last} (the last run; choose with --test-runs, or --no-test)"
-        ));
-        Split::TestRuns(vec![last])
-    } else if args.train_before_h.is_none()
-        && table
-            .time_s
-            .last()
-            .zip(table.time_s.first())
-            .is_some_and(|(&b, &a)| b - a <= 24.0 * 3600.0)
-    {
-        split_note = Some(
-            "the data ends before the default 24 h split: every row trains, no test error (give --train-before-h to hold out a test period)".into(),
-        );
-        Split::None
-    } else {
-        let (h, note) = match args.train_before_h {
-            Some(h) => (h, None),
-            None => gearcomp_identify::pipeline::default_split_h(&table.time_s),
-        };
+        (Split::TestRuns(args.test_runs.clone()), None)
+    } else if let Some(h) = args.train_before_h {
         if !(h.is_finite() && h > 0.0) {
             anyhow::bail!("invalid --train-before-h = {h}: expected hours > 0");
         }
-        split_note = note;
-        Split::TimeBefore(h * 3600.0)
-    };
-    Ok((split, split_note))
+        (Split::TimeBefore(h * 3600.0), None)
+    } else {
+        gearcomp_identify::pipeline::default_split(table)
+    })
 }
 
 /// The identification options of the command line.

@@ -114,27 +114,51 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
 /// protocol does (train on the first 24 h of the 46 h test).
 pub const DEFAULT_SPLIT_SPAN_H: f64 = 72.0;
 
-/// The default train/test split of one run by time (`fit` without `--train-before-h`), in h
-/// on the log's time axis, and the note saying so when it is not the plain 24 h: the first
-/// 24 h from the first row while the log spans at most [`DEFAULT_SPLIT_SPAN_H`]; a longer
-/// log (a production log of many days) trains on its first two thirds, in whole hours, and
-/// tests on the last third, where 24 h would train on the first day alone.
-pub fn default_split_h(time_s: &[f64]) -> (f64, Option<String>) {
-    let (t0, t1) = match (time_s.first(), time_s.last()) {
+/// The default train/test split (`fit` without `--no-test`, `--test-runs` or
+/// `--train-before-h`) and the note saying what it chose, when it is not the plain 24 h:
+/// - several runs: the last run tests;
+/// - one run of at most 24 h: every row trains (no test error);
+/// - one run of at most [`DEFAULT_SPLIT_SPAN_H`]: the first 24 h from the first row train,
+///   the rest tests (the FL_THERMAL protocol);
+/// - a longer run (a production log of many days): its first two thirds, in whole hours,
+///   train and the last third tests, where 24 h would train on the first day alone.
+pub fn default_split(table: &Table) -> (Split, Option<String>) {
+    if table.run_count() > 1 {
+        let last = table.run_names.last().cloned().unwrap_or_default();
+        let note =
+            format!("test run: {last} (the last run; choose with --test-runs, or --no-test)");
+        return (Split::TestRuns(vec![last]), Some(note));
+    }
+    let (t0, t1) = match (table.time_s.first(), table.time_s.last()) {
         (Some(&a), Some(&b)) => (a, b),
-        _ => return (24.0, None),
+        _ => return (Split::None, None),
     };
     let span_h = (t1 - t0) / 3600.0;
+    if span_h <= 24.0 {
+        let note = "the data ends before the default 24 h split: every row trains, no test error (give --train-before-h to hold out a test period)";
+        return (Split::None, Some(note.into()));
+    }
     if span_h <= DEFAULT_SPLIT_SPAN_H {
-        return (t0 / 3600.0 + 24.0, None);
+        return (Split::TimeBefore(t0 + 24.0 * 3600.0), None);
     }
     let h = (t0 / 3600.0 + 2.0 * span_h / 3.0).round();
     (
-        h,
+        Split::TimeBefore(h * 3600.0),
         Some(format!(
             "the log spans {span_h:.1} h: the default trains on its first two thirds (before {h} h) and tests on the rest (the first 24 h only up to a {DEFAULT_SPLIT_SPAN_H} h log; choose with --train-before-h)"
         )),
     )
+}
+
+/// The fixed kinds' validation in words: `k`-fold cross-validation by run or by contiguous
+/// time block ([`folds`]).
+fn fold_validation(table: &Table, k: usize) -> String {
+    let by = if table.runs.is_some() {
+        "run"
+    } else {
+        "contiguous time block"
+    };
+    format!("{k}-fold cross-validation by {by}")
 }
 
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
@@ -511,14 +535,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         let choice = best.ok_or_else(|| IdentifyError::NothingValidated {
             target: table.target_names[j].clone(),
             training_rows: rows.mask.iter().filter(|&&m| m).count(),
-            validation: format!(
-                "{k_folds}-fold cross-validation by {}",
-                if table.runs.is_some() {
-                    "run"
-                } else {
-                    "contiguous time block"
-                }
-            ),
+            validation: fold_validation(table, k_folds),
         })?;
         finish(
             table, &rows, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,
@@ -527,7 +544,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     .into_iter()
     .collect::<Result<Vec<_>>>()?;
     let method = format!(
-        "{} model; classes by {}; representative by {}; {}-fold cross-validation by {}",
+        "{} model; classes by {}; representative by {}; {}",
         match opts.model {
             ModelKind::Dynamic => "dynamic (value + filtered rate per sensor, forward selection)",
             ModelKind::Static => "static (CN105397560: all class representatives, OLS)",
@@ -542,12 +559,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             RepresentativeBy::Pearson => "max |Pearson r| with the target",
             RepresentativeBy::GreyRelational => "max grey relational grade (ρ = 0.5)",
         },
-        k_folds,
-        if table.runs.is_some() {
-            "run"
-        } else {
-            "contiguous time block"
-        },
+        fold_validation(table, k_folds),
     );
     let test = table.test_mask(&train);
     Ok(Identification {
@@ -1076,23 +1088,42 @@ mod tests {
         }
     }
 
-    /// The default split: 24 h after the first row up to a 72 h log (also on an absolute
-    /// time axis), the first two thirds in whole hours beyond, with a note.
+    /// The default split: the last run with runs; every row up to 24 h; 24 h after the
+    /// first row up to a 72 h log (also on an absolute time axis); the first two thirds in
+    /// whole hours beyond, with a note.
     #[test]
     fn default_split_is_24_h_or_two_thirds_of_a_long_log() {
-        let hours = |h: &[f64]| h.iter().map(|x| x * 3600.0).collect::<Vec<f64>>();
-        assert_eq!(default_split_h(&hours(&[0.0, 46.0])), (24.0, None));
-        assert_eq!(default_split_h(&hours(&[0.0, 72.0])), (24.0, None));
-        assert_eq!(default_split_h(&hours(&[1000.0, 1046.0])), (1024.0, None));
-        let (h, note) = default_split_h(&hours(&[0.0, 100.0]));
-        assert_eq!(h, 67.0);
+        let of = |h: &[f64]| {
+            let t = Table {
+                time_s: h.iter().map(|x| x * 3600.0).collect(),
+                ..Table::default()
+            };
+            default_split(&t)
+        };
+        let (s, note) = of(&[0.0, 20.0]);
+        assert_eq!(s, Split::None);
+        assert!(note.unwrap().contains("every row trains"));
+        assert_eq!(of(&[0.0, 46.0]), (Split::TimeBefore(86_400.0), None));
+        assert_eq!(of(&[0.0, 72.0]), (Split::TimeBefore(86_400.0), None));
+        assert_eq!(
+            of(&[1000.0, 1046.0]),
+            (Split::TimeBefore(1024.0 * 3600.0), None)
+        );
+        let (s, note) = of(&[0.0, 100.0]);
+        assert_eq!(s, Split::TimeBefore(67.0 * 3600.0));
         let note = note.unwrap();
         assert!(
             note.contains("spans 100.0 h") && note.contains("before 67 h"),
             "{note}"
         );
-        let (h, _) = default_split_h(&hours(&[500.0, 932.0]));
-        assert_eq!(h, 788.0);
-        assert_eq!(default_split_h(&[]), (24.0, None));
+        assert_eq!(of(&[500.0, 932.0]).0, Split::TimeBefore(788.0 * 3600.0));
+        assert_eq!(of(&[]), (Split::None, None));
+        let runs = Table {
+            time_s: vec![0.0, 1.0, 0.0, 1.0],
+            runs: Some(vec![0, 0, 1, 1]),
+            run_names: vec!["a".into(), "b".into()],
+            ..Table::default()
+        };
+        assert_eq!(default_split(&runs).0, Split::TestRuns(vec!["b".into()]));
     }
 }
