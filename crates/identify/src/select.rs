@@ -716,6 +716,9 @@ fn forward(
     }
 }
 
+/// A k-step candidate: its units, its residual on every training row, its sorted columns.
+type Candidate<'a> = (&'a [Vec<usize>], f64, Vec<usize>);
+
 /// The k-step model kept: of the (k + 1)-th state of the path on every training row and of
 /// each fold's path, the set of columns most of them share (ties: the least residual on
 /// every training row, then the path on every row). Greedy paths can differ in order: on
@@ -742,7 +745,7 @@ fn consensus_state(
     };
     // Candidates that fit every training row: the full path's state and each fold path's
     // within the cap, keyed by their sorted columns.
-    let mut cands: Vec<(&[Vec<usize>], f64, Vec<usize>)> = Vec::new();
+    let mut cands: Vec<Candidate> = Vec::new();
     let fold_states = fold_paths
         .iter()
         .filter_map(|p| p.get(k).map(Vec::as_slice))
