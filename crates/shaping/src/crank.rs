@@ -30,13 +30,22 @@ pub struct SliderCrank {
 /// longer a practical shaper drive and the velocity peak moves far from 90°.
 pub const MAX_LAMBDA: f64 = 0.5;
 
+/// Largest crank radius R accepted, in mm.
+pub const MAX_CRANK_RADIUS_MM: f64 = 500.0;
+
 impl SliderCrank {
     /// A crank of radius `crank_radius_mm` (R) driving a rod of length `rod_length_mm` (L).
     ///
     /// # Domain
     /// 0.1 mm ≤ R ≤ 500 mm, R/λ_max ≤ L ≤ 10 000 mm with λ_max = [`MAX_LAMBDA`].
     pub fn new(crank_radius_mm: f64, rod_length_mm: f64) -> Result<Self> {
-        let r = check_range("crank radius R", crank_radius_mm, 0.1, 500.0, "mm")?;
+        let r = check_range(
+            "crank radius R",
+            crank_radius_mm,
+            0.1,
+            MAX_CRANK_RADIUS_MM,
+            "mm",
+        )?;
         let l = check_range(
             "rod length K (L)",
             rod_length_mm,

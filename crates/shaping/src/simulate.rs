@@ -11,8 +11,10 @@ use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::crank::MAX_CRANK_RADIUS_MM;
 use crate::error::{check_range, Result, ShapingError};
 use crate::interpolator::{Demands, Interpolator, InterpolatorConfig};
+use crate::ratio::Ratio;
 use crate::servo::{ServoAxis, ServoModel};
 use gearcomp_geometry::iso1328::{
     helix_evaluation_range, round_tolerance_um, tolerances_unrounded,
@@ -109,6 +111,9 @@ pub struct SimulationResult {
 /// Smallest overtravel of the cutter beyond each face of the workpiece, in mm.
 pub const MIN_OVERTRAVEL_MM: f64 = 1.0;
 
+/// Smallest facewidth B accepted, in mm (the lower end of ISO 1328-1:2013's scope).
+pub const MIN_FACE_WIDTH_MM: f64 = 4.0;
+
 /// Checks the parts of a simulation set-up the interpolator does not: strokes to simulate,
 /// facewidth B against the stroke, pressure angle and the servo loops. [`simulate`] calls
 /// it; a G83 block calls it when it is converted, so the error carries the block's line.
@@ -121,11 +126,25 @@ pub fn validate_simulation(cfg: &SimulationConfig) -> Result<()> {
         100.0,
         "",
     )?;
+    // The smallest facewidth (4 mm, ISO 1328-1 scope) with its overtravel must fit in the
+    // stroke 2R; a shorter stroke cannot cut any facewidth, so the crank radius is wrong.
+    let min_radius_mm = 0.5 * (MIN_FACE_WIDTH_MM + 2.0 * MIN_OVERTRAVEL_MM);
+    let r_mm = cfg.interp.crank.crank_radius_mm();
+    if r_mm < min_radius_mm {
+        return Err(ShapingError::OutOfRange {
+            field: "crank radius R (the stroke 2R must hold the smallest facewidth, 4 mm, plus \
+                    1 mm overtravel at each end)",
+            value: r_mm,
+            min: min_radius_mm,
+            max: MAX_CRANK_RADIUS_MM,
+            unit: "mm",
+        });
+    }
     check_range(
         "facewidth B",
         cfg.face_width_mm,
-        4.0,
-        (stroke - 2.0 * MIN_OVERTRAVEL_MM).max(4.0),
+        MIN_FACE_WIDTH_MM,
+        stroke - 2.0 * MIN_OVERTRAVEL_MM,
         "mm",
     )?;
     check_range(
@@ -333,7 +352,8 @@ pub struct ExecutionSummary {
     pub c1_revolutions: f64,
     /// Radial infeed reached in mm.
     pub x_infeed_mm: f64,
-    /// Exact coupling residual Z_C2·cpr_C1·C2_gen − ρ_num·cpr_C2·C1 in counts·den (0 = no drift).
+    /// Exact coupling residual: numerator of the reduced fraction
+    /// C2_gen − ρ·(cpr_C2/cpr_C1)·C1 in C2 counts (0 = no drift), see [`coupling_residual`].
     pub coupling_residual: i128,
 }
 
@@ -370,13 +390,89 @@ pub fn execution_plan(cfg: &InterpolatorConfig, ip: &Interpolator) -> Result<(u6
     Ok((strokes, cycles, counts_per_cycle))
 }
 
+/// The exact coupling residual of a whole cut: the numerator of the reduced fraction
+/// C2_gen − ρ·(cpr_C2/cpr_C1)·C1 in C2 counts; 0 exactly when nothing drifted.
+///
+/// `c2_gen` and `c1` are exact positions (whole counts, remainder, denominator). Every product
+/// is formed from reduced fractions with the common factors cancelled first (as
+/// [`Ratio::checked_mul`] does), so the check stays within 128 bits for every accepted set-up;
+/// the cross-multiplied form C2_gen·ρ_den·cpr_C1·den_C1 − ρ_num·cpr_C2·C1·den_C2 overflowed
+/// i128 at valid encoder resolutions near 2^26 counts per revolution.
+///
+/// # Formula
+/// r = C2_gen − ρ·(cpr_C2/cpr_C1)·C1, reduced; the residual is r's numerator.
+pub fn coupling_residual(
+    rho: Ratio,
+    c1_cpr: u32,
+    c2_cpr: u32,
+    c2_gen: (i128, i128, i128),
+    c1: (i128, i128, i128),
+) -> Result<i128> {
+    let exact = |(whole, rem, den): (i128, i128, i128), what: &'static str| {
+        let den = den.max(1);
+        whole
+            .checked_mul(den)
+            .and_then(|v| v.checked_add(rem))
+            .ok_or_else(|| ShapingError::Overflow {
+                what,
+                detail: format!("{whole} + {rem}/{den} counts"),
+            })
+            .and_then(|num| Ratio::new(num, den))
+    };
+    let c2 = exact(c2_gen, "coupling check (C2 position)")?;
+    let c1 = exact(c1, "coupling check (C1 position)")?;
+    let expected = rho
+        .checked_mul(Ratio::new(i128::from(c2_cpr), i128::from(c1_cpr))?)?
+        .checked_mul(c1)?;
+    if expected == c2 {
+        return Ok(0);
+    }
+    // Drifted: the difference over the reduced common denominator.
+    let overflow = || ShapingError::Overflow {
+        what: "coupling check",
+        detail: format!(
+            "C2 = {}/{}, expected {}/{}",
+            c2.numer(),
+            c2.denom(),
+            expected.numer(),
+            expected.denom()
+        ),
+    };
+    let g = gcd_i128(c2.denom(), expected.denom());
+    let a = c2
+        .numer()
+        .checked_mul(expected.denom() / g)
+        .ok_or_else(overflow)?;
+    let b = expected
+        .numer()
+        .checked_mul(c2.denom() / g)
+        .ok_or_else(overflow)?;
+    let den = (c2.denom() / g)
+        .checked_mul(expected.denom())
+        .ok_or_else(overflow)?;
+    let diff = a.checked_sub(b).ok_or_else(overflow)?;
+    Ok(Ratio::new(diff, den)?.numer())
+}
+
+fn gcd_i128(mut a: i128, mut b: i128) -> i128 {
+    a = a.abs();
+    b = b.abs();
+    while b != 0 {
+        let t = a % b;
+        a = b;
+        b = t;
+    }
+    a.max(1)
+}
+
 /// Runs a whole cycle: strokes to reach the depth at the radial feed, then one full
 /// workpiece revolution at depth, with the crank at nominal speed; checks the exact coupling
 /// identity at the end.
 ///
 /// # Formula
 /// strokes = ⌈X/U⌉ + ⌈cpr_C1 / c1_per_stroke⌉ (F > 0: at least one C1 count per stroke);
-/// residual = C2_gen·den·cpr_C1·|ρ_den| − ρ_num·cpr_C2·C1·den (exactly 0 when nothing drifts).
+/// residual = numerator of C2_gen − ρ·(cpr_C2/cpr_C1)·C1, reduced (exactly 0 when nothing
+/// drifts; [`coupling_residual`]).
 pub fn execute_program(cfg: &InterpolatorConfig) -> Result<ExecutionSummary> {
     let mut ip = Interpolator::new(*cfg)?;
     let (strokes, cycles, counts_per_cycle) = execution_plan(cfg, &ip)?;
@@ -389,24 +485,13 @@ pub fn execute_program(cfg: &InterpolatorConfig) -> Result<ExecutionSummary> {
     let rho = cfg.cut.generating_ratio();
     let g = out.c2_generating_counts;
     let c1 = out.c1_counts;
-    // C2_gen/C1 = ρ·cpr_C2/cpr_C1 ⇔ C2_gen·ρ_den·cpr_C1 = ρ_num·cpr_C2·C1, both as fractions.
-    let c2_num = i128::from(g.whole) * g.den + g.rem; // C2_gen·g.den
-    let c1_num = i128::from(c1.whole) * c1.den + c1.rem; // C1·c1.den
-    let lhs = c2_num
-        .checked_mul(rho.denom() * i128::from(cfg.c1_cpr))
-        .and_then(|v| v.checked_mul(c1.den));
-    let rhs = c1_num
-        .checked_mul(rho.numer() * i128::from(cfg.c2_cpr))
-        .and_then(|v| v.checked_mul(g.den));
-    let residual = match (lhs, rhs) {
-        (Some(a), Some(b)) => a - b,
-        _ => {
-            return Err(ShapingError::Overflow {
-                what: "coupling check",
-                detail: format!("C2 = {c2_num}/{}, C1 = {c1_num}/{}", g.den, c1.den),
-            })
-        }
-    };
+    let residual = coupling_residual(
+        rho,
+        cfg.c1_cpr,
+        cfg.c2_cpr,
+        (i128::from(g.whole), g.rem, g.den),
+        (i128::from(c1.whole), c1.rem, c1.den),
+    )?;
     Ok(ExecutionSummary {
         strokes,
         cycles: cycles + 1,

@@ -5,6 +5,7 @@
 
 mod coupling;
 mod crank;
+mod fuzz_regressions;
 mod gcode_g83;
 mod interpolator;
 mod issue13;

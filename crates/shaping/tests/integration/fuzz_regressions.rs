@@ -1,0 +1,195 @@
+//! Defects found by fuzzing `gearcomp shape run` with random valid and invalid G83 blocks and
+//! machine data (session 10):
+//!
+//! 1. the exact coupling check of a whole cut overflowed i128 at valid encoder resolutions
+//!    near 2^26 counts/rev ("exact ratio arithmetic overflows for coupling check", valid
+//!    set-up refused at column 1);
+//! 2. a crank radius R < 3 mm was accepted with a facewidth B = 4 mm that does not fit in the
+//!    stroke 2R (exit 0, lead "evaluated" over a 0.2 mm stroke).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use gearcomp_shaping::coupling::{Hand, Mesh};
+use gearcomp_shaping::gcode::{parse_program, MachineData};
+use gearcomp_shaping::ratio::Ratio;
+use gearcomp_shaping::simulate::{coupling_residual, execute_program};
+use gearcomp_shaping::ShapingError;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+/// Exact C2 position of ρ·(cpr_C2/cpr_C1)·C1 built here by integer division (whole counts,
+/// remainder, denominator), not by the crate's ratio arithmetic.
+fn exact_c2(
+    rho_num: i128,
+    rho_den: i128,
+    cpr1: i128,
+    cpr2: i128,
+    c1: (i128, i128, i128),
+) -> (i128, i128, i128) {
+    let (w, r, d) = c1;
+    let num = rho_num * cpr2 * (w * d + r);
+    let den = rho_den * cpr1 * d;
+    let whole = num.div_euclid(den);
+    (whole, num - whole * den, den)
+}
+
+fn check_residual(t: u32, l: u32, internal: bool, cpr1: u32, cpr2: u32, c1: (i128, i128, i128)) {
+    let (n, d) = (i128::from(t), i128::from(l));
+    let rho_num = if internal { n } else { -n };
+    let rho = Ratio::new(rho_num, d).unwrap();
+    let c2 = exact_c2(rho_num, d, i128::from(cpr1), i128::from(cpr2), c1);
+    assert_eq!(
+        coupling_residual(rho, cpr1, cpr2, c2, c1).unwrap(),
+        0,
+        "T{t} L{l} cpr {cpr1}/{cpr2} C1 {c1:?} C2 {c2:?}"
+    );
+    // One whole C2 count of drift is a residual of exactly 1 count.
+    let drifted = (c2.0 + 1, c2.1, c2.2);
+    assert_eq!(
+        coupling_residual(rho, cpr1, cpr2, drifted, c1).unwrap(),
+        1,
+        "T{t} L{l} cpr {cpr1}/{cpr2} C1 {c1:?}"
+    );
+}
+
+/// The fuzzer's case: T997 L991 at 2^26 counts/rev and 2^40 C1 counts, where the
+/// cross-multiplied check needed ~2^138.
+#[test]
+fn coupling_check_does_not_overflow_at_the_finest_encoders() {
+    check_residual(
+        997,
+        991,
+        false,
+        1 << 26,
+        1 << 26,
+        (1 << 40, 12_345_678, 1 << 26),
+    );
+}
+
+/// Random teeth, mesh, encoder resolutions up to 2^26 and positions up to 2^40 counts: the
+/// exact coupling gives residual 0, one count of drift gives 1 (fixed seed + fresh cases).
+#[test]
+fn coupling_residual_is_exact_over_random_set_ups() {
+    let strat = (
+        1u32..=1000,
+        1u32..=1000,
+        any::<bool>(),
+        360u32..=(1 << 26),
+        360u32..=(1 << 26),
+        0i128..(1 << 40),
+        20u32..=26,
+        any::<u64>(),
+    );
+    let prop = |(t, l, internal, cpr1, cpr2, whole, shift, r): (
+        u32,
+        u32,
+        bool,
+        u32,
+        u32,
+        i128,
+        u32,
+        u64,
+    )| {
+        let d = 1i128 << shift;
+        check_residual(t, l, internal, cpr1, cpr2, (whole, i128::from(r) % d, d));
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 64,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut fixed = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[10; 32]),
+    );
+    fixed.run(&strat, prop).unwrap();
+    TestRunner::new(cfg).run(&strat, prop).unwrap();
+}
+
+/// The fuzzer's whole cut: internal T951 L12 with C1 and crank at 2^26 counts/rev and
+/// C2 at 20 797 353 was refused by the coupling check's overflow; it runs and keeps the
+/// exact ratio.
+#[test]
+fn whole_cut_at_fine_encoders_keeps_the_exact_ratio() {
+    let p = parse_program(
+        "G83 E9.977412 I1 T951 X8.691159 S1 K10000 P-4.557095 B262.451607 F10 U0.395796 \
+         R138.074971 L12 D-0.479023 Q2.132691\n",
+    )
+    .unwrap();
+    let mut m = MachineData {
+        cycle_ms: 2.929474465312716,
+        crank_counts_per_rev: 1 << 26,
+        c1_counts_per_rev: 1 << 26,
+        c2_counts_per_rev: 20_797_353,
+        c2_max_speed_rpm: 3062.8,
+        c2_max_accel_rev_s2: 33.86,
+        ..MachineData::default()
+    };
+    m.c1.ideal = true;
+    m.c2.ideal = true;
+    let cfg = p.cycles[0].to_simulation(&m).unwrap();
+    let cut = cfg.interp.cut;
+    assert_eq!((cut.hand(), cut.mesh()), (Hand::Left, Mesh::Internal));
+    let e = execute_program(&cfg.interp).unwrap();
+    assert_eq!(e.coupling_residual, 0);
+    // ⌈8.691159/0.395796⌉ = 22 infeed strokes + ⌈2^26 / counts per stroke⌉ for one turn,
+    // counts per stroke = round(F/r_C1 · cpr/2π), r_C1 = m_n·z/(2 cos β).
+    let r_c1 = 2.132691 * 951.0 / (2.0 * 4.557095f64.to_radians().cos());
+    let per = (10.0 / r_c1 * f64::from(1u32 << 26) / std::f64::consts::TAU).round() as u64;
+    assert_eq!(e.strokes, 22 + (1u64 << 26).div_ceil(per));
+}
+
+fn located_error(text: &str) -> (usize, usize, String) {
+    let p = parse_program(text).unwrap();
+    match p.cycles[0].to_simulation(&MachineData::default()) {
+        Err(ShapingError::Parse {
+            line,
+            column,
+            message,
+        }) => (line, column, message),
+        Ok(_) => panic!("{text:?} was accepted"),
+        Err(e) => panic!("not located: {e}"),
+    }
+}
+
+/// A stroke 2R shorter than the smallest facewidth (4 mm) plus 1 mm overtravel at each end
+/// cannot cut any gear: every R in [0.1, 3) mm is refused at the R word with the range
+/// 3 ..= 500 mm; R = 3 mm with B = 4 mm is the shortest accepted set-up.
+#[test]
+fn a_stroke_too_short_for_any_facewidth_is_refused_at_r() {
+    let strat = (100u32..3000, 4u32..40);
+    let prop = |(r_um, b_dmm): (u32, u32)| {
+        let r = f64::from(r_um) / 1000.0;
+        let b = f64::from(b_dmm) / 10.0 + 4.0;
+        let text = format!("G83 T40 L25 Q1 P5 R{r} K200 S30 F0.5 B{b}\n");
+        let (line, col, msg) = located_error(&text);
+        prop_assert_eq!((line, col), (1, 19), "{}", msg);
+        prop_assert!(
+            msg.contains("crank radius R") && msg.contains(&format!("= {r} mm")),
+            "{}",
+            msg
+        );
+        prop_assert!(msg.contains("allowed 3 ..= 500 mm"), "{}", msg);
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 48,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut fixed = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[11; 32]),
+    );
+    fixed.run(&strat, prop).unwrap();
+    TestRunner::new(cfg).run(&strat, prop).unwrap();
+
+    let p = parse_program("G83 T40 L25 Q1 P5 R3 K200 S30 F0.5 B4\n").unwrap();
+    p.cycles[0].to_simulation(&MachineData::default()).unwrap();
+    let (_, col, msg) = located_error("G83 T40 L25 Q1 P5 R3 K200 S30 F0.5 B4.1\n");
+    assert_eq!(col, 36, "{msg}");
+    assert!(
+        msg.contains("facewidth B = 4.1 mm") && msg.contains("4 ..= 4 mm"),
+        "{msg}"
+    );
+}
