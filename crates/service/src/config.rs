@@ -879,12 +879,64 @@ pub use crate::sources::opcua_config::{
     OpcUaPulseOutput, OpcUaTrigger,
 };
 
+/// The keys of `[input] kind = "simulator"`, as [`InputSection::Simulator`] has them
+/// (only to name a wrong-typed key, see [`input_key_error`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SimulatorKeys {
+    #[serde(default, rename = "preset")]
+    _preset: Option<String>,
+    #[serde(default, rename = "seed")]
+    _seed: u64,
+    #[serde(default, rename = "speedup")]
+    _speedup: f64,
+}
+
+/// The key of the error `e` when it lies in `[input]`: `[input]` is a table tagged by
+/// `kind`, which serde reads whole before choosing the variant, so toml's message names
+/// only the table (`invalid type: string "1.0", expected f64` at the `[input]` line). The
+/// table is read again as the variant's keys alone, which names the key
+/// (`input.speedup`, `input.modules[0].registers[1].scale`) and keeps toml's line.
+fn input_key_error(text: &str, e: &toml::de::Error) -> Option<String> {
+    fn key_of<T: serde::de::DeserializeOwned>(v: toml::Value) -> Option<(String, String)> {
+        serde_path_to_error::deserialize::<_, T>(v).err().map(|e| {
+            // toml's own message adds "in `key`" lines; the first line is the cause.
+            let cause = e.inner().to_string();
+            let first = cause.lines().next().unwrap_or_default().to_string();
+            (e.path().to_string(), first)
+        })
+    }
+    let doc: toml::Table = toml::from_str(text).ok()?;
+    let mut input = doc.get("input")?.as_table()?.clone();
+    let kind = input.remove("kind")?;
+    let v = toml::Value::Table(input);
+    let (key, cause) = match kind.as_str()? {
+        "simulator" => key_of::<SimulatorKeys>(v),
+        #[cfg(feature = "mqtt")]
+        "mqtt" => key_of::<MqttInput>(v),
+        #[cfg(feature = "modbus")]
+        "modbus" => key_of::<ModbusInput>(v),
+        #[cfg(feature = "opcua")]
+        "opcua" => key_of::<OpcUaInput>(v),
+        "replay" => key_of::<ReplayInput>(v),
+        _ => None,
+    }?;
+    let at = e
+        .span()
+        .map(|s| {
+            let line = text[..s.start.min(text.len())].matches('\n').count() + 1;
+            format!(" (the [input] table at line {line})")
+        })
+        .unwrap_or_default();
+    Some(format!("invalid input.{key}: {cause}{at}"))
+}
+
 impl ServiceConfig {
     /// Parses a configuration text; `path` only names the file in messages.
     pub fn from_toml_str(text: &str, path: &str) -> Result<Self> {
         let cfg: Self = toml::from_str(text).map_err(|e| ServiceError::Config {
             path: path.into(),
-            message: e.to_string(),
+            message: input_key_error(text, &e).unwrap_or_else(|| e.to_string()),
         })?;
         cfg.validate()?;
         Ok(cfg)
@@ -898,7 +950,15 @@ impl ServiceConfig {
             path: path.display().to_string(),
             source,
         })?;
-        let mut cfg = Self::from_toml_str(&text, &path.display().to_string())?;
+        let shown = path.display().to_string();
+        // A value out of range names the file too (several --config are read in turn).
+        let mut cfg = Self::from_toml_str(&text, &shown).map_err(|e| match e {
+            ServiceError::Config { .. } => e,
+            e => ServiceError::Config {
+                path: shown.clone(),
+                message: e.to_string(),
+            },
+        })?;
         let dir = path.parent().unwrap_or_else(|| Path::new("."));
         if cfg.storage.path.is_relative() {
             cfg.storage.path = dir.join(&cfg.storage.path);
@@ -1016,6 +1076,15 @@ impl ServiceConfig {
             1.0,
             "0.01…1 s (a crash loses at most this)",
         )?;
+        if self.storage.backend == StorageBackend::Sqlite
+            && self.storage.path.as_os_str().is_empty()
+        {
+            return Err(invalid(
+                "storage.path",
+                "\"\"",
+                "the SQLite record file (created if missing)",
+            ));
+        }
         self.validate_postgres()?;
         self.validate_http()?;
         for (i, t) in self.auth.tokens.iter().enumerate() {
@@ -1476,6 +1545,191 @@ mod tests {
         assert_eq!(s.tls_mode().unwrap(), TlsMode::VerifyFull);
         s.tls = None;
         assert_eq!(s.tls_mode().unwrap(), TlsMode::Disable);
+    }
+
+    /// Keys of each `[input]` kind: (kind, group, key as the message must name it, TOML
+    /// line with `{}` for the value, a valid value). Lines of one group share a top key;
+    /// the valid table takes the first line of each group.
+    const INPUT_KEYS: &[(&str, &str, &str, &str, &str)] = &[
+        ("simulator", "preset", "preset", "preset = {}", "\"grinder\""),
+        ("simulator", "seed", "seed", "seed = {}", "3"),
+        ("simulator", "speedup", "speedup", "speedup = {}", "60.0"),
+        ("replay", "path", "path", "path = {}", "\"log.csv\""),
+        ("replay", "speedup", "speedup", "speedup = {}", "2.0"),
+        ("replay", "loop", "loop", "loop = {}", "false"),
+        ("replay", "targets", "targets", "targets = {}", "[\"x\"]"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "host", "host", "host = {}", "\"h\""),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "port", "port", "port = {}", "1883"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "topic_prefix", "topic_prefix", "topic_prefix = {}", "\"p\""),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "keep_alive_s", "keep_alive_s", "keep_alive_s = {}", "30"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "publish_offset", "publish_offset", "publish_offset = {}", "true"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "max_payload_bytes", "max_payload_bytes", "max_payload_bytes = {}", "1024"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "heartbeat_s", "heartbeat_s", "heartbeat_s = {}", "2.0"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "reconnect", "reconnect.min_s", "reconnect = { min_s = {}, max_s = 1.0 }", "0.2"),
+        #[cfg(feature = "mqtt")]
+        ("mqtt", "reconnect", "reconnect.max_s", "reconnect = { min_s = 0.2, max_s = {} }", "1.0"),
+        #[cfg(feature = "modbus")]
+        ("modbus", "poll_period_s", "poll_period_s", "poll_period_s = {}", "1.0"),
+        #[cfg(feature = "modbus")]
+        (
+            "modbus",
+            "modules",
+            "modules[0].registers[0].scale",
+            "modules = [{ host = \"h\", registers = [{ channel = \"a\", address = 0, scale = {} }] }]",
+            "0.1",
+        ),
+        #[cfg(feature = "modbus")]
+        (
+            "modbus",
+            "modules",
+            "modules[0].port",
+            "modules = [{ host = \"h\", port = {}, registers = [] }]",
+            "502",
+        ),
+        #[cfg(feature = "modbus")]
+        (
+            "modbus",
+            "offset_output",
+            "offset_output.um_per_count",
+            "offset_output = { axis = \"Z\", address = 10, um_per_count = {} }",
+            "0.1",
+        ),
+    ];
+
+    /// Values of another type than `valid`'s.
+    fn wrong_values(valid: &str) -> &'static [&'static str] {
+        if valid.starts_with('"') {
+            &["1", "true", "1.5", "[]", "{ a = 1 }"]
+        } else if valid == "true" || valid == "false" {
+            &["\"yes\"", "1", "[]", "0.5", "\"\""]
+        } else if valid.starts_with('[') {
+            &["\"x\"", "1", "true", "{ a = 1 }", "1.5"]
+        } else if valid.contains('.') {
+            &["\"1.0\"", "true", "[]", "{ a = 1 }", "\" \""]
+        } else {
+            &["\"1\"", "true", "1.5", "-1", "nan"]
+        }
+    }
+
+    /// The `[input]` table of `kind` with every key valid except entry `bad`, which has
+    /// `value`.
+    fn input_text(bad: usize, value: &str) -> String {
+        let kind = INPUT_KEYS[bad].0;
+        let mut groups: Vec<&str> = Vec::new();
+        let mut text = format!("[input]\nkind = \"{kind}\"\n");
+        for (i, (k, group, _, _, valid)) in INPUT_KEYS.iter().enumerate() {
+            if *k != kind || groups.contains(group) {
+                continue;
+            }
+            let i = if INPUT_KEYS[bad].1 == *group { bad } else { i };
+            let v = if i == bad { value } else { valid };
+            text += &INPUT_KEYS[i].3.replace("{}", v);
+            text += "\n";
+            groups.push(group);
+        }
+        text
+    }
+
+    #[test]
+    fn every_input_table_of_the_key_list_is_valid() {
+        // The reference tables are valid, so a refusal below comes from the one value.
+        for (i, key) in INPUT_KEYS.iter().enumerate() {
+            let t = input_text(i, key.4);
+            ServiceConfig::from_toml_str(&t, "m.toml").unwrap_or_else(|e| panic!("{t}\n{e}"));
+        }
+    }
+
+    #[test]
+    fn a_wrong_type_in_input_names_the_key_and_line() {
+        // toml names only the [input] table for a wrong type inside it (a tagged table).
+        let t = "[cycle]\nperiod_s = 1.0\n\n[input]\nkind = \"simulator\"\nspeedup = \"1.0\"\n";
+        let e = ServiceConfig::from_toml_str(t, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "configuration m.toml: invalid input.speedup: invalid type: string \"1.0\", \
+             expected f64 (the [input] table at line 4)"
+        );
+    }
+
+    #[test]
+    fn load_names_the_file_of_a_value_out_of_range() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("grinder2.toml");
+        std::fs::write(&p, "[cycle]\nperiod_s = 0.0\n").unwrap();
+        let e = ServiceConfig::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("grinder2.toml") && e.contains("cycle.period_s = 0:"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn huge_and_tiny_values_are_shown_in_exponent_form() {
+        for (v, shown) in [
+            ("1e300", "= 1e300:"),
+            ("-1e300", "= -1e300:"),
+            ("1e-300", "= 1e-300:"),
+            ("3601.0", "= 3601:"),
+            ("-1.0", "= -1:"),
+        ] {
+            let e = ServiceConfig::from_toml_str(&format!("[cycle]\nperiod_s = {v}\n"), "m")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(shown) && e.len() < 120, "{v}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_record_that_cannot_be_opened_names_storage_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let text_file = dir.path().join("notes.txt");
+        std::fs::write(&text_file, "not a database\n".repeat(100)).unwrap();
+        let e = ServiceConfig::from_toml_str("[storage]\npath = \"\"\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("storage.path = \"\""), "{e}");
+        for path in [
+            dir.path().to_path_buf(),
+            dir.path().join("missing").join("r.db"),
+            text_file.clone(),
+        ] {
+            let mut cfg = ServiceConfig::default();
+            cfg.storage.path = path.clone();
+            let e = crate::storage::open_store(&cfg).err().unwrap().to_string();
+            assert!(
+                e.starts_with(&format!("invalid storage.path = {}", path.display())),
+                "{e}"
+            );
+        }
+        // The text file is left as it was.
+        assert_eq!(
+            std::fs::read_to_string(&text_file).unwrap(),
+            "not a database\n".repeat(100)
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// A value of the wrong type for any key of any input kind is refused naming that
+        /// key (`input.<key>`), whichever kind and key.
+        #[test]
+        fn a_wrong_typed_input_key_is_named(i in 0..INPUT_KEYS.len(), j in 0..5usize) {
+            let value = wrong_values(INPUT_KEYS[i].4)[j];
+            let t = input_text(i, value);
+            let e = ServiceConfig::from_toml_str(&t, "m.toml").unwrap_err().to_string();
+            let key = format!("invalid input.{}:", INPUT_KEYS[i].2);
+            prop_assert!(e.contains(&key) && e.contains("m.toml"), "{}\n{}", t, e);
+        }
     }
 
     proptest! {

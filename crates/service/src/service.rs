@@ -119,6 +119,19 @@ pub fn serve_many(mut machines: Vec<MachineEntry>, ov: Overrides) -> Result<()> 
             ));
         }
     }
+    // The options are checked under their own names before they replace a key.
+    if let Some(s) = ov.speedup {
+        crate::error::check_range("--speedup", s, 0.001, 1e6, "0.001…1e6")?;
+    }
+    if let Some(db) = &ov.db {
+        if db.as_os_str().is_empty() || db.is_dir() {
+            return Err(crate::error::invalid(
+                "--db",
+                format!("{:?}", db.display().to_string()),
+                "the SQLite record file (created if missing), not a folder",
+            ));
+        }
+    }
     for m in &mut machines {
         apply_overrides(&mut m.config, &ov);
         m.config
@@ -152,7 +165,7 @@ pub fn serve_many(mut machines: Vec<MachineEntry>, ov: Overrides) -> Result<()> 
                     for r in running {
                         let _ = r.stop().await;
                     }
-                    return Err(in_machine(several, &m.source, e));
+                    return Err(in_machine(several, &m.source, db_named(e, &ov)));
                 }
             }
         }
@@ -186,6 +199,22 @@ fn apply_overrides(cfg: &mut ServiceConfig, ov: &Overrides) {
     }
     if let (Some(s), InputSection::Replay(r)) = (ov.speedup, &mut cfg.input) {
         r.speedup = s;
+    }
+}
+
+/// A record that cannot be opened is named `--db` when that option set it.
+fn db_named(e: ServiceError, ov: &Overrides) -> ServiceError {
+    match e {
+        ServiceError::Invalid {
+            field,
+            value,
+            expected,
+        } if ov.db.is_some() && field == "storage.path" => ServiceError::Invalid {
+            field: "--db".into(),
+            value,
+            expected,
+        },
+        e => e,
     }
 }
 
@@ -731,5 +760,59 @@ impl Running {
             Err(_) => return Err(ServiceError::Stopped("the store thread")),
         }
         Ok(self.stats.committed_samples.load(Ordering::Acquire))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+
+    fn refusal(ov: Overrides) -> String {
+        let mut config = ServiceConfig::default();
+        config.http.port = 0;
+        let m = MachineEntry {
+            source: "m.toml".into(),
+            config,
+        };
+        serve_many(vec![m], ov).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn options_are_refused_under_their_own_names() {
+        // --speedup replaces input.speedup, but the user wrote --speedup.
+        for (s, shown) in [
+            (0.0, "0"),
+            (-1.0, "-1"),
+            (f64::NAN, "NaN"),
+            (1e300, "1e300"),
+        ] {
+            let e = refusal(Overrides {
+                speedup: Some(s),
+                ..Overrides::default()
+            });
+            assert_eq!(
+                e,
+                format!("invalid --speedup = {shown}: expected 0.001…1e6")
+            );
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let e = refusal(Overrides {
+            db: Some(dir.path().to_path_buf()),
+            ..Overrides::default()
+        });
+        assert!(
+            e.starts_with("invalid --db = ") && e.contains("not a folder"),
+            "{e}"
+        );
+        let missing = dir.path().join("no-such-folder").join("r.db");
+        let e = refusal(Overrides {
+            db: Some(missing.clone()),
+            ..Overrides::default()
+        });
+        assert!(
+            e.starts_with(&format!("invalid --db = {}", missing.display())),
+            "{e}"
+        );
     }
 }

@@ -397,8 +397,15 @@ pub const RECORD_QUEUE: usize = 1 << 16;
 pub fn open_store(cfg: &ServiceConfig) -> Result<Arc<dyn Store>> {
     match cfg.storage.backend {
         StorageBackend::Sqlite => {
-            // Creates the file and schema now so read connections find them.
-            open(&cfg.storage.path)?;
+            // Creates the file and schema now so read connections find them. A folder, a
+            // missing folder or a file that is no SQLite database is refused naming the key.
+            open(&cfg.storage.path).map_err(|e| {
+                crate::error::invalid(
+                    "storage.path",
+                    cfg.storage.path.display(),
+                    format!("an SQLite record file this service can create or open ({e})"),
+                )
+            })?;
             Ok(Arc::new(SqliteStore::new(&cfg.storage.path)))
         }
         #[cfg(feature = "postgres")]
