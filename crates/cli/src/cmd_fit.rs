@@ -13,6 +13,7 @@ use gearcomp_identify::report::FitReport;
 use gearcomp_identify::select::Family;
 use gearcomp_identify::spreadsheet::{is_workbook, read_paths_with_targets, SheetChoice};
 use gearcomp_identify::target_unit::{LengthUnit, TargetUnit};
+use gearcomp_identify::time_unit::{TimeUnit, TimeUnitChoice};
 use gearcomp_identify::workpiece::workpiece_shrink;
 use gearcomp_identify::{
     identify, pipeline::identify_with_floor, Grouping, IdentifyOptions, ModelKind, Origin,
@@ -89,6 +90,34 @@ pub enum TargetUnitArg {
     M,
     /// Inches.
     Inch,
+}
+
+/// The unit of a numeric time column (`--time-unit`).
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum TimeUnitArg {
+    /// From the log's units row under the header, else the column name (time_min,
+    /// Zeit [h]), else seconds.
+    Auto,
+    /// Seconds.
+    S,
+    /// Milliseconds.
+    Ms,
+    /// Minutes.
+    Min,
+    /// Hours.
+    H,
+}
+
+impl From<TimeUnitArg> for TimeUnitChoice {
+    fn from(u: TimeUnitArg) -> Self {
+        match u {
+            TimeUnitArg::Auto => TimeUnitChoice::Auto,
+            TimeUnitArg::S => TimeUnitChoice::Given(TimeUnit::S),
+            TimeUnitArg::Ms => TimeUnitChoice::Given(TimeUnit::Ms),
+            TimeUnitArg::Min => TimeUnitChoice::Given(TimeUnit::Min),
+            TimeUnitArg::H => TimeUnitChoice::Given(TimeUnit::H),
+        }
+    }
 }
 
 impl From<TargetUnitArg> for TargetUnit {
@@ -192,7 +221,8 @@ pub struct Args {
     /// Input (temperature) columns: names or glob patterns. Default: every "*_c" column.
     #[arg(long, num_args = 1.., default_value = "*_c")]
     pub inputs: Vec<String>,
-    /// Name of the time column: seconds, or time stamps (ISO 8601 or dd.mm.yyyy hh:mm:ss),
+    /// Name of the time column: seconds (or another unit, see --time-unit), or time stamps
+    /// (ISO 8601 or dd.mm.yyyy hh:mm:ss),
     /// increasing within each run; DATE+TIME names a date and a time-of-day column.
     #[arg(long, default_value = "time_s")]
     pub time_column: String,
@@ -280,6 +310,12 @@ pub struct Args {
     /// Weg [mm]), else µm; a units-row cell that is no length unit is refused.
     #[arg(long, value_enum, default_value = "auto")]
     pub target_unit: TargetUnitArg,
+    /// Unit of a numeric time column; every time constant, delay and split is in seconds,
+    /// so another unit is converted on reading, with a note. auto: the log's units row, else
+    /// the column name (time_min, Zeit [h]), else s; a units-row cell that is no time unit is
+    /// refused. Time stamps (dates and times of day) have no unit.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub time_unit: TimeUnitArg,
     /// Axis name of each target's model, in target order (default: the target's name).
     #[arg(long, num_args = 1..)]
     pub axis: Vec<String>,
@@ -344,6 +380,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         },
         no_header: args.no_header,
         target_unit: Some(args.target_unit.into()),
+        time_unit: Some(args.time_unit.into()),
         ..ReadOptions::default()
     })
 }

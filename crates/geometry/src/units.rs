@@ -61,6 +61,10 @@ pub fn rad_s2_to_rev_s2(rad_s2: f64) -> f64 {
 
 /// Seconds per hour.
 pub const S_PER_H: f64 = 3600.0;
+/// Seconds per minute.
+pub const S_PER_MIN: f64 = 60.0;
+/// Seconds per millisecond.
+pub const S_PER_MS: f64 = 1e-3;
 /// Micrometres per metre.
 pub const UM_PER_M: f64 = 1e6;
 /// Micrometres per nanometre.

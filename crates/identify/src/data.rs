@@ -63,6 +63,9 @@ pub struct ReadOptions {
     /// The unit of the target columns, converted to µm on reading
     /// ([`crate::target_unit`]); `None`: the values as written.
     pub target_unit: Option<crate::target_unit::TargetUnit>,
+    /// The unit of a numeric time column, converted to seconds on reading
+    /// ([`crate::time_unit`]); `None`: seconds as written.
+    pub time_unit: Option<crate::time_unit::TimeUnitChoice>,
 }
 
 impl Default for ReadOptions {
@@ -76,6 +79,7 @@ impl Default for ReadOptions {
             missing: MissingCells::Error,
             no_header: false,
             target_unit: None,
+            time_unit: None,
         }
     }
 }
@@ -144,6 +148,15 @@ pub enum DataIssue {
         /// Where the unit came from (`the units row`, `the column name`, `--target-unit`).
         from: &'static str,
     },
+    /// The time column converted to seconds ([`ReadOptions::time_unit`]).
+    TimeUnit {
+        /// The time column.
+        column: String,
+        /// Its unit.
+        unit: crate::time_unit::TimeUnit,
+        /// Where the unit came from (`the units row`, `the column name`, `--time-unit`).
+        from: &'static str,
+    },
     /// Empty or NaN cells of an input that hold its last value ([`MissingCells::Hold`]).
     Held {
         /// Line of the first such cell.
@@ -194,6 +207,12 @@ impl std::fmt::Display for DataIssue {
                 "{column}: in {} ({from}), read as µm (× {})",
                 unit.symbol(),
                 unit.um_per_unit()
+            ),
+            DataIssue::TimeUnit { column, unit, from } => write!(
+                f,
+                "{column}: in {} ({from}), read as seconds (× {}): every time constant, delay and split is in s",
+                unit.symbol(),
+                unit.s_per_unit()
             ),
             DataIssue::Held {
                 line,
@@ -264,7 +283,8 @@ impl Table {
                 DataIssue::Gap { .. }
                 | DataIssue::Skipped { .. }
                 | DataIssue::Held { .. }
-                | DataIssue::Unit { .. } => None,
+                | DataIssue::Unit { .. }
+                | DataIssue::TimeUnit { .. } => None,
             })
             .collect();
         (lines.len(), lines.into_iter().take(10).collect())
@@ -911,6 +931,10 @@ struct Reader<'a> {
     held: Vec<(usize, String, u64, usize)>,
     /// The first file's units-row cell of each target (none without a units row).
     target_unit_cells: Vec<Option<String>>,
+    /// The first file's time column (none with a sample interval) and its units-row cell.
+    time_column: Option<(String, Option<String>)>,
+    /// A time stamp was read in the time column.
+    time_stamps: bool,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
@@ -940,6 +964,8 @@ impl<'a> Reader<'a> {
             missing: Vec::new(),
             held: Vec::new(),
             target_unit_cells: Vec::new(),
+            time_column: None,
+            time_stamps: false,
             skipped: Vec::new(),
             forced: Vec::new(),
             file_runs,
@@ -1205,6 +1231,30 @@ fn to_micrometres(
     Ok(())
 }
 
+/// Converts a numeric time column to seconds by its unit ([`crate::time_unit::resolve`];
+/// `cell`: its units-row cell; `stamps`: it held time stamps); the note when converted.
+fn to_seconds(
+    t: &mut Table,
+    choice: crate::time_unit::TimeUnitChoice,
+    column: &str,
+    cell: Option<&str>,
+    stamps: bool,
+) -> Result<Option<DataIssue>> {
+    let (unit, from) = crate::time_unit::resolve(choice, column, cell, stamps)?;
+    if unit == crate::time_unit::TimeUnit::S {
+        return Ok(None);
+    }
+    let k = unit.s_per_unit();
+    for v in &mut t.time_s {
+        *v *= k;
+    }
+    Ok(Some(DataIssue::TimeUnit {
+        column: column.to_string(),
+        unit,
+        from,
+    }))
+}
+
 /// The table of a [`Reader`] that has read every file (`names[k]`: file k in messages):
 /// bad rows refused or listed, segments at runs and time gaps, the issues in line order.
 fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table> {
@@ -1214,6 +1264,8 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         missing,
         held,
         target_unit_cells,
+        time_column,
+        time_stamps,
         skipped,
         forced,
         ..
@@ -1252,6 +1304,12 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             },
         });
     }
+    let time_note = match (opts.time_unit, &time_column) {
+        (Some(choice), Some((column, cell))) => {
+            to_seconds(&mut t, choice, column, cell.as_deref(), time_stamps)?
+        }
+        _ => None,
+    };
     let mut issues: Vec<(usize, u64, DataIssue)> = bad
         .into_iter()
         .map(|(fi, line, reason)| {
@@ -1352,6 +1410,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
     if let Some(choice) = opts.target_unit {
         to_micrometres(&mut t, choice, &target_unit_cells)?;
     }
+    t.issues.splice(0..0, time_note);
     for (name, y) in t.target_names.iter().zip(&t.targets) {
         if !y.iter().any(|v| v.is_finite()) {
             return Err(invalid(
@@ -1521,6 +1580,16 @@ impl Reader<'_> {
         let in_names: Vec<String> = input_idx.iter().map(|&i| header[i].clone()).collect();
         let tg_names: Vec<String> = target_idx.iter().map(|&i| header[i].clone()).collect();
         if fi == 0 {
+            // DATE+TIME (two columns) is a time stamp, named as the user wrote it.
+            self.time_column = time_idx.map(|i| {
+                let cell = pre.as_ref().and_then(|p| p.units.get(i).cloned());
+                let name = match time2_idx {
+                    Some(_) => sel.time.clone(),
+                    None => header[i].clone(),
+                };
+                (name, cell)
+            });
+            self.time_stamps |= time2_idx.is_some();
             self.target_unit_cells = target_idx
                 .iter()
                 .map(|&i| pre.as_ref().and_then(|p| p.units.get(i).cloned()))
@@ -1812,6 +1881,7 @@ impl Reader<'_> {
         if std::mem::take(&mut st.split_pending) {
             self.forced.push(self.t.time_s.len());
         }
+        self.time_stamps |= st.stamps == Some(true);
         self.t.time_s.push(time);
         for (c, v) in self.t.inputs.iter_mut().zip(&vals) {
             c.push(*v);

@@ -44,6 +44,7 @@ pub mod select;
 pub mod spreadsheet;
 pub mod stack;
 pub mod target_unit;
+pub mod time_unit;
 pub mod transform;
 pub mod workpiece;
 

@@ -39,6 +39,7 @@ fn fit_help_lists_every_option() {
         "--sample-interval-s",
         "--resample-s",
         "--target-unit",
+        "--time-unit",
         "--json",
         "--family",
         "--delay-s",
@@ -527,6 +528,64 @@ fn fit_converts_a_target_in_mm_to_micrometres() {
     let volts = format!("time_s,a_c,b_c,y_um\ns,°C,°C,V\n{}", body(&rows));
     let e = fit_json(&d, "v.csv", &volts, &[]).unwrap_err();
     assert!(e.contains("«V»") && e.contains("--target-unit"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A time column in minutes (a units row, a name `time_min`, or `--time-unit min`) fits the
+/// model of the same log in seconds (same family, intercept and validation), with a note;
+/// read as seconds (`--time-unit s`) it does not; a units-row cell that is no time unit is
+/// refused naming `--time-unit`.
+#[test]
+fn fit_converts_a_time_column_in_minutes_to_seconds() {
+    let d = tmp("time_unit");
+    let want = fit_json(&d, "s.csv", &run_csv(0, true), &[]).unwrap();
+    let body: String = plain_rows()
+        .iter()
+        .map(|r| {
+            let t: f64 = r[0].parse().unwrap();
+            format!("{:e},{},{},{}\n", t / 60.0, r[1], r[2], r[3])
+        })
+        .collect();
+    let fields = |v: &serde_json::Value| {
+        let g = &v["targets"][0];
+        (
+            g["family"].clone(),
+            g["intercept"].as_f64().unwrap(),
+            g["validation_rmse_um"].as_f64().unwrap(),
+        )
+    };
+    let (wf, wi, wv) = fields(&want);
+    let close = |v: &serde_json::Value| {
+        let (f, i, val) = fields(v);
+        f == wf && (i - wi).abs() <= 1e-9 * (1.0 + wi.abs()) && (val - wv).abs() <= 1e-9 + 1e-6 * wv
+    };
+    let units_row = format!("time_s,a_c,b_c,y_um\nmin,°C,°C,µm\n{body}");
+    let v = fit_json(&d, "row.csv", &units_row, &[]).unwrap();
+    assert!(close(&v), "{v}");
+    assert!(
+        v["data_issues"]
+            .to_string()
+            .contains("time_s: in min (the units row), read as seconds (× 60)"),
+        "{}",
+        v["data_issues"]
+    );
+    let named = format!("time_min,a_c,b_c,y_um\n{body}");
+    let v = fit_json(&d, "named.csv", &named, &["--time-column", "time_min"]).unwrap();
+    assert!(close(&v), "{v}");
+    let plain = format!("time_s,a_c,b_c,y_um\n{body}");
+    assert!(close(
+        &fit_json(&d, "given.csv", &plain, &["--time-unit", "min"]).unwrap()
+    ));
+    let as_s = fit_json(
+        &d,
+        "named.csv",
+        &named,
+        &["--time-column", "time_min", "--time-unit", "s"],
+    );
+    assert!(as_s.is_err() || !close(&as_s.unwrap()));
+    let volts = format!("time_s,a_c,b_c,y_um\nV,°C,°C,µm\n{body}");
+    let e = fit_json(&d, "v.csv", &volts, &[]).unwrap_err();
+    assert!(e.contains("«V»") && e.contains("--time-unit"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
 }
 

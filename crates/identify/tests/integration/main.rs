@@ -18,3 +18,4 @@ mod shapes;
 mod sparse_targets;
 mod spreadsheets;
 mod stack;
+mod time_unit;

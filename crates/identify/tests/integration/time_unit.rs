@@ -1,0 +1,182 @@
+//! A log whose time column counts milliseconds, minutes or hours: every time constant, delay
+//! and split of the fit is in seconds, so the reader converts the column (named by the units
+//! row, by the column name or by `--time-unit`) and the law of the log comes back with its
+//! time constant in seconds. Read as seconds, the same log gives a wrong model.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use gearcomp_identify::data::{read_csv, DataIssue, ReadOptions, Selection};
+use gearcomp_identify::select::Family;
+use gearcomp_identify::time_unit::{TimeUnit, TimeUnitChoice};
+use gearcomp_identify::{identify, predict, IdentifyOptions, Split};
+use proptest::prelude::*;
+
+/// Independent reference for a first-order lag in seconds: τ·ẏ + y = u, u held at each new
+/// sample over the step that ends at it, y₀ = u₀, classical Runge–Kutta, 64 sub-steps.
+fn lag_rk4(t_s: &[f64], u: &[f64], tau_s: f64) -> Vec<f64> {
+    let mut y = u[0];
+    let mut out = vec![y];
+    for k in 1..t_s.len() {
+        let h = (t_s[k] - t_s[k - 1]) / 64.0;
+        let f = |y: f64| (u[k] - y) / tau_s;
+        for _ in 0..64 {
+            let k1 = f(y);
+            let k2 = f(y + 0.5 * h * k1);
+            let k3 = f(y + 0.5 * h * k2);
+            let k4 = f(y + h * k3);
+            y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        }
+        out.push(y);
+    }
+    out
+}
+
+const UNITS: [(TimeUnit, &str, f64); 4] = [
+    (TimeUnit::S, "s", 1.0),
+    (TimeUnit::Ms, "ms", 1e-3),
+    (TimeUnit::Min, "min", 60.0),
+    (TimeUnit::H, "h", 3600.0),
+];
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    /// y = c₀ + a·x₁ + b·lag(x₂, τ) on irregular steps of 20–120 s, the time column written
+    /// in s, ms, min or h (to full precision) and its unit named by the units row, the
+    /// column name or the option: the lead-lag family with τ in seconds recovers the law at
+    /// every row to 1e-6 µm (the RK4 lag above is the reference), the times read back are
+    /// the seconds to 1e-12 relative, and one note names the unit and where it came from.
+    /// The library default (no time unit) reads the numbers as seconds: for min and h the
+    /// fit then misses the law by more than 1000×.
+    #[test]
+    fn a_time_column_in_another_unit_reads_as_seconds(
+        seed in any::<u64>(),
+        unit in 0usize..4,
+        how in 0usize..3,
+        tau_s in prop::sample::select(vec![600.0, 1200.0, 1800.0]),
+    ) {
+        let (unit, symbol, s_per) = UNITS[unit];
+        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut uni = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 400;
+        let mut t_s = vec![0.0];
+        for _ in 1..n {
+            let last = *t_s.last().unwrap();
+            t_s.push(last + 20.0 + (100.0 * uni()).round());
+        }
+        let x: [Vec<f64>; 2] = std::array::from_fn(|k| {
+            let (rise, tr, amp, w) = (
+                3.0 + 8.0 * uni(),
+                1800.0 + 6000.0 * uni(),
+                0.5 + 2.0 * uni(),
+                2.0 * std::f64::consts::PI / (3600.0 + 7200.0 * uni()),
+            );
+            t_s.iter()
+                .map(|&t| 20.0 + k as f64 + rise * (1.0 - (-t / tr).exp()) + amp * (w * t).sin())
+                .collect()
+        });
+        let (c0, a, b) = (-40.0 + 80.0 * uni(), -3.0 + 6.0 * uni(), 2.0 + 6.0 * uni());
+        let lag = lag_rk4(&t_s, &x[1], tau_s);
+        let y: Vec<f64> = (0..n).map(|i| c0 + a * x[0][i] + b * lag[i]).collect();
+
+        // The log, its time column in `unit`.
+        let (name, units_row, opt) = match how {
+            0 => ("time", Some(symbol), TimeUnitChoice::Auto),
+            1 => (["time_s", "time_ms", "time_min", "Zeit [h]"][UNITS.iter().position(|u| u.0 == unit).unwrap()], None, TimeUnitChoice::Auto),
+            _ => ("time", None, TimeUnitChoice::Given(unit)),
+        };
+        let mut text = format!("{name},a_c,b_c,y_um\n");
+        if let Some(u) = units_row {
+            text += &format!("{u},°C,°C,µm\n");
+        }
+        for i in 0..n {
+            text += &format!("{:e},{},{},{}\n", t_s[i] / s_per, x[0][i], x[1][i], y[i]);
+        }
+        let sel = Selection { time: name.into(), targets: vec!["y_um".into()], ..Selection::default() };
+        let read = |time_unit| read_csv(&text, "log.csv", &sel, ReadOptions { time_unit, ..ReadOptions::default() }).unwrap();
+        let t = read(Some(opt));
+        for (g, w) in t.time_s.iter().zip(&t_s) {
+            prop_assert!((g - w).abs() <= 1e-12 * w.abs().max(1.0), "{g} vs {w}");
+        }
+        let notes: Vec<String> = t.issues.iter().filter(|i| matches!(i, DataIssue::TimeUnit { .. })).map(|i| i.to_string()).collect();
+        if unit == TimeUnit::S {
+            prop_assert!(notes.is_empty(), "{notes:?}");
+        } else {
+            prop_assert_eq!(notes.len(), 1);
+            let from = ["the units row", "the column name", "--time-unit"][how.min(2)];
+            prop_assert!(notes[0].contains(&format!("in {symbol} ({from})")) && notes[0].contains("read as seconds"), "{}", notes[0]);
+        }
+        let o = IdentifyOptions { split: Split::None, families: vec![Family::LeadLag], taus_s: vec![tau_s], ..IdentifyOptions::default() };
+        let max_err = |tab: &gearcomp_identify::data::Table| {
+            let id = identify(tab, &o).unwrap();
+            let p = predict(tab, &id.targets[0].model).unwrap();
+            p.iter().zip(&y).map(|(p, y)| (p - y).abs()).fold(0.0, f64::max)
+        };
+        let err = max_err(&t);
+        prop_assert!(err < 1e-6, "max error {err:e} µm");
+        if matches!(unit, TimeUnit::Min | TimeUnit::H) {
+            let raw = read(None);
+            let err_raw = max_err(&raw);
+            prop_assert!(err_raw > 1e3 * err.max(1e-9), "read as seconds {err_raw:e}, converted {err:e}");
+        }
+    }
+}
+
+/// A units-row cell of a numeric time column that names no time unit is refused, naming the
+/// column, the cell and --time-unit; naming the unit reads it. Time stamps have no unit:
+/// a units-row cell under them is no error, --time-unit with them is refused.
+#[test]
+fn a_time_unit_that_is_none_is_refused() {
+    let sel = |time: &str| Selection {
+        time: time.into(),
+        targets: vec!["z_um".into()],
+        ..Selection::default()
+    };
+    let auto = ReadOptions {
+        time_unit: Some(TimeUnitChoice::Auto),
+        ..ReadOptions::default()
+    };
+    let text = "t,a_c,z_um\nV,°C,µm\n0,20,1\n1,21,2\n2,22,3\n";
+    let e = read_csv(text, "log.csv", &sel("t"), auto)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unit of the time column t in the units row = «V»") && e.contains("--time-unit"),
+        "{e}"
+    );
+    let given = ReadOptions {
+        time_unit: Some(TimeUnitChoice::Given(TimeUnit::Min)),
+        ..ReadOptions::default()
+    };
+    let t = read_csv(text, "log.csv", &sel("t"), given).unwrap();
+    assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
+    let stamps = "stamp,a_c,z_um\nhh:mm:ss,°C,µm\n2024-03-01 08:00:00,20,1\n2024-03-01 08:01:00,21,2\n2024-03-01 08:02:00,22,3\n";
+    let t = read_csv(stamps, "log.csv", &sel("stamp"), auto).unwrap();
+    assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
+    assert!(!t
+        .issues
+        .iter()
+        .any(|i| matches!(i, DataIssue::TimeUnit { .. })));
+    let e = read_csv(stamps, "log.csv", &sel("stamp"), given)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("--time-unit") && e.contains("time stamps"),
+        "{e}"
+    );
+    // A gap is found on the converted times and printed in seconds.
+    let gap = "time_min,a_c,z_um\n0,20,1\n1,21,2\n2,22,3\n3,21,2\n30,20,1\n31,21,2\n";
+    let t = read_csv(gap, "log.csv", &sel("time_min"), auto).unwrap();
+    assert_eq!(t.segments, [0, 4]);
+    let g = t
+        .issues
+        .iter()
+        .find(|i| matches!(i, DataIssue::Gap { .. }))
+        .unwrap()
+        .to_string();
+    assert!(g.contains("time gap of 1620 s (180 s → 1800 s)"), "{g}");
+}
