@@ -1824,6 +1824,17 @@ impl Engine {
             .enumerate()
             .map(|(i, c)| build_channel(c, i, cfg))
             .collect::<Result<Vec<_>>>()?;
+        for (i, a) in cfg.axes.iter().enumerate() {
+            // Outputs, log columns (`<axis>_offset_um`, `position_<axis>_mm`) and alarms are
+            // keyed by the axis name: two axes of one name could not be told apart.
+            if cfg.axes[..i].iter().any(|b| b.name == a.name) {
+                return Err(invalid(
+                    format!("axes[{i}].name"),
+                    format!("{:?}", a.name),
+                    "a name not used by another axis",
+                ));
+            }
+        }
         let axes = cfg
             .axes
             .iter()

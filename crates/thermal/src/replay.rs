@@ -143,6 +143,20 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
     })?;
     let names = engine.channel_names().to_vec();
     let axes = engine.axis_names().to_vec();
+    // A channel named like one of the log's own columns would read that column (the time
+    // as a temperature): refused, naming the channel.
+    for (i, n) in names.iter().enumerate() {
+        let reserved = ["time_s", "trigger", "safe_point", "ack_stop"].contains(&n.as_str())
+            || axes.iter().any(|a| *n == format!("position_{a}_mm"));
+        if reserved {
+            return Err(invalid(
+                format!("channels[{i}].name"),
+                format!("{n:?}"),
+                "a name other than the log's own columns time_s, trigger, safe_point, \
+                 ack_stop and position_<axis>_mm",
+            ));
+        }
+    }
     let mut channel_cols = Vec::with_capacity(names.len());
     for n in &names {
         channel_cols.push(col(n).ok_or_else(|| {
@@ -173,6 +187,14 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
         };
         names.len()
     ];
+    // `readings` and `positions_mm` hold what the last accepted row left. A row whose time does not
+    // increase is a cycle the engine ignores (`Alarm::TimeOutOfOrder`): it is stepped with its
+    // own cells on a scratch copy and leaves these untouched, so a later empty cell holds the
+    // last *accepted* reading, not one stamped before it (that was an `OutOfOrder` fault and
+    // a frozen axis on a good row after a restart or a repeated time stamp).
+    let mut accepted_time_s = f64::NEG_INFINITY;
+    let mut row_readings = readings.clone();
+    let mut row_positions_mm = positions_mm.clone();
     // csv's own line count is one short on CRLF files (FL_THERMAL is one).
     let mut lines = gearcomp_core::textline::LineCounter::new(text);
     let mut record = csv::StringRecord::new();
@@ -214,6 +236,8 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
                 continue;
             }
         };
+        row_readings.copy_from_slice(&readings);
+        row_positions_mm.copy_from_slice(&positions_mm);
         for (k, &c) in channel_cols.iter().enumerate() {
             let cell = &record[c];
             if cell.is_empty() {
@@ -226,7 +250,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
                 });
                 f64::NAN
             });
-            readings[k] = Reading {
+            row_readings[k] = Reading {
                 raw,
                 stamp_s: time_s,
             };
@@ -236,7 +260,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             if cell.is_empty() {
                 continue;
             }
-            positions_mm[i] = match cell.parse::<f64>() {
+            row_positions_mm[i] = match cell.parse::<f64>() {
                 Ok(p) if p.is_finite() => p,
                 _ => {
                     out.bad_rows.push(BadRow {
@@ -275,15 +299,20 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
         }
         let o = engine.step(&Inputs {
             time_s,
-            readings: &readings,
+            readings: &row_readings,
             trigger,
             safe_point,
             positions_mm: if position_cols.is_empty() {
                 &[]
             } else {
-                &positions_mm
+                &row_positions_mm
             },
         });
+        if time_s > accepted_time_s {
+            accepted_time_s = time_s;
+            readings.copy_from_slice(&row_readings);
+            positions_mm.copy_from_slice(&row_positions_mm);
+        }
         let ax = o.axes();
         out.rows.push(ReplayRow {
             line,

@@ -11,5 +11,6 @@ mod faults;
 mod jph0761598b2_and_presets;
 mod model_file;
 mod properties;
+mod replay_fuzz;
 mod sampling_and_safety;
 mod step_into;
