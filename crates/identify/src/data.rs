@@ -1535,11 +1535,17 @@ impl Reader<'_> {
             }
             None => {
                 if !header.contains(&sel.time) {
+                    let like = header
+                        .iter()
+                        .find(|h| crate::time_unit::looks_like_time(h))
+                        .map_or(String::new(), |h| {
+                            format!(" ({h:?} looks like one: --time-column {h:?})")
+                        });
                     return Err(invalid(
                         "--time-column",
                         &sel.time,
                         &format!(
-                            "a column of {name} (columns: {}); a log without a time column needs --sample-interval-s{hint}",
+                            "a column of {name} (columns: {}){like}; a log without a time column needs --sample-interval-s{hint}",
                             header.join(", ")
                         ),
                     ));
@@ -1563,10 +1569,25 @@ impl Reader<'_> {
             },
             e => e,
         };
-        let target_idx = resolve(&sel.targets, &header, &excl).map_err(with_hint)?;
+        // Which option names the missing column (the defaults are FL_THERMAL's naming).
+        let option = |what: &'static str| {
+            move |e: IdentifyError| match e {
+                IdentifyError::ColumnNotFound { pattern, available } => {
+                    IdentifyError::ColumnNotFound {
+                        pattern,
+                        available: format!("{available} (name the {what})"),
+                    }
+                }
+                e => e,
+            }
+        };
+        let target_idx = resolve(&sel.targets, &header, &excl)
+            .map_err(with_hint)
+            .map_err(option("target columns with --target, default *_um"))?;
         excl.extend(target_idx.iter().copied());
         let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)
-            .map_err(with_hint)?
+            .map_err(with_hint)
+            .map_err(option("temperature columns with --inputs, default *_c"))?
             .into_iter()
             .filter(|i| !excl.contains(i))
             .collect();

@@ -88,6 +88,32 @@ impl TimeUnit {
     }
 }
 
+/// Whether a column name reads as a time axis (for the hint when the time column given is
+/// missing): `time`, `Zeit`, `t`, `timestamp`, `datetime`, `date_time`, `elapsed`, `stamp`,
+/// `Uhrzeit`, `Zeitstempel`, any case, with or without a unit (`time_min`, `Zeit [s]`).
+pub fn looks_like_time(name: &str) -> bool {
+    let base = name.split(['[', '(']).next().unwrap_or(name).trim();
+    let base = match base.rsplit_once(['_', '-', '.', ' ']) {
+        Some((head, tail)) if TimeUnit::parse(tail).is_some() => head,
+        _ => base,
+    };
+    matches!(
+        base.trim().to_lowercase().as_str(),
+        "time"
+            | "zeit"
+            | "t"
+            | "timestamp"
+            | "datetime"
+            | "date_time"
+            | "elapsed"
+            | "stamp"
+            | "uhrzeit"
+            | "zeitstempel"
+            | "elapsed time"
+            | "time stamp"
+    )
+}
+
 /// How the reader treats the unit of a numeric time column (`ReadOptions::time_unit`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TimeUnitChoice {
@@ -174,6 +200,20 @@ mod tests {
             ("times", None),
         ] {
             assert_eq!(TimeUnit::in_column_name(n), u, "{n}");
+        }
+        for n in [
+            "time",
+            "Time_min",
+            "Zeit [s]",
+            "t_h",
+            "Timestamp",
+            "elapsed-s",
+            "Uhrzeit",
+        ] {
+            assert!(looks_like_time(n), "{n}");
+        }
+        for n in ["a_c", "temp", "t1_c", "times", "z_um", "s"] {
+            assert!(!looks_like_time(n), "{n}");
         }
         assert_eq!(TimeUnit::Min.s_per_unit(), 60.0);
         assert_eq!(TimeUnit::H.s_per_unit(), 3600.0);

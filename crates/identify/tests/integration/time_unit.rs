@@ -180,3 +180,61 @@ fn a_time_unit_that_is_none_is_refused() {
         .to_string();
     assert!(g.contains("time gap of 1620 s (180 s → 1800 s)"), "{g}");
 }
+
+/// A log named otherwise than FL_THERMAL (`time`, `t1`, `disp`): each missing default
+/// column is refused naming the option that names it, and a column that reads as a time
+/// axis is offered for `--time-column`.
+#[test]
+fn columns_named_otherwise_are_refused_naming_the_option() {
+    let text = "Zeit [min],program,t1,t2,disp\n0,P1,20,21,1\n1,P1,21,22,2\n2,P2,22,23,3\n";
+    let read = |sel: &Selection| {
+        read_csv(text, "log.csv", sel, ReadOptions::default())
+            .unwrap_err()
+            .to_string()
+    };
+    let e = read(&Selection {
+        targets: vec!["disp".into()],
+        ..Selection::default()
+    });
+    assert!(
+        e.contains("--time-column = time_s")
+            && e.contains("\"Zeit [min]\" looks like one: --time-column \"Zeit [min]\""),
+        "{e}"
+    );
+    let e = read(&Selection {
+        time: "Zeit [min]".into(),
+        targets: vec!["disp".into()],
+        ..Selection::default()
+    });
+    assert!(
+        e.contains("\"*_c\" not found") && e.contains("--inputs"),
+        "{e}"
+    );
+    let e = read(&Selection {
+        time: "Zeit [min]".into(),
+        inputs: vec!["t?".into()],
+        targets: vec!["*_um".into()],
+        ..Selection::default()
+    });
+    assert!(
+        e.contains("\"*_um\" not found") && e.contains("--target"),
+        "{e}"
+    );
+    let t = read_csv(
+        text,
+        "log.csv",
+        &Selection {
+            time: "Zeit [min]".into(),
+            inputs: vec!["t?".into()],
+            targets: vec!["disp".into()],
+            ..Selection::default()
+        },
+        ReadOptions {
+            time_unit: Some(TimeUnitChoice::Auto),
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
+    assert_eq!(t.input_names, ["t1", "t2"]);
+}
