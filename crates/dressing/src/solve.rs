@@ -125,18 +125,8 @@ where
     let mut f = eval(&x)?;
     // (‖Δx‖, λ, Δx̄) of the last accepted step, for the damping predictor.
     let mut prev: Option<(f64, f64, DVector<f64>)> = None;
-    let mut cond = f64::NAN;
-    for it in 0..opts.max_iter {
-        if max_abs(&f) < opts.tol_mm {
-            return Ok(Solution {
-                dk: to_dk(&x),
-                iterations: it,
-                residual_mm: f.iter().copied().collect(),
-                cond,
-            });
-        }
-        // Central-difference Jacobian, then column equilibration.
-        let m = f.len();
+    // Central-difference Jacobian at x, column-equilibrated: (J·diag(1/c), c).
+    let equilibrated_jacobian = |x: &DVector<f64>, m: usize| -> Result<(DMatrix<f64>, [f64; 4])> {
         let mut jac = DMatrix::zeros(m, 4);
         for j in 0..4 {
             let mut xp = x.clone();
@@ -151,10 +141,32 @@ where
             let n = jac.column(j).norm();
             *c = if n > 0.0 { n } else { 1.0 };
         }
-        let mut je = jac.clone();
         for (j, c) in cscale.iter().enumerate() {
-            je.column_mut(j).scale_mut(1.0 / c);
+            jac.column_mut(j).scale_mut(1.0 / c);
         }
+        Ok((jac, cscale))
+    };
+    let mut cond = f64::NAN;
+    for it in 0..opts.max_iter {
+        if max_abs(&f) < opts.tol_mm {
+            if it == 0 {
+                // Converged at the start (e.g. an unmodified profile, ΔK = 0): no step was
+                // taken, so the condition is that of the Jacobian here (it was NaN, printed
+                // "cond NaN" and `"condition": null`).
+                let (je, _) = equilibrated_jacobian(&x, f.len())?;
+                let sig = je.singular_values();
+                let smax = sig.iter().fold(0.0f64, |a, &b| a.max(b));
+                let smin = sig.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+                cond = smax / smin;
+            }
+            return Ok(Solution {
+                dk: to_dk(&x),
+                iterations: it,
+                residual_mm: f.iter().copied().collect(),
+                cond,
+            });
+        }
+        let (je, cscale) = equilibrated_jacobian(&x, f.len())?;
         let svd = je.svd(true, true);
         let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
             return Err(DressError::NoConvergence {

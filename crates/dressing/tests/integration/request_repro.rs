@@ -14,6 +14,7 @@ use gearcomp_dressing::kinematics::AxisCorrection;
 use gearcomp_dressing::request::{
     solve_request, DresserInput, Method, SolveInput, SolveOutcome, WormInput,
 };
+use gearcomp_dressing::solve::{newton, NewtonOptions};
 use gearcomp_dressing::worm::{Flank, Worm};
 use gearcomp_dressing::{DressError, Result};
 
@@ -262,4 +263,39 @@ fn zero_stretch_out_of_range_names_the_key_in_degrees() {
         "{msg}"
     );
     assert!(!msg.contains("NaN") && !msg.contains("_rad"), "{msg}");
+}
+
+/// Fuzzing of `gearcomp dress solve` (session 10): an unmodified profile (`crowning_um = 0`)
+/// converges at ΔK = 0 without a step and printed "cond NaN" (`"condition": null` in JSON).
+/// The condition is now that of the column-equilibrated Jacobian at the start. Closed form:
+/// a linear residual F = A·ΔK with A = [[1, 1, 0, 0], [0, 1, 0, 0], I₂] that vanishes at the
+/// start has equilibrated columns e₁, (e₁ + e₂)/√2, e₃, e₄, whose singular values are 1, 1 and
+/// √(1 ± 1/√2): cond = √((1 + 1/√2)/(1 − 1/√2)) = 1 + √2, whatever the unknowns' scaling.
+/// And G1-Z5 (new worm) with `crowning_um = 0`: 0 iterations, a finite condition.
+#[test]
+fn a_solve_converged_at_the_start_reports_its_condition() {
+    let (w, d) = g1_z5();
+    let setup = solve_request(&w, &d, &crowning(0.0, None, false))
+        .unwrap()
+        .setup;
+    let residual = |dk: &AxisCorrection| -> Result<Vec<f64>> {
+        let [a, b, c, e] = dk.to_array();
+        Ok(vec![a + b, b, c, e])
+    };
+    let sol = newton(
+        &setup,
+        residual,
+        AxisCorrection::from_array([0.0; 4]),
+        &NewtonOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(sol.iterations, 0);
+    assert!(
+        (sol.cond - (1.0 + 2f64.sqrt())).abs() < 1e-9,
+        "{}",
+        sol.cond
+    );
+    let zero = run(0.0, None, false).unwrap().solution;
+    assert_eq!(zero.iterations, 0);
+    assert!(zero.cond.is_finite() && zero.cond >= 1.0, "{}", zero.cond);
 }
