@@ -935,6 +935,9 @@ struct Reader<'a> {
     time_column: Option<(String, Option<String>)>,
     /// A time stamp was read in the time column.
     time_stamps: bool,
+    /// Rows whose time does not increase, for the hint of the bad-rows error (a restart, a
+    /// log newest first).
+    drops: Drops,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
@@ -966,6 +969,7 @@ impl<'a> Reader<'a> {
             target_unit_cells: Vec::new(),
             time_column: None,
             time_stamps: false,
+            drops: Drops::default(),
             skipped: Vec::new(),
             forced: Vec::new(),
             file_runs,
@@ -1231,6 +1235,39 @@ fn to_micrometres(
     Ok(())
 }
 
+/// Rows whose time does not increase (within a run).
+#[derive(Debug, Default)]
+struct Drops {
+    /// How many.
+    count: usize,
+    /// The first: file, line, the time before it, its time.
+    first: Option<(usize, u64, f64, f64)>,
+    /// The second: file, line.
+    second: Option<(usize, u64)>,
+}
+
+/// What rows whose time does not increase suggest (`rows`: the data rows read): a log
+/// written newest first (the time falls on nine rows in ten or more), or a time that
+/// restarts (the time falls, and the next row is below the time before the fall too:
+/// several runs in one file without a run column). One row out of order suggests neither.
+fn time_drop_hint(drops: Drops, rows: usize, where_: &dyn Fn(usize, u64) -> String) -> String {
+    let (n, Some((fi, line, prev, time))) = (drops.count, drops.first) else {
+        return String::new();
+    };
+    if rows >= 3 && n * 10 >= (rows - 1) * 9 {
+        return format!(
+            "; the time falls on {n} of {rows} rows: the log seems to run newest first (sort it oldest first)"
+        );
+    }
+    if time < prev && drops.second == Some((fi, line + 1)) {
+        return format!(
+            "; the time restarts at {} ({prev} → {time}): several runs in one file? Name the run column with --run-column, or give each run its own file (--data a.csv b.csv …)",
+            where_(fi, line)
+        );
+    }
+    String::new()
+}
+
 /// Converts a numeric time column to seconds by its unit ([`crate::time_unit::resolve`];
 /// `cell`: its units-row cell; `stamps`: it held time stamps); the note when converted.
 fn to_seconds(
@@ -1266,6 +1303,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         target_unit_cells,
         time_column,
         time_stamps,
+        drops,
         skipped,
         forced,
         ..
@@ -1297,11 +1335,15 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             } else {
                 lines.join(", ")
             },
-            first_reason: if many {
-                format!("{} ({})", bad[0].2, where_(bad[0].0, bad[0].1))
-            } else {
-                bad[0].2.clone()
-            },
+            first_reason: format!(
+                "{}{}",
+                if many {
+                    format!("{} ({})", bad[0].2, where_(bad[0].0, bad[0].1))
+                } else {
+                    bad[0].2.clone()
+                },
+                time_drop_hint(drops, t.time_s.len() + bad.len(), &where_)
+            ),
         });
     }
     let time_note = match (opts.time_unit, &time_column) {
@@ -1875,6 +1917,13 @@ impl Reader<'_> {
         }
         if let Some(prev) = st.prev_t {
             if time <= prev {
+                let d = &mut self.drops;
+                d.count += 1;
+                if d.first.is_none() {
+                    d.first = Some((fi, line, prev, time));
+                } else if d.count == 2 {
+                    d.second = Some((fi, line));
+                }
                 self.bad.push((
                     fi,
                     line,

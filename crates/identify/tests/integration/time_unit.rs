@@ -238,3 +238,44 @@ fn columns_named_otherwise_are_refused_naming_the_option() {
     assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
     assert_eq!(t.input_names, ["t1", "t2"]);
 }
+
+/// A time that falls is a bad row, as before; the refusal now says what the falls suggest:
+/// a log written newest first (the time falls on nine rows in ten or more), or a time that
+/// restarts (several runs in one file without a run column, named by its line); one row out
+/// of order suggests neither.
+#[test]
+fn a_falling_time_is_explained() {
+    let rows: Vec<String> = (0..60)
+        .map(|i| format!("{},{},{}", i * 60, 20.0 + (i as f64 / 7.0).sin(), i % 5))
+        .collect();
+    let sel = Selection {
+        targets: vec!["z_um".into()],
+        ..Selection::default()
+    };
+    let read = |body: Vec<String>| {
+        let text = format!("time_s,a_c,z_um\n{}\n", body.join("\n"));
+        read_csv(&text, "log.csv", &sel, ReadOptions::default())
+            .unwrap_err()
+            .to_string()
+    };
+    let e = read(rows.iter().rev().cloned().collect());
+    assert!(
+        e.contains("59 bad row(s)")
+            && e.contains("the time falls on 59 of 60 rows: the log seems to run newest first"),
+        "{e}"
+    );
+    // Three runs of 20 rows, each restarting at 0: line 22 is the first of the second.
+    let restarts: Vec<String> = (0..3).flat_map(|_| rows[..20].to_vec()).collect();
+    let e = read(restarts);
+    assert!(
+        e.contains("the time restarts at line 22 (1140 → 0)") && e.contains("--run-column"),
+        "{e}"
+    );
+    let mut swapped = rows.clone();
+    swapped.swap(30, 31);
+    let e = read(swapped);
+    assert!(
+        e.contains("1 bad row(s)") && !e.contains("restarts") && !e.contains("newest first"),
+        "{e}"
+    );
+}
