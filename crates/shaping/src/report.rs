@@ -110,13 +110,18 @@ pub struct SimSummary {
     pub evaluation_length_mm: f64,
     /// Helix slope deviation f_Hβ (µm).
     pub f_h_beta_um: f64,
-    /// ISO 1328-1:2013 tolerance f_HβT of the class (µm).
-    pub f_h_beta_tolerance_um: f64,
+    /// ISO 1328-1:2013 tolerance f_HβT of the class (µm); None (null) when the gear is
+    /// outside the standard's scope (5 ≤ d ≤ 15 000 mm, 0.5 ≤ m_n ≤ 70 mm).
+    pub f_h_beta_tolerance_um: Option<f64>,
     /// ISO 1328-1 flank tolerance class.
     pub iso_class: u8,
-    /// f_Hβ within f_HβT.
-    pub within_tolerance: bool,
+    /// f_Hβ within f_HβT; None (null) outside the standard's scope.
+    pub within_tolerance: Option<bool>,
 }
+
+/// What the reports say instead of a verdict for a gear outside ISO 1328-1:2013's scope.
+const OUT_OF_ISO_SCOPE: &str = "no ISO 1328-1 tolerance (reference diameter or module \
+     outside the standard's scope 5 <= d <= 15000 mm, 0.5 <= m_n <= 70 mm)";
 
 /// Writes `External` / `Right` (the variant's name) into the JSON report, as this command
 /// always has, while TOML elsewhere uses the lower-case names of the shared vocabulary.
@@ -248,17 +253,15 @@ impl CycleReport {
             ),
             row(
                 "f_Hbeta / ISO 1328-1 tolerance",
-                format!(
-                    "{:.4} um / {} um (class {}): {}",
-                    s.f_h_beta_um,
-                    s.f_h_beta_tolerance_um,
-                    s.iso_class,
-                    if s.within_tolerance {
-                        "OK"
-                    } else {
-                        "out of tolerance"
-                    }
-                ),
+                match (s.f_h_beta_tolerance_um, s.within_tolerance) {
+                    (Some(t), Some(ok)) => format!(
+                        "{:.4} um / {t} um (class {}): {}",
+                        s.f_h_beta_um,
+                        s.iso_class,
+                        if ok { "OK" } else { "out of tolerance" }
+                    ),
+                    _ => format!("{:.4} um / {OUT_OF_ISO_SCOPE}", s.f_h_beta_um),
+                },
             ),
         ]
     }
@@ -346,19 +349,18 @@ impl SimSummary {
             }
             _ => "spur gear (straight tooth trace, no lead)".to_string(),
         };
+        let verdict = match (s.f_h_beta_tolerance_um, s.within_tolerance) {
+            (Some(t), Some(ok)) => format!(
+                "ISO 1328-1 class {} f_HbT = {t} um: {}",
+                s.iso_class,
+                if ok { "OK" } else { "OUT OF TOLERANCE" }
+            ),
+            _ => OUT_OF_ISO_SCOPE.to_string(),
+        };
         let _ = writeln!(
             out,
-            "  helix     {lead}; f_Hb = {:.4} um over L_b = {:.2} mm; ISO 1328-1 class {} f_HbT = {} \
-             um: {}",
-            s.f_h_beta_um,
-            s.evaluation_length_mm,
-            s.iso_class,
-            s.f_h_beta_tolerance_um,
-            if s.within_tolerance {
-                "OK"
-            } else {
-                "OUT OF TOLERANCE"
-            }
+            "  helix     {lead}; f_Hb = {:.4} um over L_b = {:.2} mm; {verdict}",
+            s.f_h_beta_um, s.evaluation_length_mm,
         );
     }
 }

@@ -73,14 +73,15 @@ pub struct LeadEvaluation {
     pub evaluation_length_mm: f64,
     /// Helix slope deviation f_Hβ in µm (signed, transverse, at the base circle).
     pub f_h_beta_um: f64,
-    /// ISO 1328-1 tolerance f_HβT, rounded, in µm.
-    pub tolerance_um: f64,
-    /// ISO 1328-1 tolerance f_HβT before rounding, in µm.
-    pub tolerance_unrounded_um: f64,
+    /// ISO 1328-1 tolerance f_HβT, rounded, in µm; None when the gear is outside the
+    /// standard's scope ([`iso1328_in_scope`]: the lead is simulated all the same).
+    pub tolerance_um: Option<f64>,
+    /// ISO 1328-1 tolerance f_HβT before rounding, in µm; None outside the scope.
+    pub tolerance_unrounded_um: Option<f64>,
     /// Tolerance class used.
     pub iso_class: u8,
-    /// |f_Hβ| ≤ f_HβT.
-    pub within_tolerance: bool,
+    /// |f_Hβ| ≤ f_HβT; None outside the scope (no verdict).
+    pub within_tolerance: Option<bool>,
     /// Samples in the evaluation range.
     pub samples: usize,
 }
@@ -106,6 +107,13 @@ pub struct SimulationResult {
     pub face_end_mm: f64,
     /// Lead and f_Hβ of the simulated cut.
     pub lead: LeadEvaluation,
+}
+
+/// True when a gear of reference diameter `d_mm` and normal module `m_n_mm` is inside the
+/// scope of ISO 1328-1:2013 (clause 1: 5 ≤ d ≤ 15 000 mm, 0.5 ≤ m_n ≤ 70 mm; the facewidth
+/// 4 ≤ b ≤ 1 200 mm holds for every accepted B), so that its f_HβT applies.
+pub fn iso1328_in_scope(d_mm: f64, m_n_mm: f64) -> bool {
+    (5.0..=15_000.0).contains(&d_mm) && (0.5..=70.0).contains(&m_n_mm)
 }
 
 /// Smallest overtravel of the cutter beyond each face of the workpiece, in mm.
@@ -148,6 +156,13 @@ pub fn validate_simulation(cfg: &SimulationConfig) -> Result<()> {
         "mm",
     )?;
     check_range(
+        "ISO 1328-1 tolerance class (iso_class, --class)",
+        f64::from(cfg.iso_class),
+        1.0,
+        11.0,
+        "",
+    )?;
+    check_range(
         "pressure angle",
         cfg.pressure_angle_rad.to_degrees(),
         10.0,
@@ -171,8 +186,17 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     let cut = ic.cut;
     let beta = cut.beta_rad();
     let d_mm = cut.m_n_mm() * f64::from(cut.z_c1()) / beta.cos();
-    let tol_raw =
-        tolerances_unrounded(d_mm, cut.m_n_mm(), cfg.face_width_mm, cfg.iso_class)?.f_h_beta_t_um;
+    // Classes are checked by `validate_simulation`; outside the standard's d and m_n scope
+    // there is no tolerance (fine-pitch Q < 0.5 mm, d < 5 mm or d > 15 000 mm were refused
+    // after conversion, at column 1 and naming no G83 word, though the cut is valid).
+    let tol_raw = if iso1328_in_scope(d_mm, cut.m_n_mm()) {
+        Some(
+            tolerances_unrounded(d_mm, cut.m_n_mm(), cfg.face_width_mm, cfg.iso_class)?
+                .f_h_beta_t_um,
+        )
+    } else {
+        None
+    };
     // Base radius r_b = r·cos α_t, tan α_t = tan α_n / cos β (ISO 21771:2007, 5.2).
     let alpha_t = gearcomp_geometry::transverse_pressure_angle_rad(cfg.pressure_angle_rad, beta);
     let r_b1_mm = 0.5 * d_mm * alpha_t.cos();
@@ -285,7 +309,7 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
         (None, None, None)
     };
     let f_hb = dev_slope * l_beta;
-    let tol = round_tolerance_um(tol_raw);
+    let tol = tol_raw.map(round_tolerance_um);
     Ok(SimulationResult {
         cycles: total_cycles,
         demands: *interp.demands(),
@@ -304,7 +328,7 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
             tolerance_um: tol,
             tolerance_unrounded_um: tol_raw,
             iso_class: cfg.iso_class,
-            within_tolerance: f_hb.abs() <= tol,
+            within_tolerance: tol.map(|t| f_hb.abs() <= t),
             samples: n,
         },
     })

@@ -193,3 +193,83 @@ fn a_stroke_too_short_for_any_facewidth_is_refused_at_r() {
         "{msg}"
     );
 }
+
+/// Gears outside ISO 1328-1:2013's scope (clause 1: 5 ≤ d ≤ 15 000 mm, 0.5 ≤ m_n ≤ 70 mm)
+/// are valid G83 cuts (Q 0.1 ..= 25 mm, T 1 ..= 1000) but were refused after conversion, at
+/// column 1, by the f_HβT formula's range ("normal module m_n = 0.3 mm is outside the
+/// allowed range 0.5 … 70 mm", "reference diameter d = 4 mm …"). They are simulated and
+/// reported without a tolerance verdict; the lead still equals the closed form
+/// π·m_n·Z_C1/sin β (fine pitch, d < 5 mm and d > 15 000 mm; fixed seed + fresh cases).
+#[test]
+fn gears_outside_the_iso_scope_are_simulated_without_a_verdict() {
+    use gearcomp_shaping::simulate::simulate;
+    // (T, L, Q, P, S): fine pitch, tiny diameter, huge diameter.
+    let fine = (
+        10u32..200,
+        10u32..100,
+        0.1..0.49f64,
+        0.0..45.0f64,
+        Just(5.0),
+    );
+    let tiny = (1u32..=4, 1u32..20, 0.5..1.0f64, 0.0..30.0f64, Just(5.0));
+    let huge = (
+        Just(1000u32),
+        10u32..40,
+        16.0..25.0f64,
+        20.0..45.0f64,
+        Just(60.0),
+    );
+    let strat = prop_oneof![fine, tiny, huge];
+    let prop = |(t, l, q, p, s): (u32, u32, f64, f64, f64)| {
+        let d = q * f64::from(t) / p.to_radians().cos();
+        prop_assume!(!(5.0..=15_000.0).contains(&d) || q < 0.5);
+        let text = format!("G83 T{t} L{l} Q{q:.4} P{p:.4} R25 K200 S{s} F10 B20\n");
+        let prog = parse_program(&text).unwrap();
+        let mut m = MachineData {
+            c2_max_speed_rpm: 10_000.0,
+            c2_max_accel_rev_s2: 10_000.0,
+            strokes: 2,
+            ..MachineData::default()
+        };
+        m.c1.ideal = true;
+        m.c2.ideal = true;
+        m.delay_compensation_cycles = 0.0;
+        let cfg = prog.cycles[0]
+            .to_simulation(&m)
+            .map_err(|e| TestCaseError::fail(format!("{text}: {e}")))?;
+        let r = simulate(&cfg).map_err(|e| TestCaseError::fail(format!("{text}: {e}")))?;
+        prop_assert_eq!(r.lead.tolerance_um, None);
+        prop_assert_eq!(r.lead.tolerance_unrounded_um, None);
+        prop_assert_eq!(r.lead.within_tolerance, None);
+        prop_assert!(r.lead.f_h_beta_um.is_finite());
+        let (q, p) = (
+            format!("{q:.4}").parse::<f64>().unwrap(),
+            format!("{p:.4}").parse::<f64>().unwrap(),
+        );
+        if p > 0.0 {
+            let lead = std::f64::consts::PI * q * f64::from(t) / p.to_radians().sin();
+            let got = r.lead.design_lead_mm.unwrap();
+            prop_assert!(
+                (got - lead).abs() <= 1e-9 * lead,
+                "{}: {} vs {}",
+                text,
+                got,
+                lead
+            );
+            let rel = r.lead.lead_rel_error.unwrap();
+            prop_assert!(rel.abs() < 1e-4, "{}: lead error {}", text, rel);
+        }
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 24,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut fixed = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[12; 32]),
+    );
+    fixed.run(&strat, prop).unwrap();
+    TestRunner::new(cfg).run(&strat, prop).unwrap();
+}
