@@ -305,6 +305,11 @@ pub struct Args {
     /// drives the filters and lags but is neither fitted nor scored.
     #[arg(long, value_enum, default_value = "error")]
     pub missing: MissingArg,
+    /// Values a data logger writes for a missing sample (e.g. -9999 32767), read as empty
+    /// cells: an input's then follow --missing, a target's are rows without a measurement.
+    /// Without it, a common code far outside its column's other values is refused.
+    #[arg(long, num_args = 1.., allow_negative_numbers = true)]
+    pub missing_code: Vec<f64>,
     /// Unit of the target columns; the model's offsets are µm, so another unit is converted
     /// on reading, with a note. auto: the log's units row, else the column name (z_mm,
     /// Weg [mm]), else µm; a units-row cell that is no length unit is refused.
@@ -381,6 +386,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         no_header: args.no_header,
         target_unit: Some(args.target_unit.into()),
         time_unit: Some(args.time_unit.into()),
+        missing_codes: gearcomp_identify::missing_code::MissingCodes::new(&args.missing_code)?,
         ..ReadOptions::default()
     })
 }

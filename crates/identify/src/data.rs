@@ -66,6 +66,9 @@ pub struct ReadOptions {
     /// The unit of a numeric time column, converted to seconds on reading
     /// ([`crate::time_unit`]); `None`: seconds as written.
     pub time_unit: Option<crate::time_unit::TimeUnitChoice>,
+    /// Values read as empty cells: a data logger's codes for a missing sample
+    /// ([`crate::missing_code`]).
+    pub missing_codes: crate::missing_code::MissingCodes,
 }
 
 impl Default for ReadOptions {
@@ -80,6 +83,7 @@ impl Default for ReadOptions {
             no_header: false,
             target_unit: None,
             time_unit: None,
+            missing_codes: crate::missing_code::MissingCodes::default(),
         }
     }
 }
@@ -1346,6 +1350,12 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             ),
         });
     }
+    crate::missing_code::check_logger_codes(&t, &|i| {
+        where_(
+            t.file_of_row.get(i).copied().unwrap_or(0),
+            t.lines.get(i).copied().unwrap_or(0),
+        )
+    })?;
     let time_note = match (opts.time_unit, &time_column) {
         (Some(choice), Some((column, cell))) => {
             to_seconds(&mut t, choice, column, cell.as_deref(), time_stamps)?
@@ -1710,7 +1720,11 @@ impl Reader<'_> {
         // A clean single-run log (every row complete, finite, time increasing) is parsed
         // on every core at once; any irregular line sends the file down the row-by-row path
         // below, which reports it exactly as before.
-        if self.t.runs.is_none() && self.t.time_s.is_empty() && dialect == Dialect::PLAIN {
+        if self.t.runs.is_none()
+            && self.t.time_s.is_empty()
+            && dialect == Dialect::PLAIN
+            && self.opts.missing_codes.is_empty()
+        {
             if let Some(ti) = c.time_idx {
                 let slots: Vec<usize> = std::iter::once(ti)
                     .chain(c.input_idx.iter().copied())
@@ -1852,7 +1866,17 @@ impl Reader<'_> {
         let mut written: Vec<Option<f64>> = vec![None; if hold { n_in } else { 0 }];
         for (k, i) in c.input_idx.iter().chain(&c.target_idx).enumerate() {
             let s = rec.get(*i).copied().unwrap_or("");
-            match dialect::parse_number(s, &c.header[*i], dc) {
+            let parsed = dialect::parse_number(s, &c.header[*i], dc).and_then(|v| {
+                if self.opts.missing_codes.contains(v) {
+                    Err(CellError::Missing(format!(
+                        "{} = {s} (a missing-value code, --missing-code)",
+                        c.header[*i]
+                    )))
+                } else {
+                    Ok(v)
+                }
+            });
+            match parsed {
                 Ok(v) => {
                     if let Some(w) = written.get_mut(k) {
                         *w = Some(v);

@@ -34,6 +34,7 @@ pub mod dialect;
 pub mod envelope;
 pub mod error;
 pub mod fit;
+pub mod missing_code;
 mod par;
 pub mod pipeline;
 pub mod preamble;

@@ -40,6 +40,7 @@ fn fit_help_lists_every_option() {
         "--resample-s",
         "--target-unit",
         "--time-unit",
+        "--missing-code",
         "--json",
         "--family",
         "--delay-s",
@@ -586,6 +587,40 @@ fn fit_converts_a_time_column_in_minutes_to_seconds() {
     let volts = format!("time_s,a_c,b_c,y_um\nV,°C,°C,µm\n{body}");
     let e = fit_json(&d, "v.csv", &volts, &[]).unwrap_err();
     assert!(e.contains("«V»") && e.contains("--time-unit"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A logger's code for a missing sample (-9999 in an input, 32767 in the target): refused
+/// naming the column, the code and --missing-code; named, the coded input rows are left out
+/// (`--missing split`) and the coded target rows are rows without a measurement, and the
+/// fit is the fit of the same log with those cells empty.
+#[test]
+fn fit_reads_a_logger_missing_code_only_when_named() {
+    let d = tmp("missing_code");
+    let rows = plain_rows();
+    let coded = |code_in: &str, code_tg: &str| -> String {
+        let mut r = rows.clone();
+        for i in [40, 41, 90] {
+            r[i][1] = code_in.to_string();
+        }
+        for i in (5..r.len()).step_by(9) {
+            r[i][3] = code_tg.to_string();
+        }
+        plain_text(&r)
+    };
+    let e = fit_json(&d, "coded.csv", &coded("-9999", "32767"), &[]).unwrap_err();
+    assert!(
+        e.contains("a_c = -9999 on 3 row(s)") && e.contains("--missing-code -9999"),
+        "{e}"
+    );
+    let args = ["--missing", "split"];
+    let want = fit_json(&d, "empty.csv", &coded("", ""), &args).unwrap();
+    let mut with_codes = args.to_vec();
+    with_codes.extend(["--missing-code", "-9999", "32767"]);
+    let got = fit_json(&d, "coded.csv", &coded("-9999", "32767"), &with_codes).unwrap();
+    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
+        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
+    }
     std::fs::remove_dir_all(&d).unwrap();
 }
 

@@ -8,6 +8,7 @@ mod fl_auto;
 mod fl_thermal;
 mod generalise;
 mod golden_families;
+mod missing_code;
 mod multirun;
 mod preamble;
 mod properties;
