@@ -115,6 +115,7 @@ pub fn design_contact(
     };
     let mut b = worm.b_axial_section(flank, w_mm);
     let h = 1e-5;
+    let mut last_step = f64::INFINITY;
     for _ in 0..60 {
         let gb = g(b);
         let db = (g(b + h) - g(b - h)) / (2.0 * h);
@@ -124,7 +125,15 @@ pub fn design_contact(
         let mut step = gb / db;
         step = step.clamp(-worm.p_mm, worm.p_mm);
         b -= step;
-        if step.abs() < 1e-13 {
+        // Converged when the step is below 1e-13 mm, or when it no longer shrinks while
+        // already below 1e-9·(1 + |b|) mm: the rounding floor of g / g′ (1.5e-13 mm on a
+        // module-100 worm, 1e-12 mm and more for b of hundreds of mm), where Newton only
+        // oscillates; a valid large worm's dresser "did not converge" there. An error δb
+        // along the flank line moves (z_A, R_A) off the envelope only to second order.
+        let size = step.abs();
+        let at_floor = size >= 0.5 * last_step && size < 1e-9 * (1.0 + b.abs());
+        last_step = size;
+        if size < 1e-13 || at_floor {
             let e = worm.point(flank, w_mm, b);
             let za = (e - c).dot(a);
             let ra = (e - c - a * za).norm();
@@ -286,6 +295,10 @@ impl Dresser {
     }
 }
 
+/// Largest fillet radius searched, in mm (beyond any dresser of `[dresser] diameter_mm` ≤
+/// 2000 mm).
+const MAX_FILLET_RADIUS_MM: f64 = 10_240.0;
+
 /// Fillet tangent to the jacket line R = r_jac at u = hj and to the flank R(u).
 /// Returns (radius, u of the tangent point on the flank).
 fn fillet(flank: &Spline, hj: f64, r_jac: f64) -> Result<(f64, f64)> {
@@ -323,7 +336,14 @@ fn fillet(flank: &Spline, hj: f64, r_jac: f64) -> Result<(f64, f64)> {
         let u = 0.5 * (lo + hi);
         (d(u) - rho, u)
     };
-    let (mut lo, mut hi) = (1e-6, 10.0);
+    // Bracket the radius: from 10 mm up by doubling, since the fillet scales with the worm
+    // (a fixed 10 mm upper end refused the dresser of every worm above module ≈ 35 mm
+    // whose similar module-3 design had a 0.8 mm fillet).
+    let (lo, mut hi) = (1e-6, 10.0);
+    while dist(hi).0 >= 0.0 && hi < MAX_FILLET_RADIUS_MM {
+        hi *= 2.0;
+    }
+    let mut lo = lo;
     if dist(lo).0 <= 0.0 || dist(hi).0 >= 0.0 {
         return Err(DressError::Geometry(
             "no fillet tangent to jacket and flank exists".into(),

@@ -7,6 +7,7 @@ mod common;
 
 mod analytic;
 mod campaign;
+mod dresser_scale;
 mod dressing;
 mod geometry;
 mod kinematics;
