@@ -1650,6 +1650,22 @@ impl Reader<'_> {
                 "at least one input column that is not the time, the run or a target",
             ));
         }
+        // A model names its channels by column: two used columns of one name are ambiguous.
+        let used: Vec<usize> = excl.iter().chain(&input_idx).copied().collect();
+        for &i in &used {
+            if let Some(j) = (0..header.len()).find(|&j| j != i && header[j] == header[i]) {
+                return Err(invalid(
+                    &format!("columns of {name}"),
+                    format!(
+                        "{:?} twice (columns {} and {})",
+                        header[i],
+                        i.min(j) + 1,
+                        i.max(j) + 1
+                    ),
+                    "one column per name: the model names its channels by column; rename one",
+                ));
+            }
+        }
         let in_names: Vec<String> = input_idx.iter().map(|&i| header[i].clone()).collect();
         let tg_names: Vec<String> = target_idx.iter().map(|&i| header[i].clone()).collect();
         if fi == 0 {
@@ -1821,6 +1837,15 @@ impl Reader<'_> {
                 fi,
                 line,
                 format!("{} fields, header has {}{hint}", rec.len(), c.header.len()),
+            ));
+            st.ordinal += 1;
+            return;
+        }
+        if !self.opts.no_header && rec.iter().zip(c.header).all(|(f, h)| f == h) {
+            self.bad.push((
+                fi,
+                line,
+                "the header again (several exports appended to one file?)".to_string(),
             ));
             st.ordinal += 1;
             return;

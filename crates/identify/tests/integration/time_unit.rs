@@ -1,7 +1,10 @@
 //! A log whose time column counts milliseconds, minutes or hours: every time constant, delay
 //! and split of the fit is in seconds, so the reader converts the column (named by the units
 //! row, by the column name or by `--time-unit`) and the law of the log comes back with its
-//! time constant in seconds. Read as seconds, the same log gives a wrong model.
+//! time constant in seconds. Read as seconds, the same log gives a wrong model. Also the
+//! other ways a real log's time axis and columns go wrong, each refused saying what it
+//! suggests: columns named otherwise than FL_THERMAL, a time that falls (a log newest
+//! first, a time that restarts), a name used twice, the header repeated.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use gearcomp_identify::data::{read_csv, DataIssue, ReadOptions, Selection};
@@ -278,4 +281,40 @@ fn a_falling_time_is_explained() {
         e.contains("1 bad row(s)") && !e.contains("restarts") && !e.contains("newest first"),
         "{e}"
     );
+}
+
+/// Two used columns of one name are refused (the model names its channels by column), and
+/// a line that repeats the header is a bad row saying so (several exports in one file).
+#[test]
+fn a_repeated_name_or_header_is_refused_saying_so() {
+    let sel = Selection {
+        targets: vec!["y_um".into()],
+        ..Selection::default()
+    };
+    let dup = "time_s,a_c,b_c,a_c,y_um\n0,20,21,22,1\n60,21,22,23,2\n120,22,23,20,3\n";
+    let e = read_csv(dup, "log.csv", &sel, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("columns of log.csv = \"a_c\" twice (columns 2 and 4)")
+            && e.contains("rename one"),
+        "{e}"
+    );
+    // An unused column may repeat a name.
+    let note = "time_s,a_c,note,note,y_um\n0,20,x,y,1\n60,21,x,y,2\n120,22,x,y,3\n";
+    assert!(read_csv(note, "log.csv", &sel, ReadOptions::default()).is_ok());
+    let again = "time_s,a_c,y_um\n0,20,1\n60,21,2\ntime_s,a_c,y_um\n120,22,3\n180,23,4\n";
+    let e = read_csv(again, "log.csv", &sel, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line(s) 4: the header again (several exports appended to one file?)"),
+        "{e}"
+    );
+    let skip = ReadOptions {
+        skip_bad_rows: true,
+        ..ReadOptions::default()
+    };
+    let t = read_csv(again, "log.csv", &sel, skip).unwrap();
+    assert_eq!(t.time_s, [0.0, 60.0, 120.0, 180.0]);
 }
