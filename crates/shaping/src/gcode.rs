@@ -31,9 +31,9 @@ use winnow::error::{ContextError, StrContext, StrContextValue};
 use winnow::prelude::*;
 use winnow::token::{one_of, take_till};
 
-use crate::coupling::{GearCut, Hand, Mesh};
+use crate::coupling::{GearCut, Hand, Mesh, MAX_HELIX_DEG};
 use crate::crank::SliderCrank;
-use crate::error::{Result, ShapingError};
+use crate::error::{check_range, Result, ShapingError};
 use crate::interpolator::{Interpolator, InterpolatorConfig, LinearLimits, RotaryLimits};
 use crate::servo::{LoopParams, ServoModel};
 use crate::simulate::{execution_plan, validate_simulation, SimulationConfig};
@@ -539,6 +539,14 @@ impl G83Block {
 
     fn build(&self, m: &MachineData) -> Result<SimulationConfig> {
         let p = &self.params;
+        // The signed value as written (P-45.5 was reported as "= 45.5 deg": the magnitude).
+        check_range(
+            "helix angle P (beta, + right hand, - left hand)",
+            p.helix_deg,
+            -MAX_HELIX_DEG,
+            MAX_HELIX_DEG,
+            "deg",
+        )?;
         let hand = if p.helix_deg < 0.0 {
             Hand::Left
         } else {

@@ -273,3 +273,34 @@ fn gears_outside_the_iso_scope_are_simulated_without_a_verdict() {
     fixed.run(&strat, prop).unwrap();
     TestRunner::new(cfg).run(&strat, prop).unwrap();
 }
+
+/// A left-hand helix angle beyond 45° was reported by its magnitude ("P = 45.5 deg" for
+/// P-45.5); the error now shows the signed value as written, at the P word.
+#[test]
+fn a_helix_angle_out_of_range_is_reported_as_written() {
+    let strat = (4501u32..9000, any::<bool>());
+    let prop = |(p_cdeg, left): (u32, bool)| {
+        let p = f64::from(p_cdeg) / 100.0 * if left { -1.0 } else { 1.0 };
+        let text = format!("G83 T40 L25 Q3 P{p} R25 K200 S30 F0.5 B40\n");
+        let (_, col, msg) = located_error(&text);
+        prop_assert_eq!(col, 16, "{}", msg);
+        prop_assert!(
+            msg.contains("helix angle P") && msg.contains(&format!("= {p} deg")),
+            "{}",
+            msg
+        );
+        prop_assert!(msg.contains("-45 ..= 45 deg"), "{}", msg);
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 32,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut fixed = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[13; 32]),
+    );
+    fixed.run(&strat, prop).unwrap();
+    TestRunner::new(cfg).run(&strat, prop).unwrap();
+}
