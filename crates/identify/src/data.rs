@@ -1253,14 +1253,27 @@ struct Drops {
 /// What rows whose time does not increase suggest (`rows`: the data rows read): a log
 /// written newest first (the time falls on nine rows in ten or more), or a time that
 /// restarts (the time falls, and the next row is below the time before the fall too:
-/// several runs in one file without a run column). One row out of order suggests neither.
-fn time_drop_hint(drops: Drops, rows: usize, where_: &dyn Fn(usize, u64) -> String) -> String {
+/// several runs in one file without a run column); with time stamps (`stamps`), a fall of
+/// about an hour is the autumn's daylight-saving change of a local clock. One row out of
+/// order suggests none of these.
+fn time_drop_hint(
+    drops: Drops,
+    rows: usize,
+    stamps: bool,
+    where_: &dyn Fn(usize, u64) -> String,
+) -> String {
     let (n, Some((fi, line, prev, time))) = (drops.count, drops.first) else {
         return String::new();
     };
     if rows >= 3 && n * 10 >= (rows - 1) * 9 {
         return format!(
             "; the time falls on {n} of {rows} rows: the log seems to run newest first (sort it oldest first)"
+        );
+    }
+    if stamps && (3000.0..=3600.0).contains(&(prev - time)) {
+        return format!(
+            "; local time stamps fall by about an hour at {}: a daylight-saving change? Write the stamps with their UTC offset (2024-10-27 02:30:00+02:00) or in UTC",
+            where_(fi, line)
         );
     }
     if time < prev && drops.second == Some((fi, line + 1)) {
@@ -1346,7 +1359,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
                 } else {
                     bad[0].2.clone()
                 },
-                time_drop_hint(drops, t.time_s.len() + bad.len(), &where_)
+                time_drop_hint(drops, t.time_s.len() + bad.len(), time_stamps, &where_)
             ),
         });
     }

@@ -274,6 +274,33 @@ fn a_falling_time_is_explained() {
         e.contains("the time restarts at line 22 (1140 → 0)") && e.contains("--run-column"),
         "{e}"
     );
+    // A local clock set back an hour (the autumn's daylight-saving change), every 10 min.
+    let stamps: Vec<String> = (0..30)
+        .map(|i| {
+            let m = 60 + 10 * i - if i >= 12 { 60 } else { 0 };
+            format!(
+                "2024-10-27 {:02}:{:02}:00,{},{}",
+                m / 60,
+                m % 60,
+                20 + i % 3,
+                i % 4
+            )
+        })
+        .collect();
+    let text = format!("stamp,a_c,z_um\n{}\n", stamps.join("\n"));
+    let dst = Selection {
+        time: "stamp".into(),
+        targets: vec!["z_um".into()],
+        ..Selection::default()
+    };
+    let e = read_csv(&text, "log.csv", &dst, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("local time stamps fall by about an hour at line 14")
+            && e.contains("daylight-saving"),
+        "{e}"
+    );
     let mut swapped = rows.clone();
     swapped.swap(30, 31);
     let e = read(swapped);
