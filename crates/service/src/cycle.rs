@@ -246,32 +246,37 @@ impl Live {
 }
 
 /// Bumpless transfer after an engine swap: the output holds the last applied offset until
-/// the new engine has a value, then the difference decays at a fixed rate.
+/// the new engine has a value, then moves to the new engine's offset at no more than the
+/// rate `r` per cycle, and follows it once it has reached it.
 ///
 /// # Formula
-/// bias₀ = y_old − y_new(k₀) at the first ready cycle k₀;
-/// bias(k+1) = bias(k) − clamp(bias(k), −r, r);  output = y_new + bias
-/// so the output moves by at most r + |Δy_new| per cycle and reaches y_new after
-/// ⌈|bias₀|/r⌉ cycles.
+/// out(k₀−1) = y_old; while transferring
+/// out(k) = y_new(k) if |y_new(k) − out(k−1)| ≤ r (the transfer ends), else
+/// out(k) = out(k−1) + r·sign(y_new(k) − out(k−1));
+/// so the output never moves by more than r per cycle (the axis's rate limit, also while
+/// the new engine itself ramps from 0), and it reaches y_new within ⌈|y_new − y_old|/r⌉
+/// cycles of the new engine holding still. (A decaying bias y_new + b(k), b(k+1) =
+/// b(k) − clamp(b(k), −r, r), moved by r + |Δy_new|: twice the rate limit while the new
+/// engine ramped.)
 /// # Source
 /// bumpless transfer as used for controller mode changes [STANDARD control practice];
 /// the rate r is the axis's `max_step_um`, else `cycle.bumpless_step_um` [CONVENTION,
 /// docs/service.md]
 #[derive(Debug, Clone, Copy)]
 pub struct Bumpless {
-    bias_um: [f64; MAX_AXES],
+    last_um: [f64; MAX_AXES],
     rate_um: [f64; MAX_AXES],
-    hold_um: [f64; MAX_AXES],
     pending: [bool; MAX_AXES],
+    active: [bool; MAX_AXES],
 }
 
 impl Default for Bumpless {
     fn default() -> Self {
         Self {
-            bias_um: [0.0; MAX_AXES],
+            last_um: [0.0; MAX_AXES],
             rate_um: [f64::INFINITY; MAX_AXES],
-            hold_um: [0.0; MAX_AXES],
             pending: [false; MAX_AXES],
+            active: [false; MAX_AXES],
         }
     }
 }
@@ -280,30 +285,35 @@ impl Bumpless {
     /// Starts a transfer from the applied offsets `last_um` at rates `rate_um` (µm/cycle).
     pub fn start(&mut self, last_um: &[f64], rate_um: &[f64]) {
         for (i, (&l, &r)) in last_um.iter().zip(rate_um).enumerate().take(MAX_AXES) {
-            self.hold_um[i] = l;
+            self.last_um[i] = l;
             self.rate_um[i] = r;
             self.pending[i] = true;
-            self.bias_um[i] = 0.0;
+            self.active[i] = true;
         }
     }
 
     /// The offset to apply for axis `i` given the engine's offset and whether the engine
     /// has a value for it yet.
     pub fn apply(&mut self, i: usize, engine_um: f64, ready: bool) -> f64 {
-        if i >= MAX_AXES {
+        if i >= MAX_AXES || !self.active[i] {
             return engine_um;
         }
         if self.pending[i] {
             if !ready {
-                return self.hold_um[i];
+                return self.last_um[i];
             }
             self.pending[i] = false;
-            self.bias_um[i] = self.hold_um[i] - engine_um;
         }
-        let r = self.rate_um[i];
-        let b = self.bias_um[i];
-        let out = engine_um + b;
-        self.bias_um[i] = b - b.clamp(-r, r);
+        let (last, r) = (self.last_um[i], self.rate_um[i]);
+        let gap = engine_um - last;
+        let out = if gap.abs() <= r || !gap.is_finite() {
+            // Reached (or nothing to move towards): the engine's offset from now on.
+            self.active[i] = false;
+            engine_um
+        } else {
+            last + r.copysign(gap)
+        };
+        self.last_um[i] = out;
         out
     }
 }
@@ -1203,14 +1213,48 @@ mod tests {
     use super::*;
 
     #[test]
-    fn bumpless_holds_then_decays_linearly() {
+    fn bumpless_holds_then_moves_at_the_rate() {
         let mut b = Bumpless::default();
         b.start(&[10.0], &[2.0]);
         // Not ready: hold the old output whatever the new engine says.
         assert_eq!(b.apply(0, 0.0, false), 10.0);
-        // Ready at 3 µm: bias = 7, then 5, 3, 1, 0 (closed form max(7 − 2k, 0)).
+        // Ready at 3 µm: 10 − 2k until within 2 µm, then 3 (closed form max(10 − 2k, 3)).
         let ys: Vec<f64> = (0..6).map(|_| b.apply(0, 3.0, true)).collect();
-        assert_eq!(ys, vec![10.0, 8.0, 6.0, 4.0, 3.0, 3.0]);
+        assert_eq!(ys, vec![8.0, 6.0, 4.0, 3.0, 3.0, 3.0]);
+        // Transfer over: the engine's offset passes unchanged, steps included.
+        assert_eq!(b.apply(0, 30.0, true), 30.0);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(128))]
+        /// A model change while the new engine ramps from 0 at its rate limit r (as the
+        /// engine's own max_step_um does): the applied offset never moves by more than r
+        /// per cycle, and equals the new engine's once that holds still. Reference: the
+        /// new engine's ramp written here, y(k) = y(k−1) + clamp(target − y(k−1), −r, r).
+        #[test]
+        fn bumpless_never_steps_beyond_the_rate(
+            old in -60.0f64..60.0,
+            target in -60.0f64..60.0,
+            r in 0.05f64..2.0,
+            hold in 0usize..5,
+        ) {
+            let mut b = Bumpless::default();
+            b.start(&[old], &[r]);
+            let mut prev = old;
+            for _ in 0..hold {
+                let y = b.apply(0, 0.0, false);
+                proptest::prop_assert_eq!(y, old);
+            }
+            let mut engine = 0.0f64;
+            let n = 4 + (2.0 * 120.0 / r) as usize;
+            for _ in 0..n {
+                engine += (target - engine).clamp(-r, r);
+                let y = b.apply(0, engine, true);
+                proptest::prop_assert!((y - prev).abs() <= r * (1.0 + 1e-12), "{} -> {}", prev, y);
+                prev = y;
+            }
+            proptest::prop_assert_eq!(prev, engine);
+        }
     }
 
     #[test]
