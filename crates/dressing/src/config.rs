@@ -9,7 +9,8 @@ use crate::campaign::{Correction, PlanOptions, PlanSpec};
 use crate::dresser::Dresser;
 use crate::error::{DressError, Result};
 use crate::request::{
-    check_key, min_worn_diameter_mm, DresserInput, Method, SolveInput, WormInput, DEFAULT_BUDGET_MM,
+    check_evaluable, check_key, min_worn_diameter_mm, DresserInput, Method, SolveInput, WormInput,
+    DEFAULT_BUDGET_MM,
 };
 use crate::topological_request::TopologicalInput;
 use crate::worm::{Flank, Worm};
@@ -155,6 +156,7 @@ impl PlanConfig {
     /// 0 ..= 5 mm, 1 ..= 1000 `diameters_mm` each between the smallest worn diameter (rounded
     /// up to 0.1 µm) and the new worm's, `alpha_search_deg` in 0.01 ..= 20.
     pub fn spec(&self, worm: &Worm) -> Result<(PlanSpec, PlanOptions)> {
+        check_evaluable(worm)?;
         check_key("[plan] crowning_um", self.crowning_um, -50.0, 50.0, "µm")?;
         check_key("[plan] budget_mm", self.budget_mm, 0.0, 5.0, "mm")?;
         let n = self.diameters_mm.len();

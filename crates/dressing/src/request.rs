@@ -377,8 +377,35 @@ pub fn min_worn_diameter_mm(worm: &Worm) -> f64 {
     2.0 * (worm.r_b_mm + 2.25 * worm.m_n_mm)
 }
 
+/// A new worm whose dressing can be evaluated: its reference radius at least r_b + 2.25 m_n
+/// ([`min_worn_diameter_mm`]), so the whole tooth depth of the new worm is on the involute.
+/// `dress design` does not need it; `dress solve` and `dress plan` do. A worm with many starts
+/// and a small diameter (z = 20, d = 90 mm, m_n = 3 mm: r_b = 39.5 mm > 45 − 6.75 mm) was
+/// accepted and then refused with the empty range "[plan] diameters_mm[0] = 90 mm is outside
+/// the allowed range 92.494 ..= 90 mm" or under `[solve] crowning_um`.
+pub fn check_evaluable(worm: &Worm) -> Result<()> {
+    let need_mm = worm.r_b_mm + 2.25 * worm.m_n_mm;
+    if worm.d_s0_mm / 2.0 >= need_mm {
+        return Ok(());
+    }
+    Err(input_err(
+        "[worm] diameter_mm",
+        format!(
+            "= {} mm is too small to dress and evaluate this worm: its reference radius {} mm \
+             must be at least the base radius {:.4} mm + 2.25 × normal_module_mm = {:.4} mm \
+             (whole tooth depth on the involute); take a larger diameter_mm, fewer starts or \
+             a larger profile_angle_deg",
+            worm.d_s0_mm,
+            worm.d_s0_mm / 2.0,
+            worm.r_b_mm,
+            need_mm
+        ),
+    ))
+}
+
 /// The worm at `[solve] diameter_mm` (the new worm when absent), the key checked.
 pub fn current_worm(design: &Worm, diameter_mm: Option<f64>) -> Result<Worm> {
+    check_evaluable(design)?;
     match diameter_mm {
         Some(d) => {
             let lo = (min_worn_diameter_mm(design) * 1e4).ceil() / 1e4;

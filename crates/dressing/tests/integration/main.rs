@@ -15,3 +15,4 @@ mod request_props;
 mod request_repro;
 mod solvers;
 mod topology;
+mod worm_evaluable;
