@@ -879,6 +879,12 @@ pub use crate::sources::opcua_config::{
     OpcUaPulseOutput, OpcUaTrigger,
 };
 
+/// A preset name, or the error naming the key it was written under.
+fn preset_named(field: &str, p: &str) -> Result<gearcomp_thermal::Preset> {
+    gearcomp_thermal::Preset::from_name(p)
+        .map_err(|_| invalid(field, format!("{p:?}"), "one of grinder, shaper, hobbing"))
+}
+
 /// The keys of `[input] kind = "simulator"`, as [`InputSection::Simulator`] has them
 /// (only to name a wrong-typed key, see [`input_key_error`]).
 #[derive(Deserialize)]
@@ -1053,7 +1059,7 @@ impl ServiceConfig {
             ));
         }
         if let Some(p) = &self.engine.preset {
-            gearcomp_thermal::Preset::from_name(p)?;
+            preset_named("engine.preset", p)?;
         }
         check_range(
             "cycle.period_s",
@@ -1106,7 +1112,7 @@ impl ServiceConfig {
                 preset, speedup, ..
             } => {
                 if let Some(p) = preset {
-                    gearcomp_thermal::Preset::from_name(p)?;
+                    preset_named("input.preset", p)?;
                 }
                 check_range("input.speedup", *speedup, 0.001, 1e6, "0.001…1e6")?;
                 if self.engine.file.is_none() {
@@ -1659,6 +1665,42 @@ mod tests {
             "configuration m.toml: invalid input.speedup: invalid type: string \"1.0\", \
              expected f64 (the [input] table at line 4)"
         );
+    }
+
+    #[test]
+    fn presets_and_engine_files_are_named_by_their_key() {
+        let e = ServiceConfig::from_toml_str("[engine]\npreset = \"lathe\"\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("engine.preset = \"lathe\""), "{e}");
+        let e = ServiceConfig::from_toml_str(
+            "[input]\nkind = \"simulator\"\npreset = \"lathe\"\n",
+            "m.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("input.preset = \"lathe\""), "{e}");
+        // A folder, a missing file and a file that is no engine configuration: the key, the
+        // file and the cause, once (the cause was repeated by the error chain).
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("log.csv");
+        std::fs::write(&csv, "time_s,a_c\n0,20\n").unwrap();
+        for (f, cause) in [
+            (dir.path().to_path_buf(), "directory"),
+            (dir.path().join("nope.toml"), "No such file"),
+            (csv, "TOML parse error"),
+        ] {
+            let mut cfg = ServiceConfig::default();
+            cfg.engine.file = Some(f.clone());
+            let e = crate::service::engine_config(&cfg).unwrap_err();
+            assert!(std::error::Error::source(&e).is_none(), "{e}");
+            let e = e.to_string();
+            assert!(
+                e.starts_with(&format!("invalid engine.file = {}: ", f.display()))
+                    && e.matches(cause).count() == 1,
+                "{e}"
+            );
+        }
     }
 
     #[test]

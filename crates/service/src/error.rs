@@ -42,6 +42,15 @@ pub enum ServiceError {
     /// The engine configuration was rejected.
     #[error("engine: {0}")]
     Engine(#[from] gearcomp_thermal::ThermalError),
+    /// The engine configuration file (`engine.file`) could not be read or is not valid;
+    /// the message says why (shown once: no source chain repeating it).
+    #[error("invalid engine.file = {path}: {message}")]
+    EngineFile {
+        /// The file.
+        path: String,
+        /// The thermal crate's message (names the engine key and line).
+        message: String,
+    },
     /// A background thread or task ended unexpectedly.
     #[error("{0} stopped unexpectedly")]
     Stopped(&'static str),

@@ -42,7 +42,11 @@ pub use crate::storage::RECORD_QUEUE;
 /// The engine configuration and where it came from.
 pub fn engine_config(cfg: &ServiceConfig) -> Result<(EngineConfig, String)> {
     if let Some(f) = &cfg.engine.file {
-        return Ok((EngineConfig::load(f)?, f.display().to_string()));
+        let c = EngineConfig::load(f).map_err(|e| ServiceError::EngineFile {
+            path: f.display().to_string(),
+            message: e.to_string(),
+        })?;
+        return Ok((c, f.display().to_string()));
     }
     let p = preset_of(cfg)?;
     Ok((bundle(p).config, format!("preset:{}", p.name())))
