@@ -520,7 +520,7 @@ impl G83Block {
                 .split_whitespace()
                 .find(|t| t.len() == 1 && G83_LETTERS.contains(*t))
                 .and_then(|t| t.chars().next()),
-            ShapingError::Infeasible { .. } => Some('S'),
+            ShapingError::Infeasible { .. } | ShapingError::InsufficientData { .. } => Some('S'),
             _ => None,
         };
         match letter {

@@ -174,8 +174,69 @@ pub fn validate_simulation(cfg: &SimulationConfig) -> Result<()> {
             p.validate()?;
         }
     }
+    // Too few control cycles inside L_β (a short facewidth at a high S and a long cycle)
+    // were found only by `simulate`, after conversion and at column 1.
+    let n = helix_sample_count(cfg);
+    if n < MIN_HELIX_SAMPLES {
+        return Err(ShapingError::InsufficientData {
+            what: HELIX_SAMPLES_WHAT,
+            got: n,
+            need: MIN_HELIX_SAMPLES,
+        });
+    }
     Ok(())
 }
+
+const HELIX_SAMPLES_WHAT: &str = "helix at S (control cycles inside the evaluation range of the \
+     last cutting stroke; lower S or the cycle time, or widen the facewidth B)";
+
+/// The control cycles a simulation runs and the helix evaluation range on the stroke.
+struct Sampling {
+    counts_per_cycle: f64,
+    total_cycles: u64,
+    last_start: u64,
+    l_beta: f64,
+    eval_lo: f64,
+    eval_hi: f64,
+}
+
+fn sampling(cfg: &SimulationConfig) -> Sampling {
+    let ic = cfg.interp;
+    let stroke = ic.crank.stroke_mm();
+    let cpr = f64::from(ic.crank_cpr);
+    let counts_per_cycle = cpr * ic.strokes_per_min / 60.0 * ic.cycle_s;
+    let cycles_per_stroke = cpr / counts_per_cycle;
+    let (l_lo, l_hi) = helix_evaluation_range((0.0, cfg.face_width_mm), ic.cut.m_n_mm());
+    let l_beta = l_hi - l_lo;
+    let eval_lo = 0.5 * (stroke - l_beta);
+    Sampling {
+        counts_per_cycle,
+        total_cycles: (f64::from(cfg.strokes) * cycles_per_stroke).ceil() as u64,
+        last_start: ((f64::from(cfg.strokes) - 1.0) * cycles_per_stroke).ceil() as u64,
+        l_beta,
+        eval_lo,
+        eval_hi: eval_lo + l_beta,
+    }
+}
+
+/// Control cycles of the last simulated stroke that fall in the cutting stroke inside the
+/// helix evaluation range: the samples [`simulate`] fits the lead and f_Hβ to (same
+/// selection).
+pub fn helix_sample_count(cfg: &SimulationConfig) -> usize {
+    let s = sampling(cfg);
+    let crank = cfg.interp.crank;
+    let cpr = f64::from(cfg.interp.crank_cpr);
+    (s.last_start..s.total_cycles)
+        .filter(|&k| {
+            let theta = TAU * (k as f64 * s.counts_per_cycle).rem_euclid(cpr) / cpr;
+            let z = crank.z_mm(theta);
+            theta <= std::f64::consts::PI && z >= s.eval_lo && z <= s.eval_hi
+        })
+        .count()
+}
+
+/// Least number of samples the helix fit needs.
+pub const MIN_HELIX_SAMPLES: usize = 3;
 
 /// Runs the simulation; the crank turns at exactly the nominal speed from θ = 0.
 pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
@@ -206,16 +267,16 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     let c1_scale = TAU / f64::from(ic.c1_cpr);
     let c2_scale = TAU / f64::from(ic.c2_cpr);
     let cpr = f64::from(ic.crank_cpr);
-    let counts_per_cycle = cpr * ic.strokes_per_min / 60.0 * ic.cycle_s;
-    let cycles_per_stroke = cpr / counts_per_cycle;
-    let total_cycles = (f64::from(cfg.strokes) * cycles_per_stroke).ceil() as u64;
-    let last_start = ((f64::from(cfg.strokes) - 1.0) * cycles_per_stroke).ceil() as u64;
+    let Sampling {
+        counts_per_cycle,
+        total_cycles,
+        last_start,
+        l_beta,
+        eval_lo,
+        eval_hi,
+    } = sampling(cfg);
     let face_start = 0.5 * (stroke - cfg.face_width_mm);
     let face_end = face_start + cfg.face_width_mm;
-    let (l_lo, l_hi) = helix_evaluation_range((0.0, cfg.face_width_mm), cut.m_n_mm());
-    let l_beta = l_hi - l_lo;
-    let eval_lo = 0.5 * (stroke - l_beta);
-    let eval_hi = eval_lo + l_beta;
 
     let first = interp.cycle(0);
     let mut c1 = ServoAxis::new(
@@ -285,12 +346,11 @@ pub fn simulate(cfg: &SimulationConfig) -> Result<SimulationResult> {
     }
 
     let n = lead_z.len();
-    if n < 3 {
+    if n < MIN_HELIX_SAMPLES {
         return Err(ShapingError::InsufficientData {
-            what: "helix (samples inside the evaluation range of the last cutting stroke; \
-                   shorten the cycle time or lower S)",
+            what: HELIX_SAMPLES_WHAT,
             got: n,
-            need: 3,
+            need: MIN_HELIX_SAMPLES,
         });
     }
     let g_slope = line_slope(&lead_z, &lead_g)?;
