@@ -235,6 +235,12 @@ pub struct Args {
     /// cut by gaps: NAME/1 … NAME/k), validated leave-one-run-out, named in --test-runs.
     #[arg(long)]
     pub runs_at_gaps: bool,
+    /// A numeric time that falls starts a new run instead of a bad row (several runs logged
+    /// one after the other in one file, the time restarting in each, without a run column):
+    /// runs 1 … N in file order (in a --run-column run NAME: NAME, NAME/2 …; in a file of
+    /// several: FILE, FILE/2 …), validated leave-one-run-out, named in --test-runs.
+    #[arg(long)]
+    pub runs_at_restarts: bool,
     /// Train on rows with time < this many hours; test on the rest (one run only;
     /// default 24 h on one run; with several runs the last run tests by default).
     #[arg(long, conflicts_with_all = ["test_runs", "no_test"])]
@@ -387,6 +393,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         target_unit: Some(args.target_unit.into()),
         time_unit: Some(args.time_unit.into()),
         missing_codes: gearcomp_identify::missing_code::MissingCodes::new(&args.missing_code)?,
+        runs_at_restarts: args.runs_at_restarts,
         ..ReadOptions::default()
     })
 }

@@ -69,6 +69,10 @@ pub struct ReadOptions {
     /// Values read as empty cells: a data logger's codes for a missing sample
     /// ([`crate::missing_code`]).
     pub missing_codes: crate::missing_code::MissingCodes,
+    /// A numeric time that falls starts a new run (several runs in one file without a run
+    /// column: `1`, `2` … in file order; within a named run `name`, `name/2` …) instead of
+    /// a bad row.
+    pub runs_at_restarts: bool,
 }
 
 impl Default for ReadOptions {
@@ -84,6 +88,7 @@ impl Default for ReadOptions {
             target_unit: None,
             time_unit: None,
             missing_codes: crate::missing_code::MissingCodes::default(),
+            runs_at_restarts: false,
         }
     }
 }
@@ -485,6 +490,9 @@ struct RowState {
     split_pending: bool,
     /// Under [`MissingCells::Hold`]: each input's value on the last kept row of the run.
     held: Vec<Option<f64>>,
+    /// Under [`ReadOptions::runs_at_restarts`]: how often the time restarted in this run
+    /// (of the run column, or of the file).
+    restarts: usize,
 }
 
 /// The records of quote-free CSV text from byte `start` (just after the header): each line
@@ -942,6 +950,9 @@ struct Reader<'a> {
     /// Rows whose time does not increase, for the hint of the bad-rows error (a restart, a
     /// log newest first).
     drops: Drops,
+    /// The runs come from the data (a run column, or several files), not only from
+    /// restarts ([`ReadOptions::runs_at_restarts`]).
+    named_runs: bool,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
@@ -974,6 +985,7 @@ impl<'a> Reader<'a> {
             time_column: None,
             time_stamps: false,
             drops: Drops::default(),
+            named_runs: false,
             skipped: Vec::new(),
             forced: Vec::new(),
             file_runs,
@@ -1278,7 +1290,7 @@ fn time_drop_hint(
     }
     if time < prev && drops.second == Some((fi, line + 1)) {
         return format!(
-            "; the time restarts at {} ({prev} → {time}): several runs in one file? Name the run column with --run-column, or give each run its own file (--data a.csv b.csv …)",
+            "; the time restarts at {} ({prev} → {time}): several runs in one file? Name the run column with --run-column, read each restart as a new run with --runs-at-restarts, or give each run its own file (--data a.csv b.csv …)",
             where_(fi, line)
         );
     }
@@ -1321,6 +1333,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         time_column,
         time_stamps,
         drops,
+        named_runs,
         skipped,
         forced,
         ..
@@ -1363,7 +1376,18 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             ),
         });
     }
-    crate::missing_code::check_logger_codes(&t, &|i| {
+    // One run found by restarts alone is no run: the log as without the option.
+    if opts.runs_at_restarts && !named_runs && t.run_names.len() <= 1 {
+        t.runs = None;
+        t.run_names.clear();
+    }
+    let columns = t
+        .input_names
+        .iter()
+        .zip(&t.inputs)
+        .chain(t.target_names.iter().zip(&t.targets))
+        .map(|(n, c)| (n.as_str(), c.as_slice()));
+    crate::missing_code::check_logger_codes(columns, &|i| {
         where_(
             t.file_of_row.get(i).copied().unwrap_or(0),
             t.lines.get(i).copied().unwrap_or(0),
@@ -1716,9 +1740,10 @@ impl Reader<'_> {
                 ),
             ));
         }
-        if many || run_idx.is_some() {
+        if many || run_idx.is_some() || self.opts.runs_at_restarts {
             self.t.runs.get_or_insert_with(Vec::new);
         }
+        self.named_runs |= many || run_idx.is_some();
         let stem = match self.file_runs.get(fi) {
             Some(run) => run.clone(),
             None => std::path::Path::new(name)
@@ -1883,7 +1908,28 @@ impl Reader<'_> {
             st.prev_t = None;
             st.t0 = None;
             st.held.clear();
+            st.restarts = 0;
         }
+        // A numeric time below the last one starts the next run (`runs_at_restarts`), before
+        // any cell is read, so that no held value crosses into it.
+        if let (true, Some(ti), None, Some(prev)) = (
+            self.opts.runs_at_restarts && st.stamps != Some(true),
+            c.time_idx,
+            c.time2_idx,
+            st.prev_t,
+        ) {
+            let cell = rec.get(ti).copied().unwrap_or("");
+            if dialect::parse_number(cell, "", c.dialect.decimal_comma).is_ok_and(|t| t < prev) {
+                st.prev_t = None;
+                st.held.clear();
+                st.restarts += 1;
+            }
+        }
+        let run = match (self.opts.runs_at_restarts, run.is_empty(), st.restarts) {
+            (false, _, _) | (true, false, 0) => run,
+            (true, true, k) => (k + 1).to_string(),
+            (true, false, k) => format!("{run}/{}", k + 1),
+        };
         let this_ordinal = st.ordinal;
         st.ordinal += 1;
         let dc = c.dialect.decimal_comma;
@@ -2036,6 +2082,7 @@ impl Reader<'_> {
         if let Some(runs) = self.t.runs.as_mut() {
             let label = match (c.many, c.run_idx.is_some()) {
                 (true, true) => format!("{}:{run}", c.stem),
+                (true, false) if st.restarts > 0 => format!("{}/{}", c.stem, st.restarts + 1),
                 (true, false) => c.stem.clone(),
                 _ => run.clone(),
             };

@@ -7,7 +7,6 @@
 //! empty cells ([`MissingCodes`]), which the missing-cell rules then handle: an empty input
 //! cell follows `--missing`, an empty target cell is a row without a measurement.
 
-use crate::data::Table;
 use crate::error::{invalid, Result};
 
 /// The codes data loggers commonly write for a missing sample, checked on every log.
@@ -69,19 +68,17 @@ impl MissingCodes {
     }
 }
 
-/// Refuses a table (values as written, before any unit conversion) whose input or target
-/// column holds one of [`LOGGER_CODES`] more than [`FAR_SPANS`] spans of the column's other
-/// finite values beyond them, naming the column, the code, its rows (`line_of(i)`: where
-/// row i is, for messages) and `--missing-code`.
+/// Refuses the columns (name and values as written, before any unit conversion: a table's
+/// inputs and targets) of which one holds one of [`LOGGER_CODES`] more than [`FAR_SPANS`]
+/// spans of the column's other finite values beyond them, naming the column, the code, its
+/// rows (`line_of(i)`: where row i is, for messages) and `--missing-code`.
 ///
 /// # Errors
 /// The first such column and code.
-pub fn check_logger_codes(t: &Table, line_of: &dyn Fn(usize) -> String) -> Result<()> {
-    let columns = t
-        .input_names
-        .iter()
-        .zip(&t.inputs)
-        .chain(t.target_names.iter().zip(&t.targets));
+pub fn check_logger_codes<'a>(
+    columns: impl Iterator<Item = (&'a str, &'a [f64])>,
+    line_of: &dyn Fn(usize) -> String,
+) -> Result<()> {
     for (name, col) in columns {
         // A code far outside the others is the column's least or greatest value: one pass
         // over the column decides for almost every log.

@@ -49,6 +49,7 @@ fn fit_help_lists_every_option() {
         "--no-header",
         "--target-data",
         "--runs-at-gaps",
+        "--runs-at-restarts",
     ] {
         assert!(help.contains(opt), "missing {opt} in help");
     }
@@ -619,6 +620,58 @@ fn fit_reads_a_logger_missing_code_only_when_named() {
     with_codes.extend(["--missing-code", "-9999", "32767"]);
     let got = fit_json(&d, "coded.csv", &coded("-9999", "32767"), &with_codes).unwrap();
     for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
+        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Three runs logged one after the other in one file, the time restarting in each: refused
+/// with the restart named and the ways out; with `--runs-at-restarts` the fit is the fit of
+/// the same log with a run column (runs 1, 2, 3; run 2 tested).
+#[test]
+fn fit_reads_time_restarts_as_runs() {
+    let d = tmp("restarts");
+    let runs: Vec<String> = (0..3).map(|k| run_csv(k, true)).collect();
+    let body = |k: usize| {
+        runs[k]
+            .lines()
+            .skip(1)
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    let plain: String = std::iter::once("time_s,a_c,b_c,y_um".to_string())
+        .chain((0..3).flat_map(body))
+        .map(|l| l + "\n")
+        .collect();
+    let named: String = std::iter::once("run,time_s,a_c,b_c,y_um".to_string())
+        .chain((0..3).flat_map(|k| body(k).into_iter().map(move |l| format!("{},{l}", k + 1))))
+        .map(|l| l + "\n")
+        .collect();
+    let e = fit_json(&d, "plain.csv", &plain, &[]).unwrap_err();
+    assert!(
+        e.contains("the time restarts at line 242") && e.contains("--runs-at-restarts"),
+        "{e}"
+    );
+    let p = d.join("plain.csv");
+    let got = fit_json_of(
+        &p,
+        &["--target", "y_um", "--runs-at-restarts", "--test-runs", "2"],
+    );
+    let n = d.join("named.csv");
+    std::fs::write(&n, named).unwrap();
+    let want = fit_json_of(
+        &n,
+        &[
+            "--target",
+            "y_um",
+            "--run-column",
+            "run",
+            "--test-runs",
+            "2",
+        ],
+    );
+    assert!(got["targets"][0]["test_rmse_um"].is_f64(), "{got}");
+    for key in ["family", "intercept", "validation_rmse_um", "test_rmse_um"] {
         assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
     }
     std::fs::remove_dir_all(&d).unwrap();

@@ -7,7 +7,7 @@
 //! first, a time that restarts), a name used twice, the header repeated.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use gearcomp_identify::data::{read_csv, DataIssue, ReadOptions, Selection};
+use gearcomp_identify::data::{read_csv, DataIssue, MissingCells, ReadOptions, Selection};
 use gearcomp_identify::select::Family;
 use gearcomp_identify::time_unit::{TimeUnit, TimeUnitChoice};
 use gearcomp_identify::{identify, predict, IdentifyOptions, Split};
@@ -344,4 +344,88 @@ fn a_repeated_name_or_header_is_refused_saying_so() {
     };
     let t = read_csv(again, "log.csv", &sel, skip).unwrap();
     assert_eq!(t.time_s, [0.0, 60.0, 120.0, 180.0]);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Runs logged one after the other in one file, the time restarting in each: with
+    /// `runs_at_restarts` the log reads as the same log with a run column (the reference:
+    /// the run-column reader), under every missing-cell rule: the same times, values,
+    /// segments and runs (named 1 … N), no value held across a restart. Without restarts the
+    /// option changes nothing.
+    #[test]
+    fn restarts_read_as_runs(
+        seed in any::<u64>(),
+        runs in 1usize..5,
+        hold in any::<bool>(),
+    ) {
+        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut uni = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut body = Vec::new();
+        let mut last_end = f64::INFINITY;
+        for r in 0..runs {
+            let len = 5 + (uni() * 40.0) as usize;
+            // Each run starts below the last one's end (a restart).
+            let mut t = (uni() * 100.0).round().min(last_end - 1.0).max(0.0);
+            for _ in 0..len {
+                let a = if hold && uni() < 0.2 { String::new() } else { format!("{}", 20.0 + uni()) };
+                body.push((r, format!("{t},{a},{},{}", 21.0 + uni(), uni())));
+                t += 10.0 + (uni() * 50.0).round();
+            }
+            last_end = t - 1.0;
+        }
+        let plain = format!("time_s,a_c,b_c,z_um\n{}\n", body.iter().map(|b| b.1.clone()).collect::<Vec<_>>().join("\n"));
+        let named = format!(
+            "run,time_s,a_c,b_c,z_um\n{}\n",
+            body.iter().map(|(r, l)| format!("{},{l}", r + 1)).collect::<Vec<_>>().join("\n")
+        );
+        let missing = if hold { MissingCells::Hold } else { MissingCells::Error };
+        let sel = Selection { targets: vec!["z_um".into()], ..Selection::default() };
+        let got = read_csv(&plain, "log.csv", &sel, ReadOptions { runs_at_restarts: true, missing, ..ReadOptions::default() }).unwrap();
+        let want = if runs > 1 {
+            let sel_run = Selection { run: Some("run".into()), ..sel.clone() };
+            read_csv(&named, "log.csv", &sel_run, ReadOptions { missing, ..ReadOptions::default() }).unwrap()
+        } else {
+            read_csv(&plain, "log.csv", &sel, ReadOptions { missing, ..ReadOptions::default() }).unwrap()
+        };
+        prop_assert_eq!(&got.time_s, &want.time_s);
+        prop_assert_eq!(&got.inputs, &want.inputs);
+        prop_assert_eq!(&got.targets, &want.targets);
+        prop_assert_eq!(&got.segments, &want.segments);
+        prop_assert_eq!(&got.runs, &want.runs);
+        prop_assert_eq!(&got.run_names, &want.run_names);
+    }
+}
+
+/// Restart runs inside a named run and inside each of several files are named after it.
+#[test]
+fn restart_runs_are_named_after_their_run_or_file() {
+    let text =
+        "run,time_s,a_c,z_um\nA,0,20,1\nA,60,21,2\nA,0,22,3\nA,60,23,4\nB,0,20,1\nB,60,21,2\n";
+    let sel = Selection {
+        targets: vec!["z_um".into()],
+        run: Some("run".into()),
+        ..Selection::default()
+    };
+    let opts = ReadOptions {
+        runs_at_restarts: true,
+        ..ReadOptions::default()
+    };
+    let t = read_csv(text, "log.csv", &sel, opts).unwrap();
+    assert_eq!(t.run_names, ["A", "A/2", "B"]);
+    assert_eq!(t.segments, [0, 2, 4]);
+    let f = "time_s,a_c,z_um\n0,20,1\n60,21,2\n0,22,3\n60,23,4\n";
+    let sel = Selection {
+        targets: vec!["z_um".into()],
+        ..Selection::default()
+    };
+    let t =
+        gearcomp_identify::data::read_runs(&[(f, "d1.csv"), (f, "d2.csv")], &sel, opts).unwrap();
+    assert_eq!(t.run_names, ["d1", "d1/2", "d2", "d2/2"]);
 }
