@@ -10,6 +10,9 @@ use crate::worm::{Flank, Worm};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 
+/// Steps of the entry-depth scan over [−2.5 m_n, 1.5 m_n]: 0.02 m_n each.
+const ENTRY_SCAN_STEPS: usize = 200;
+
 /// Worm, dresser and the uncorrected setting for this worm: everything a dressing needs.
 #[derive(Debug, Clone)]
 pub struct DressingSetup {
@@ -211,6 +214,7 @@ impl DressingSetup {
         t_hint: f64,
     ) -> Result<PointDressing> {
         let u_max = self.dresser.u_max();
+        let m_n = self.worm.m_n_mm;
         // Scan: least g over t at s = 0 (points beyond the tabulated dresser count as outside).
         let nscan = 160;
         let (mut t0, mut gmin) = (t_hint, f64::INFINITY);
@@ -245,10 +249,12 @@ impl DressingSetup {
                 dt *= k;
                 ds *= k;
             }
-            ds = ds.clamp(-1.0, 1.0);
+            // Depth step and stop in units of m_n (1 mm and 1e-13 mm at module 1), so a worm
+            // scaled by k takes the k-scaled Newton path and stops above its rounding floor.
+            ds = ds.clamp(-m_n, m_n);
             s -= ds;
             t -= dt;
-            if ds.abs() < 1e-13 && dt.abs() < 1e-12 {
+            if ds.abs() < 1e-13 * m_n && dt.abs() < 1e-12 {
                 let e = self.g_eval(fr, p, n, s, t);
                 if e.g_tt <= 0.0 {
                     break;
@@ -284,8 +290,12 @@ impl DressingSetup {
             let e = self.g_eval(fr, p, n, s, t);
             e.z_a.abs() < u_max && e.g <= 0.0
         };
-        let h = 0.02;
-        let steps = ((s_in + s_out) / h).ceil() as usize;
+        // The entry is bracketed by a fixed number of steps over [−s_in, s_out] (both ∝ m_n):
+        // 0.02 m_n per step, the 0.02 mm of module 1, so the scan costs the same at every size
+        // and a worm scaled by k is scanned at the k-scaled stations (docs/dressing.md
+        // "Scan resolution").
+        let steps = ENTRY_SCAN_STEPS;
+        let h = (s_in + s_out) / steps as f64;
         let mut lo = -s_in;
         if inside(lo) {
             return lo;

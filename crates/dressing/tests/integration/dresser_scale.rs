@@ -88,3 +88,120 @@ fn the_dresser_design_scales_with_the_worm() {
     fixed.run(&(1.0..17.0f64), prop).unwrap();
     TestRunner::new(cfg).run(&(1.0..17.0f64), prop).unwrap();
 }
+
+/// A 3-point plan of G1-Z5 × k (z = 5, d = 160 mm, m_n = 3 mm, dresser 100 mm, jacket
+/// 0.8 mm; crowning 0.2 µm, two redressings, budget 0.1 mm; all lengths × k).
+fn plan_of(k: f64) -> Vec<gearcomp_dressing::campaign::PlanRow> {
+    use gearcomp_dressing::campaign::{plan, Correction, PlanSpec};
+    let worm = WormInput {
+        starts: 5,
+        diameter_mm: 160.0 * k,
+        normal_module_mm: 3.0 * k,
+        profile_angle_deg: 20.0,
+    }
+    .build()
+    .unwrap();
+    let dresser = DresserInput {
+        diameter_mm: 100.0 * k,
+        jacket_width_mm: 0.8 * k,
+        clearance_mm: 0.0,
+    }
+    .build(&worm)
+    .unwrap_or_else(|e| panic!("k = {k}: {e}"));
+    let spec = PlanSpec {
+        flank: Flank::Right,
+        diameters_mm: vec![160.0 * k, 157.0 * k, 154.0 * k],
+        correction: Correction::ThreePoint,
+        crowning_mm: 0.2e-3 * k,
+        budget_mm: 0.1 * k,
+    };
+    plan(&worm, &dresser, &spec).unwrap_or_else(|e| panic!("k = {k}: {e}"))
+}
+
+/// Fuzzing of `gearcomp dress solve/plan` (session 10): module 25–100 worms took 11–85 s
+/// because the entry-depth scan of the screw evaluation stepped 0.02 mm over 4 m_n and the
+/// envelope Newton clamped its depth step to 1 mm (so it rarely converged and fell back to
+/// that scan). Both are now in units of m_n. Reference: geometric similarity again. Every
+/// length of the plan (d_0, active profile, Δd, Δν_yA, deviations, opposite cut, jacket
+/// depth, lead, profile) scales by k, the angles (Δφ_S, Δγ, α_n) and the stretching P_FS do
+/// not; lengths within 1e-6 relative or 2e-6·k µm absolute (the deviations are ~1e-3 µm).
+fn plan_similar(k: f64, small: &[gearcomp_dressing::campaign::PlanRow]) {
+    let large = plan_of(k);
+    assert_eq!(small.len(), large.len());
+    let len = |what: &str, a: f64, b_small: f64| {
+        let b = k * b_small;
+        assert!(
+            (a - b).abs() <= 1e-6 * b.abs() + 2e-9 * k,
+            "k = {k} {what}: {a} vs {b} (k × {b_small})"
+        );
+    };
+    let um = |what: &str, a: f64, b_small: f64| {
+        let b = k * b_small;
+        assert!(
+            (a - b).abs() <= 1e-4 * b.abs() + 2e-6 * k,
+            "k = {k} {what}: {a} vs {b} µm"
+        );
+    };
+    let ang = |what: &str, a: f64, b: f64| {
+        assert!(
+            (a - b).abs() <= 1e-6 * b.abs() + 1e-10,
+            "k = {k} {what}: {a} vs {b}"
+        );
+    };
+    for (s, l) in small.iter().zip(&large) {
+        len("d_0", l.d0_mm, s.d0_mm);
+        len("w_Nf", l.active_mm.0, s.active_mm.0);
+        len("w_Na", l.active_mm.1, s.active_mm.1);
+        len("Δd", l.dk.dd_mm, s.dk.dd_mm);
+        len("Δν_yA", l.dk.dnu_ya_mm, s.dk.dnu_ya_mm);
+        ang("Δφ_S", l.dk.dphi_s_rad, s.dk.dphi_s_rad);
+        ang("Δγ", l.dk.dgamma_rad, s.dk.dgamma_rad);
+        ang("P_FS", l.stretch, s.stretch);
+        ang("α_n", l.alpha_n_rad, s.alpha_n_rad);
+        len("opposite cut", l.opposite_cut_mm, s.opposite_cut_mm);
+        len("jacket depth", l.jacket_depth_mm, s.jacket_depth_mm);
+        len("lead", l.lead_mm, s.lead_mm);
+        um("deviation max", l.deviation_max_um, s.deviation_max_um);
+        um(
+            "deviation range",
+            l.deviation_range_um,
+            s.deviation_range_um,
+        );
+        um("deviation foot", l.deviation_foot_um, s.deviation_foot_um);
+        um("deviation tip", l.deviation_tip_um, s.deviation_tip_um);
+        assert_eq!(l.profile.len(), s.profile.len());
+        for (pl, ps) in l.profile.iter().zip(&s.profile) {
+            len("profile w", pl.0, ps.0);
+            um("profile f − target", pl.1, ps.1);
+        }
+        assert_eq!(l.penetration, s.penetration);
+        assert_eq!(l.undercut, s.undercut);
+    }
+}
+
+/// The module-51 worm (k = 17, d = 2720 mm) plans like G1-Z5, scaled.
+#[test]
+fn a_module_51_plan_is_the_module_3_plan_scaled() {
+    plan_similar(17.0, &plan_of(1.0));
+}
+
+/// Random scales k in [1, 17] (fixed seed + fresh cases).
+#[test]
+fn the_plan_scales_with_the_worm() {
+    let small = plan_of(1.0);
+    let prop = |k: f64| {
+        plan_similar(k, &small);
+        Ok(())
+    };
+    let cfg = Config {
+        cases: 4,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let mut fixed = TestRunner::new_with_rng(
+        cfg.clone(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[11; 32]),
+    );
+    fixed.run(&(1.0..17.0f64), prop).unwrap();
+    TestRunner::new(cfg).run(&(1.0..17.0f64), prop).unwrap();
+}
