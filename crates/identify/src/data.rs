@@ -1397,6 +1397,13 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         (Some(choice), Some((column, cell))) => {
             to_seconds(&mut t, choice, column, cell.as_deref(), time_stamps)?
         }
+        (Some(crate::time_unit::TimeUnitChoice::Given(u)), None) => {
+            return Err(invalid(
+                "--time-unit",
+                u.symbol(),
+                "no unit without a time column (--sample-interval-s is in seconds)",
+            ))
+        }
         _ => None,
     };
     let mut issues: Vec<(usize, u64, DataIssue)> = bad

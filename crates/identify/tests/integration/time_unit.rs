@@ -157,6 +157,30 @@ fn a_time_unit_that_is_none_is_refused() {
     };
     let t = read_csv(text, "log.csv", &sel("t"), given).unwrap();
     assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
+    // A sample interval is in seconds: --time-unit has nothing to convert.
+    let no_time = "a_c,z_um\n20,1\n21,2\n22,3\n";
+    let interval = ReadOptions {
+        sample_interval_s: Some(60.0),
+        ..given
+    };
+    let e = read_csv(no_time, "log.csv", &sel("time_s"), interval)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("--time-unit") && e.contains("--sample-interval-s"),
+        "{e}"
+    );
+    let t = read_csv(
+        no_time,
+        "log.csv",
+        &sel("time_s"),
+        ReadOptions {
+            time_unit: Some(TimeUnitChoice::Auto),
+            ..interval
+        },
+    )
+    .unwrap();
+    assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
     let stamps = "stamp,a_c,z_um\nhh:mm:ss,°C,µm\n2024-03-01 08:00:00,20,1\n2024-03-01 08:01:00,21,2\n2024-03-01 08:02:00,22,3\n";
     let t = read_csv(stamps, "log.csv", &sel("stamp"), auto).unwrap();
     assert_eq!(t.time_s, [0.0, 60.0, 120.0]);
