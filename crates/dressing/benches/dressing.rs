@@ -126,6 +126,33 @@ fn benches(c: &mut Criterion) {
     g.bench_function("plan_g1_20_dressings", |bch| {
         bch.iter(|| plan(&g1.worm, &g1.dresser, black_box(&spec)).unwrap())
     });
+    // Size independence: G1-Z5 (module 3) and G1-Z5 × 100/3 (module 100, d = 5333 mm), a
+    // 3-point plan of three dressings with 2 µm × k crowning. Quote module 100 / module 3.
+    for (name, k) in [
+        ("plan_g1z5_3_dressings_module_3", 1.0),
+        ("plan_g1z5_3_dressings_module_100", 100.0 / 3.0),
+    ] {
+        let worm = Worm::design(5, 160.0 * k, 3.0 * k, 20f64.to_radians()).unwrap();
+        let dr = Dresser::design(
+            &worm,
+            DresserSpec {
+                d_a_mm: 100.0 * k,
+                jacket_width_mm: 0.8 * k,
+                clearance_mm: 0.0,
+            },
+        )
+        .unwrap();
+        let spec = PlanSpec {
+            flank: fl,
+            diameters_mm: vec![160.0 * k, 157.0 * k, 154.0 * k],
+            correction: Correction::ThreePoint,
+            crowning_mm: 2e-3 * k,
+            budget_mm: 0.1 * k,
+        };
+        g.bench_function(name, |bch| {
+            bch.iter(|| plan(&worm, &dr, black_box(&spec)).unwrap())
+        });
+    }
     g.finish();
 
     let mut g = c.benchmark_group("simulation");

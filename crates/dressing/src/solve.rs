@@ -27,7 +27,8 @@ pub struct NewtonOptions {
     pub mu_rel: f64,
     /// Smallest damping factor before the solver declares "no root".
     pub lambda_min: f64,
-    /// Box |ΔK| ≤ (rad, rad, mm, mm) outside which no root is searched.
+    /// Box |ΔK| ≤ (rad, rad, mm, mm) outside which no root is searched; the two lengths are
+    /// for m_n ≤ 3 mm and are multiplied by m_n / 3 mm above.
     pub box_limits: [f64; 4],
 }
 
@@ -103,11 +104,18 @@ where
             x[3] / scale[3],
         ])
     };
+    // The box's lengths (Δd, Δν_yA) are set for module ≤ 3 mm and grow with m_n above it, so
+    // a worm scaled by k keeps its k-scaled root inside (the angles are scale-free).
+    let len_k = (setup.worm.m_n_mm / 3.0).max(1.0);
+    let limits = [
+        opts.box_limits[0],
+        opts.box_limits[1],
+        opts.box_limits[2] * len_k,
+        opts.box_limits[3] * len_k,
+    ];
     let in_box = |x: &DVector<f64>| {
         let a = to_dk(x).to_array();
-        a.iter()
-            .zip(opts.box_limits.iter())
-            .all(|(v, l)| v.abs() <= *l)
+        a.iter().zip(limits.iter()).all(|(v, l)| v.abs() <= *l)
     };
     let s0 = start.to_array();
     let mut x = DVector::from_iterator(4, (0..4).map(|i| s0[i] * scale[i]));

@@ -90,7 +90,7 @@ fn the_dresser_design_scales_with_the_worm() {
 }
 
 /// A 3-point plan of G1-Z5 × k (z = 5, d = 160 mm, m_n = 3 mm, dresser 100 mm, jacket
-/// 0.8 mm; crowning 0.2 µm, two redressings, budget 0.1 mm; all lengths × k).
+/// 0.8 mm; crowning 2 µm (docs/dressing.md's stress case), two redressings, budget 0.1 mm; all lengths × k).
 fn plan_of(k: f64) -> Vec<gearcomp_dressing::campaign::PlanRow> {
     use gearcomp_dressing::campaign::{plan, Correction, PlanSpec};
     let worm = WormInput {
@@ -112,7 +112,7 @@ fn plan_of(k: f64) -> Vec<gearcomp_dressing::campaign::PlanRow> {
         flank: Flank::Right,
         diameters_mm: vec![160.0 * k, 157.0 * k, 154.0 * k],
         correction: Correction::ThreePoint,
-        crowning_mm: 0.2e-3 * k,
+        crowning_mm: 2e-3 * k,
         budget_mm: 0.1 * k,
     };
     plan(&worm, &dresser, &spec).unwrap_or_else(|e| panic!("k = {k}: {e}"))
@@ -121,7 +121,9 @@ fn plan_of(k: f64) -> Vec<gearcomp_dressing::campaign::PlanRow> {
 /// Fuzzing of `gearcomp dress solve/plan` (session 10): module 25–100 worms took 11–85 s
 /// because the entry-depth scan of the screw evaluation stepped 0.02 mm over 4 m_n and the
 /// envelope Newton clamped its depth step to 1 mm (so it rarely converged and fell back to
-/// that scan). Both are now in units of m_n. Reference: geometric similarity again. Every
+/// that scan). Both are now in units of m_n. With 2 µm crowning the module-51 plan was also
+/// refused "every damped step leaves the search box": the box's 3 mm / 30 mm on Δd / Δν_yA
+/// did not grow with the worm (it now does above module 3). Reference: geometric similarity again. Every
 /// length of the plan (d_0, active profile, Δd, Δν_yA, deviations, opposite cut, jacket
 /// depth, lead, profile) scales by k, the angles (Δφ_S, Δγ, α_n) and the stretching P_FS do
 /// not; lengths within 1e-6 relative or 2e-6·k µm absolute (the deviations are ~1e-3 µm).
