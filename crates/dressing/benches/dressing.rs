@@ -126,8 +126,9 @@ fn benches(c: &mut Criterion) {
     g.bench_function("plan_g1_20_dressings", |bch| {
         bch.iter(|| plan(&g1.worm, &g1.dresser, black_box(&spec)).unwrap())
     });
-    // Size independence: G1-Z5 (module 3) and G1-Z5 × 100/3 (module 100, d = 5333 mm), a
-    // 3-point plan of three dressings with 2 µm × k crowning. Quote module 100 / module 3.
+    // Size independence: G1-Z5 with a 59.5 mm dresser (module 3) and the same × 100/3
+    // (module 100, d = 5333 mm, dresser 1983 mm), a 3-point plan of three dressings with
+    // 0.2 µm × k crowning. Quote module 100 / module 3.
     for (name, k) in [
         ("plan_g1z5_3_dressings_module_3", 1.0),
         ("plan_g1z5_3_dressings_module_100", 100.0 / 3.0),
@@ -136,7 +137,7 @@ fn benches(c: &mut Criterion) {
         let dr = Dresser::design(
             &worm,
             DresserSpec {
-                d_a_mm: 100.0 * k,
+                d_a_mm: 59.5 * k,
                 jacket_width_mm: 0.8 * k,
                 clearance_mm: 0.0,
             },
@@ -146,7 +147,7 @@ fn benches(c: &mut Criterion) {
             flank: fl,
             diameters_mm: vec![160.0 * k, 157.0 * k, 154.0 * k],
             correction: Correction::ThreePoint,
-            crowning_mm: 2e-3 * k,
+            crowning_mm: 0.2e-3 * k,
             budget_mm: 0.1 * k,
         };
         g.bench_function(name, |bch| {

@@ -203,14 +203,22 @@ impl Dresser {
             let w_of_u = Spline::new(us.clone(), ws.clone())?;
             let b_of_w = Spline::new(ws.clone(), bs)?;
             // Flank must lie above the jacket at the jacket edge: gap wider than the jacket.
+            let gap = gap_width_text(&flank_spline, r_jac);
             let (r_at_edge, _, _) = flank_spline.eval(hj);
             if r_at_edge <= r_jac {
                 return Err(DressError::Geometry(format!(
-                    "jacket width {} mm is not narrower than the worm gap at the root circle",
+                    "jacket width {} mm is not narrower than the worm gap at the root circle{gap}",
                     spec.jacket_width_mm
                 )));
             }
-            let (rho, u_t) = fillet(&flank_spline, hj, r_jac)?;
+            let (rho, u_t) = fillet(&flank_spline, hj, r_jac).map_err(|_| {
+                DressError::Geometry(format!(
+                    "no fillet tangent to jacket and flank exists for jacket_width_mm = {} mm \
+                     with diameter_mm = {} mm (the jacket edge must lie inside the worm gap \
+                     with room for a fillet){gap}",
+                    spec.jacket_width_mm, spec.d_a_mm
+                ))
+            })?;
             let (w_nf, _, _) = w_of_u.eval(u_t);
             sides.push(DresserSide {
                 flank,
@@ -293,6 +301,30 @@ impl Dresser {
         let (u, _, _) = side.u_of_w.eval(w_mm);
         self.profile(u * side.z_sign).0
     }
+}
+
+/// ": jacket_width_mm must be below W mm (...)" with W = 2 u, R(u) = r_jac on the dresser
+/// flank: the worm gap's axial width where the jacket radius meets the flank (empty when the
+/// tabulated flank does not cross the jacket radius).
+fn gap_width_text(flank: &Spline, r_jac: f64) -> String {
+    let (mut lo, mut hi) = (flank.x_min().max(0.0), flank.x_max());
+    let above = |u: f64| flank.eval(u).0 > r_jac;
+    if !above(lo) || above(hi) {
+        return String::new();
+    }
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if above(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    format!(
+        "; [dresser] jacket_width_mm must be in 0 < jacket_width_mm < {:.5} mm, the width of \
+         the worm gap at the dresser's jacket radius (diameter_mm / 2), less room for the fillets",
+        lo + hi
+    )
 }
 
 /// Largest fillet radius searched, in mm (beyond any dresser of `[dresser] diameter_mm` ≤

@@ -461,6 +461,22 @@ impl DresserInput {
     /// The dresser for the new `worm`, every key checked first.
     pub fn build(&self, worm: &Worm) -> Result<Dresser> {
         check_key("[dresser] diameter_mm", self.diameter_mm, 5.0, 2000.0, "mm")?;
+        // The dresser axis sits at d_0 = r_f + d_A/2 from the worm axis (its jacket on the root
+        // circle); it must clear the tip circle r_a, so d_A > 2 (r_a − r_f) = 4.5 m_n
+        // (docs/dressing.md "Dresser too small for the worm").
+        let d_min_mm = 2.0 * (worm.r_a_mm - worm.r_f_mm);
+        if self.diameter_mm <= d_min_mm {
+            return Err(input_err(
+                "[dresser] diameter_mm",
+                format!(
+                    "= {} mm is outside the admissible range > {d_min_mm:.4} ..= 2000 mm for this \
+                     worm: the dresser axis sits at the root radius + diameter_mm/2 from the worm \
+                     axis and must clear the tip circle, so diameter_mm must exceed twice the \
+                     tooth depth (2 × 2.25 × normal_module_mm)",
+                    self.diameter_mm
+                ),
+            ));
+        }
         let half_pitch = worm.axial_pitch_mm() / 2.0;
         if !(self.jacket_width_mm.is_finite()
             && self.jacket_width_mm > 0.0

@@ -227,3 +227,24 @@ fn topological_program_beyond_the_budget_is_refused() {
     assert_eq!(p[0]["penetration"], false);
     assert_eq!(p[1]["penetration"], true);
 }
+
+/// Fuzzing (session 10): a 100 mm dresser on a module-100 worm of 5330 mm made `dress plan`
+/// print a 138 mm deviation flagged PENETRATION with exit code 0. The dresser axis must clear
+/// the tip circle: d_A > 2 × 2.25 × m_n = 450 mm (DIN 3960 tooth depth h_a + h_f = 2.25 m_n).
+#[test]
+fn a_dresser_smaller_than_twice_the_tooth_depth_is_refused() {
+    let text = "[worm]\nstarts = 3\ndiameter_mm = 5330.0\nnormal_module_mm = 100.0\n\
+                profile_angle_deg = 20.0\n[dresser]\ndiameter_mm = 100.0\n\
+                jacket_width_mm = 26.66667\n[plan]\ndiameters_mm = [5330.0, 5300.0]\n";
+    let cfg = write_config("dress-limits", "dresser-small", "dress.toml", text);
+    let o = gearcomp(&["dress", "plan", cfg.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(
+            "[dresser] diameter_mm = 100 mm is outside the admissible range > 450.0000 ..= 2000 mm"
+        ),
+        "{err}"
+    );
+    assert!(!err.contains("PENETRATION") && o.stdout.is_empty(), "{err}");
+}

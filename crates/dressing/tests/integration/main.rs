@@ -8,6 +8,7 @@ mod common;
 mod analytic;
 mod campaign;
 mod dresser_scale;
+mod dresser_too_small;
 mod dressing;
 mod geometry;
 mod kinematics;
