@@ -544,7 +544,7 @@ fn start_sources(
                     channels: channels.to_vec(),
                     axes: axes.to_vec(),
                     clock,
-                    tx: in_tx.clone(),
+                    tx: crate::sources::InputTx::new(in_tx.clone()),
                     offsets: off_rx.clone(),
                     alive: alive.clone(),
                 },
@@ -557,7 +557,7 @@ fn start_sources(
                 channels: channels.to_vec(),
                 axes: axes.to_vec(),
                 clock,
-                tx: in_tx.clone(),
+                tx: crate::sources::InputTx::new(in_tx.clone()),
                 offsets: off_rx.clone(),
                 alive: alive.clone(),
             };
@@ -573,7 +573,7 @@ fn start_sources(
                 channels: channels.to_vec(),
                 axes: axes.to_vec(),
                 clock,
-                tx: in_tx.clone(),
+                tx: crate::sources::InputTx::new(in_tx.clone()),
                 offsets: off_rx.clone(),
                 alive: alive.clone(),
             })?;

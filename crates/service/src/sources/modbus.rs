@@ -6,9 +6,9 @@
 //! engine as NaN, which freezes the axes reading that channel. A lost connection is
 //! retried with exponential back-off.
 
+use super::InputTx;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::SyncSender;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -117,7 +117,7 @@ pub struct ModbusParts {
     /// The service clock.
     pub clock: Clock,
     /// To the cycle.
-    pub tx: SyncSender<InputMsg>,
+    pub tx: InputTx,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
     /// The cycle's step count (`Cycle::alive`), for the heartbeat output.
@@ -161,7 +161,7 @@ pub fn resolve(
     Ok(out)
 }
 
-fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
+fn send(tx: &InputTx, m: InputMsg) {
     let _ = tx.try_send(m);
 }
 
@@ -255,7 +255,7 @@ async fn run_module(
     out: Option<(crate::config::ModbusOffsetOutput, usize)>,
     flags: Option<Flags>,
     clock: Clock,
-    tx: SyncSender<InputMsg>,
+    tx: InputTx,
     mut offsets: watch::Receiver<OffsetOut>,
 ) {
     let conn_key = format!("modbus.{i}.connection");
@@ -464,7 +464,7 @@ const PULSE_HELD_KEY: &str = "modbus.pulse_output.held";
 async fn read_positions(
     ctx: &mut client::Context,
     f: &Flags,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) -> std::result::Result<(), ()> {
     for (p, axis) in &f.positions {
         let n = u16::from(p.words);
@@ -528,7 +528,7 @@ async fn write_pulses(
     axis: usize,
     snap: &OffsetOut,
     st: &mut FlagState,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) -> std::result::Result<(), ()> {
     if axis >= snap.n_axes as usize || snap.pulse_um[axis] <= 0.0 {
         return Ok(());
@@ -680,7 +680,7 @@ async fn write_flags(
     f: &Flags,
     snap: &OffsetOut,
     st: &mut FlagState,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) -> std::result::Result<(), ()> {
     let now = tokio::time::Instant::now();
     if let Some(so) = &f.stop {
@@ -781,7 +781,7 @@ async fn write_output(
     axis: usize,
     snap: &OffsetOut,
     held: &mut Held,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) -> std::result::Result<(), ()> {
     // Nothing before the axis has a valid offset (no 0 meaning "no value yet").
     if axis >= snap.n_axes as usize || !snap.valid[axis] {

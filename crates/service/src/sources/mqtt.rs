@@ -10,7 +10,7 @@
 //! stale in the engine, which freezes the axes reading it); a good payload on that topic
 //! clears it. A lost broker is retried with exponential back-off.
 
-use std::sync::mpsc::SyncSender;
+use super::InputTx;
 use std::time::Duration;
 
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
@@ -88,16 +88,16 @@ pub struct MqttParts {
     /// The service clock.
     pub clock: Clock,
     /// To the cycle.
-    pub tx: SyncSender<InputMsg>,
+    pub tx: InputTx,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
     /// The cycle's step count (`Cycle::alive`), for the heartbeat.
     pub alive: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
-fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
-    // try_send: an async task must not block; a full queue is itself raised as an alarm
-    // by the cycle falling behind, so a dropped reading only makes the channel stale.
+fn send(tx: &InputTx, m: InputMsg) {
+    // try_send: an async task must not block; a message dropped on a full queue is
+    // counted in the alarm input.queue_full (InputTx), the channel goes stale.
     let _ = tx.try_send(m);
 }
 
@@ -166,7 +166,7 @@ fn lock(s: &std::sync::Mutex<ConnState>) -> std::sync::MutexGuard<'_, ConnState>
 
 /// Clears the connection alarm once the connection is stable, sends the unknown-topic
 /// count and clears that alarm once quiet; ends when the receive loop is gone.
-async fn timers(state: std::sync::Weak<std::sync::Mutex<ConnState>>, tx: SyncSender<InputMsg>) {
+async fn timers(state: std::sync::Weak<std::sync::Mutex<ConnState>>, tx: InputTx) {
     let mut tick = tokio::time::interval(Duration::from_millis(250));
     loop {
         tick.tick().await;
@@ -716,7 +716,7 @@ pub struct PulseParts {
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
     /// To the cycle (acknowledged totals, alarms).
-    pub tx: SyncSender<InputMsg>,
+    pub tx: InputTx,
 }
 
 /// The pulse batch in flight.

@@ -41,8 +41,8 @@
 //! * **Reconnect.** A failed connect or a lost session raises `opcua.connection` and is
 //!   retried with the same capped exponential back-off as Modbus and MQTT.
 
+use super::InputTx;
 use std::str::FromStr;
-use std::sync::mpsc::SyncSender;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -540,7 +540,7 @@ pub struct OpcUaParts {
     /// The service clock.
     pub clock: Clock,
     /// To the cycle.
-    pub tx: SyncSender<InputMsg>,
+    pub tx: InputTx,
     /// From the cycle.
     pub offsets: watch::Receiver<OffsetOut>,
     /// The cycle's step count (`Cycle::alive`), for the heartbeat output.
@@ -599,7 +599,7 @@ async fn write_flags(
     session: &Arc<Session>,
     f: &mut Flags,
     offsets: &watch::Receiver<OffsetOut>,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) {
     if let (Some(node), true) = (&f.stop, f.stop_ok) {
         let want = offsets.borrow().stop;
@@ -665,7 +665,7 @@ async fn write_flags(
     }
 }
 
-fn send(tx: &SyncSender<InputMsg>, m: InputMsg) {
+fn send(tx: &InputTx, m: InputMsg) {
     // try_send: an async task must not block the runtime (as MQTT and Modbus).
     let _ = tx.try_send(m);
 }
@@ -707,7 +707,7 @@ struct Output {
 struct Live<'a> {
     r: &'a Resolved,
     clock: Clock,
-    tx: &'a SyncSender<InputMsg>,
+    tx: &'a InputTx,
     held: Vec<Option<f64>>,
     held_pos: Vec<Option<f64>>,
     trigger_prev: Option<i64>,
@@ -1238,7 +1238,7 @@ async fn session(
     token: IdentityToken,
     r: &Resolved,
     clock: Clock,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
     offsets: &mut watch::Receiver<OffsetOut>,
     outputs: &mut [Output],
     flags: &mut Flags,
@@ -1531,7 +1531,7 @@ async fn write_offset(
     session: &Arc<Session>,
     o: &mut Output,
     offsets: &watch::Receiver<OffsetOut>,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) {
     let snap = *offsets.borrow();
     let axis = o.spec.axis;
@@ -1717,7 +1717,7 @@ async fn start_pulses(
     session: &Arc<Session>,
     p: &mut PulseOut,
     offsets: &watch::Receiver<OffsetOut>,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) {
     let spec = &p.spec;
     let held_key = format!("{}.held", p.key);
@@ -1810,7 +1810,7 @@ async fn write_pulses(
     session: &Arc<Session>,
     p: &mut PulseOut,
     offsets: &watch::Receiver<OffsetOut>,
-    tx: &SyncSender<InputMsg>,
+    tx: &InputTx,
 ) {
     let snap = *offsets.borrow();
     let axis = p.spec.axis;
