@@ -33,8 +33,8 @@ pub struct Overrides {
     pub db: Option<PathBuf>,
 }
 
-/// Capacity of the input queue (messages).
-pub const INPUT_QUEUE: usize = 1 << 14;
+/// Capacity of the input queue (messages; declared with the input adapters that fill it).
+pub use crate::sources::INPUT_QUEUE;
 /// Capacity of the record queue (records) with SQLite; a full queue holds the cycle back
 /// rather than dropping a sample. Each backend sizes its own (`Store::record_queue`).
 pub use crate::storage::RECORD_QUEUE;

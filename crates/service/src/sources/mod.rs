@@ -19,6 +19,9 @@ use std::time::Instant;
 
 use crate::cycle::InputMsg;
 
+/// Capacity of the input queue (messages) that the adapters fill and the cycle empties.
+pub const INPUT_QUEUE: usize = 1 << 14;
+
 /// The alarm of messages an input adapter could not queue to the cycle.
 pub const QUEUE_FULL_KEY: &str = "input.queue_full";
 /// The queue-full alarm clears after this long without a dropped message, s.
@@ -101,7 +104,7 @@ impl InputTx {
                         "input messages dropped: the cycle fell behind and its queue of {} \
                          messages was full; the channels concerned hold their last reading \
                          and go stale (count: messages dropped)",
-                        crate::service::INPUT_QUEUE
+                        INPUT_QUEUE
                     ),
                 };
                 if self.tx.try_send(raise).is_err() {
