@@ -47,6 +47,7 @@ pub mod stack;
 pub mod target_unit;
 pub mod time_unit;
 pub mod transform;
+mod unit_words;
 pub mod workpiece;
 
 /// Seeded uniform numbers in [0, 1) for the unit tests: Knuth's MMIX linear congruential

@@ -49,13 +49,7 @@ impl LengthUnit {
     /// `mm`, `nm`, `m`, `in`, `inch(es)`, `"`; case and surrounding brackets `[ ]`, `( )`
     /// ignored. `None` for anything else.
     pub fn parse(text: &str) -> Option<Self> {
-        let t = text
-            .trim()
-            .trim_start_matches(['[', '('])
-            .trim_end_matches([']', ')'])
-            .trim()
-            .replace(['µ', 'μ'], "u")
-            .to_lowercase();
+        let t = crate::unit_words::unit_word(text);
         match t.as_str() {
             "um" | "micron" | "microns" | "micrometer" | "micrometre" => Some(LengthUnit::Um),
             "mm" | "millimeter" | "millimetre" => Some(LengthUnit::Mm),
@@ -70,18 +64,8 @@ impl LengthUnit {
     /// its last `_`, `-`, `.` or space separated part (`z_mm`, `ch1_um`, `X-Pos mm`), for
     /// µm, mm and nm only (a bare `m` or `in` ending a name is too often something else).
     pub fn in_column_name(name: &str) -> Option<Self> {
-        let bracketed = name
-            .split(['[', '('])
-            .skip(1)
-            .filter_map(|s| s.split([']', ')']).next())
-            .find_map(Self::parse);
-        let last = name
-            .rsplit(['_', '-', '.', ' '])
-            .next()
-            .filter(|s| s.len() < name.len())
-            .and_then(Self::parse)
-            .filter(|u| matches!(u, LengthUnit::Um | LengthUnit::Mm | LengthUnit::Nm));
-        bracketed.or(last)
+        let (bracketed, last) = crate::unit_words::units_in_name(name, Self::parse);
+        bracketed.or(last.filter(|u| matches!(u, LengthUnit::Um | LengthUnit::Mm | LengthUnit::Nm)))
     }
 }
 

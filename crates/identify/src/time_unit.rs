@@ -49,12 +49,7 @@ impl TimeUnit {
     /// `hr`, `hrs`, `hour(s)`, `Std`, `Stunde(n)`; case and surrounding brackets ignored.
     /// `None` for anything else.
     pub fn parse(text: &str) -> Option<Self> {
-        let t = text
-            .trim()
-            .trim_start_matches(['[', '('])
-            .trim_end_matches([']', ')'])
-            .trim()
-            .to_lowercase();
+        let t = crate::unit_words::unit_word(text);
         match t.as_str() {
             "s" | "sec" | "secs" | "second" | "seconds" | "sekunde" | "sekunden" => {
                 Some(TimeUnit::S)
@@ -74,16 +69,7 @@ impl TimeUnit {
     /// `Time (h)`) or as its last `_`, `-`, `.` or space separated part (`time_min`,
     /// `t_h`, `elapsed-s`).
     pub fn in_column_name(name: &str) -> Option<Self> {
-        let bracketed = name
-            .split(['[', '('])
-            .skip(1)
-            .filter_map(|s| s.split([']', ')']).next())
-            .find_map(Self::parse);
-        let last = name
-            .rsplit(['_', '-', '.', ' '])
-            .next()
-            .filter(|s| s.len() < name.len())
-            .and_then(Self::parse);
+        let (bracketed, last) = crate::unit_words::units_in_name(name, Self::parse);
         bracketed.or(last)
     }
 }

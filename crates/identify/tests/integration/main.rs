@@ -3,6 +3,7 @@
 //! and segments, property tests, and the CN105397560 test vector.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
 mod dialects;
 mod fl_auto;
 mod fl_thermal;

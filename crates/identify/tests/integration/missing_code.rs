@@ -3,6 +3,7 @@
 //! with `--missing-code` (then the missing-cell rules apply).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+use crate::common::uniform;
 use gearcomp_identify::data::{read_csv, MissingCells, ReadOptions, Selection};
 use gearcomp_identify::missing_code::{MissingCodes, LOGGER_CODES};
 use gearcomp_identify::select::Family;
@@ -25,13 +26,7 @@ proptest! {
         in_codes in 1usize..5,
         tg_codes in 0usize..10,
     ) {
-        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut uni = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uni = uniform(seed);
         let (c0, a, b) = (-5.0 + 10.0 * uni(), -1.0 + 2.0 * uni(), -1.0 + 2.0 * uni());
         let x: Vec<[f64; 2]> = (0..n).map(|_| [15.0 + 20.0 * uni(), 15.0 + 20.0 * uni()]).collect();
         let mut cells: Vec<[String; 3]> = x

@@ -3,31 +3,11 @@
 //! drive every filter and lag at the full rate; they are neither fitted nor scored.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+use crate::common::{lag_rk4, uniform};
 use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
 use gearcomp_identify::select::Family;
 use gearcomp_identify::{identify, predict, IdentifyOptions, Split};
 use proptest::prelude::*;
-
-/// Independent reference for a first-order lag: τ·ẏ + y = u, u held at each new sample over
-/// the step that ends at it, y₀ = u₀ (the engine's convention), integrated by classical
-/// Runge–Kutta with 64 sub-steps per sample step.
-fn lag_rk4(t: &[f64], u: &[f64], tau: f64) -> Vec<f64> {
-    let mut y = u[0];
-    let mut out = vec![y];
-    for k in 1..t.len() {
-        let h = (t[k] - t[k - 1]) / 64.0;
-        let f = |y: f64| (u[k] - y) / tau;
-        for _ in 0..64 {
-            let k1 = f(y);
-            let k2 = f(y + 0.5 * h * k1);
-            let k3 = f(y + 0.5 * h * k2);
-            let k4 = f(y + h * k3);
-            y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
-        out.push(y);
-    }
-    out
-}
 
 /// A case: full-rate time and three temperatures (irregular steps of 5–20 s, warm-up ramps
 /// and cycles), the target y = c₀ + a·x₁ + b·lag(x₂, τ) at every row, and which rows keep
@@ -40,13 +20,7 @@ struct Case {
 }
 
 fn case(seed: u64, n: usize, tau: f64, keep_every: usize) -> Case {
-    let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uni = uniform(seed);
     let mut t = vec![0.0];
     for _ in 1..n {
         let last = *t.last().unwrap();

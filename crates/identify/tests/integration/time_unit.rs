@@ -7,31 +7,12 @@
 //! first, a time that restarts), a name used twice, the header repeated.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+use crate::common::{lag_rk4, uniform};
 use gearcomp_identify::data::{read_csv, DataIssue, MissingCells, ReadOptions, Selection};
 use gearcomp_identify::select::Family;
 use gearcomp_identify::time_unit::{TimeUnit, TimeUnitChoice};
 use gearcomp_identify::{identify, predict, IdentifyOptions, Split};
 use proptest::prelude::*;
-
-/// Independent reference for a first-order lag in seconds: τ·ẏ + y = u, u held at each new
-/// sample over the step that ends at it, y₀ = u₀, classical Runge–Kutta, 64 sub-steps.
-fn lag_rk4(t_s: &[f64], u: &[f64], tau_s: f64) -> Vec<f64> {
-    let mut y = u[0];
-    let mut out = vec![y];
-    for k in 1..t_s.len() {
-        let h = (t_s[k] - t_s[k - 1]) / 64.0;
-        let f = |y: f64| (u[k] - y) / tau_s;
-        for _ in 0..64 {
-            let k1 = f(y);
-            let k2 = f(y + 0.5 * h * k1);
-            let k3 = f(y + 0.5 * h * k2);
-            let k4 = f(y + h * k3);
-            y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
-        out.push(y);
-    }
-    out
-}
 
 const UNITS: [(TimeUnit, &str, f64); 4] = [
     (TimeUnit::S, "s", 1.0),
@@ -58,13 +39,7 @@ proptest! {
         tau_s in prop::sample::select(vec![600.0, 1200.0, 1800.0]),
     ) {
         let (unit, symbol, s_per) = UNITS[unit];
-        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut uni = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uni = uniform(seed);
         let n = 400;
         let mut t_s = vec![0.0];
         for _ in 1..n {
@@ -384,13 +359,7 @@ proptest! {
         runs in 1usize..5,
         hold in any::<bool>(),
     ) {
-        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut uni = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uni = uniform(seed);
         let mut body = Vec::new();
         let mut last_end = f64::INFINITY;
         for r in 0..runs {
