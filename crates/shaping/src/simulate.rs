@@ -522,7 +522,7 @@ pub fn coupling_residual(
             expected.denom()
         ),
     };
-    let g = gcd_i128(c2.denom(), expected.denom());
+    let g = crate::ratio::gcd(c2.denom(), expected.denom()).max(1);
     let a = c2
         .numer()
         .checked_mul(expected.denom() / g)
@@ -536,17 +536,6 @@ pub fn coupling_residual(
         .ok_or_else(overflow)?;
     let diff = a.checked_sub(b).ok_or_else(overflow)?;
     Ok(Ratio::new(diff, den)?.numer())
-}
-
-fn gcd_i128(mut a: i128, mut b: i128) -> i128 {
-    a = a.abs();
-    b = b.abs();
-    while b != 0 {
-        let t = a % b;
-        a = b;
-        b = t;
-    }
-    a.max(1)
 }
 
 /// Runs a whole cycle: strokes to reach the depth at the radial feed, then one full
