@@ -167,6 +167,8 @@ mod tests {
             ("h", TimeUnit::H),
             ("Std", TimeUnit::H),
             ("Hours", TimeUnit::H),
+            ("sec.", TimeUnit::S),
+            ("[Std.]", TimeUnit::H),
         ] {
             assert_eq!(TimeUnit::parse(t), Some(u), "{t}");
         }

@@ -2,13 +2,15 @@
 //! (`Weg [mm]`, `time_min`). Shared by the target's length unit ([`crate::target_unit`]) and
 //! the time column's unit ([`crate::time_unit`]).
 
-/// A unit cell's word: surrounding brackets `[ ]`, `( )` and blanks removed, the micro sign
+/// A unit cell's word: surrounding brackets `[ ]`, `( )`, blanks and a closing abbreviation
+/// point (`sec.`, `Std.`) removed, the micro sign
 /// and Greek mu written `u`, lower case.
 pub(crate) fn unit_word(text: &str) -> String {
     text.trim()
         .trim_start_matches(['[', '('])
         .trim_end_matches([']', ')'])
         .trim()
+        .trim_end_matches('.')
         .replace(['µ', 'μ'], "u")
         .to_lowercase()
 }
