@@ -16,6 +16,29 @@ use gearcomp_shaping::ShapingError;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
+/// Runs `prop` over `strat` for `cases` cases from the fixed seed `[seed; 32]`, then `between`
+/// (a check of what the fixed cases covered), then as many cases from a fresh seed; nothing
+/// is persisted (the fixed seed is the regression).
+fn fixed_then_fresh<S: Strategy>(
+    cases: u32,
+    seed: u8,
+    strat: &S,
+    prop: &impl Fn(S::Value) -> Result<(), TestCaseError>,
+    between: impl FnOnce(),
+) {
+    let cfg = Config {
+        cases,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]);
+    TestRunner::new_with_rng(cfg.clone(), rng)
+        .run(strat, prop)
+        .unwrap();
+    between();
+    TestRunner::new(cfg).run(strat, prop).unwrap();
+}
+
 /// Exact C2 position of ρ·(cpr_C2/cpr_C1)·C1 built here by integer division (whole counts,
 /// remainder, denominator), not by the crate's ratio arithmetic.
 fn exact_c2(
@@ -93,17 +116,7 @@ fn coupling_residual_is_exact_over_random_set_ups() {
         check_residual(t, l, internal, cpr1, cpr2, (whole, i128::from(r) % d, d));
         Ok(())
     };
-    let cfg = Config {
-        cases: 64,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let mut fixed = TestRunner::new_with_rng(
-        cfg.clone(),
-        TestRng::from_seed(RngAlgorithm::ChaCha, &[10; 32]),
-    );
-    fixed.run(&strat, prop).unwrap();
-    TestRunner::new(cfg).run(&strat, prop).unwrap();
+    fixed_then_fresh(64, 10, &strat, &prop, || {});
 }
 
 /// The fuzzer's whole cut: internal T951 L12 with C1 and crank at 2^26 counts/rev and
@@ -172,17 +185,7 @@ fn a_stroke_too_short_for_any_facewidth_is_refused_at_r() {
         prop_assert!(msg.contains("allowed 3 ..= 500 mm"), "{}", msg);
         Ok(())
     };
-    let cfg = Config {
-        cases: 48,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let mut fixed = TestRunner::new_with_rng(
-        cfg.clone(),
-        TestRng::from_seed(RngAlgorithm::ChaCha, &[11; 32]),
-    );
-    fixed.run(&strat, prop).unwrap();
-    TestRunner::new(cfg).run(&strat, prop).unwrap();
+    fixed_then_fresh(48, 11, &strat, &prop, || {});
 
     let p = parse_program("G83 T40 L25 Q1 P5 R3 K200 S30 F0.5 B4\n").unwrap();
     p.cycles[0].to_simulation(&MachineData::default()).unwrap();
@@ -261,17 +264,7 @@ fn gears_outside_the_iso_scope_are_simulated_without_a_verdict() {
         }
         Ok(())
     };
-    let cfg = Config {
-        cases: 24,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let mut fixed = TestRunner::new_with_rng(
-        cfg.clone(),
-        TestRng::from_seed(RngAlgorithm::ChaCha, &[12; 32]),
-    );
-    fixed.run(&strat, prop).unwrap();
-    TestRunner::new(cfg).run(&strat, prop).unwrap();
+    fixed_then_fresh(24, 12, &strat, &prop, || {});
 }
 
 /// A left-hand helix angle beyond 45° was reported by its magnitude ("P = 45.5 deg" for
@@ -292,17 +285,7 @@ fn a_helix_angle_out_of_range_is_reported_as_written() {
         prop_assert!(msg.contains("-45 ..= 45 deg"), "{}", msg);
         Ok(())
     };
-    let cfg = Config {
-        cases: 32,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let mut fixed = TestRunner::new_with_rng(
-        cfg.clone(),
-        TestRng::from_seed(RngAlgorithm::ChaCha, &[13; 32]),
-    );
-    fixed.run(&strat, prop).unwrap();
-    TestRunner::new(cfg).run(&strat, prop).unwrap();
+    fixed_then_fresh(32, 13, &strat, &prop, || {});
 }
 
 /// Samples of the last simulated stroke inside the helix evaluation range, counted here
@@ -387,21 +370,12 @@ fn too_few_helix_samples_are_refused_at_s_when_converted() {
         }
         Ok(())
     };
-    let cfg = Config {
-        cases: 48,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let mut fixed = TestRunner::new_with_rng(
-        cfg.clone(),
-        TestRng::from_seed(RngAlgorithm::ChaCha, &[15; 32]),
-    );
-    fixed.run(&strat, prop).unwrap();
-    // The fixed seed covers both sides.
-    let (ok, refused) = (
-        seen[0].load(Ordering::Relaxed),
-        seen[1].load(Ordering::Relaxed),
-    );
-    assert!(ok > 0 && refused > 0, "accepted {ok}, refused {refused}");
-    TestRunner::new(cfg).run(&strat, prop).unwrap();
+    fixed_then_fresh(48, 15, &strat, &prop, || {
+        // The fixed seed covers both sides.
+        let (ok, refused) = (
+            seen[0].load(Ordering::Relaxed),
+            seen[1].load(Ordering::Relaxed),
+        );
+        assert!(ok > 0 && refused > 0, "accepted {ok}, refused {refused}");
+    });
 }
