@@ -520,6 +520,13 @@ mod tests {
             m.contains("line 3") && m.contains("column time_s") && m.contains("after"),
             "{m}"
         );
+        // A logger clock restart (time falls) is refused like a repeated stamp: the
+        // service never replays a row the engine would ignore.
+        let m = e("time_s,A,B\n5,1,2\n6,,2\n3,7,\n");
+        assert!(
+            m.contains("line 4") && m.contains("column time_s") && m.contains("after"),
+            "{m}"
+        );
         let m = e("time_s,A,B\n0,1,2\nnan,1,2\n");
         assert!(m.contains("line 3") && m.contains("time_s"), "{m}");
         let m = e("time_s,A,B\n0,1,inf\n");

@@ -1,9 +1,16 @@
 //! The running service on random logs: a CSV replay input fed through `serve` stores, row for
-//! row, the offsets of the offline replay (`gearcomp_thermal::replay`, which
-//! `crates/cli/tests/integration/replay_props.rs` checks against the documented chain law →
-//! clamp → D → rate limit), and one sample per non-empty cell — for random channel counts,
-//! irregular time steps, empty cells ("no new reading"), boundary constants and rate limits.
-//! A fixed seed (reproducible) and a fresh one.
+//! row, the offsets of the law evaluated here from the held readings (an empty cell keeps the
+//! channel's last value) through the documented chain law → clamp → D → rate limit
+//! (`docs/thermal.md`, engine steps 5–6), the offsets of the offline replay
+//! (`gearcomp_thermal::replay`), and one sample per non-empty cell — for random channel
+//! counts, irregular time steps, empty cells ("no new reading"), boundary constants and rate
+//! limits. A fixed seed (reproducible) and a fresh one.
+//!
+//! Every row of such a log is one the engine accepts: the service refuses, before it starts,
+//! a log whose time does not increase (a logger clock restart, a repeated stamp; see
+//! `sources::replay` tests), and its cycle never hands the engine a time that does not
+//! increase, so no ignored row can replace a held reading (the flaw d9573fb fixed in
+//! `gearcomp replay`).
 
 use crate::common::replay_to_end;
 use gearcomp_thermal::{Engine, EngineConfig};
@@ -102,6 +109,31 @@ fn log_text(c: &Case) -> String {
     s
 }
 
+/// The documented chain, written from `docs/thermal.md` and not from the engine's code:
+/// each channel holds the value of its last non-empty cell; law = Kz·(t0 − t1) + 0.5·t_last,
+/// clamped to ±500 µm; the running compensation RC (from 0) takes the law only when
+/// |law − RC| ≥ D; the applied offset moves towards RC by at most the rate limit per row.
+fn expected_offsets(c: &Case) -> Vec<f64> {
+    let mut held = vec![f64::NAN; c.channels];
+    let (mut rc, mut applied) = (0.0f64, 0.0f64);
+    let mut out = Vec::new();
+    for (_, cells) in &c.rows {
+        for (h, v) in held.iter_mut().zip(cells) {
+            if let Some(v) = v {
+                *h = *v;
+            }
+        }
+        let law = c.kz * (held[0] - held[1]) + 0.5 * held[c.channels - 1];
+        let law = law.clamp(-500.0, 500.0);
+        if (law - rc).abs() >= c.dead_band_um {
+            rc = law;
+        }
+        applied += (rc - applied).clamp(-c.max_step_um, c.max_step_um);
+        out.push(applied);
+    }
+    out
+}
+
 fn stored_offsets(db: &std::path::Path) -> Vec<f64> {
     let conn = rusqlite::Connection::open(db).unwrap();
     let mut st = conn
@@ -146,11 +178,17 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
     prop_assert_eq!(committed, cells, "one stored sample per non-empty cell");
     let live = stored_offsets(&db);
     prop_assert_eq!(live.len(), offline.rows.len(), "one stored offset per row");
-    for (k, (y, row)) in live.iter().zip(&offline.rows).enumerate() {
+    let law = expected_offsets(c);
+    prop_assert_eq!(live.len(), law.len());
+    for (k, ((y, row), w)) in live.iter().zip(&offline.rows).zip(&law).enumerate() {
         prop_assert!(
             (y - row.offset_um[0]).abs() <= 1e-9,
             "row {k}: live {y} vs offline {}",
             row.offset_um[0]
+        );
+        prop_assert!(
+            (y - w).abs() <= 1e-9 * (1.0 + w.abs()),
+            "row {k}: live {y} vs the law on the held readings {w}"
         );
     }
     Ok(())
