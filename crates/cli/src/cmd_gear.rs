@@ -163,7 +163,7 @@ impl Args {
 /// The command-line option (and TOML key) a library parameter name comes from.
 fn flag_of(name: &str) -> Option<&'static str> {
     let table: [(&str, &str); 19] = [
-        ("tip diameter d_a (internal", "--shift"),
+        ("tip diameter d_a", "--shift"),
         ("root diameter d_f", "--teeth"),
         ("teeth of the internal gear", "--teeth/--mate-teeth"),
         ("shift_sum", "--shift/--mate-shift/--centre-distance"),
@@ -206,9 +206,10 @@ fn flagged(e: GeometryError, what: &str) -> anyhow::Error {
     }
 }
 
-/// [`flagged`] for the mating gear: its own options are --mate-shift, --mate-teeth and
-/// --mate-width; the rest it shares with this gear.
-fn flagged_mate(e: GeometryError, what: &str) -> anyhow::Error {
+/// [`flagged`] for the mating gear: its own options are --mate-shift (or --centre-distance
+/// when x2 is derived from it: `shift_flag`), --mate-teeth and --mate-width; the rest it
+/// shares with this gear.
+fn flagged_mate(e: GeometryError, what: &str, shift_flag: &str) -> anyhow::Error {
     let name = match e {
         GeometryError::OutOfRange { name, .. } | GeometryError::PointedTooth { name, .. } => {
             Some(name)
@@ -216,8 +217,8 @@ fn flagged_mate(e: GeometryError, what: &str) -> anyhow::Error {
         _ => None,
     };
     let flag = name.and_then(|n| {
-        if n.starts_with("profile_shift") || n.starts_with("tip diameter d_a (internal") {
-            Some("--mate-shift")
+        if n.starts_with("profile_shift") || n.starts_with("tip diameter d_a") {
+            Some(shift_flag)
         } else if n.starts_with("teeth") || n.starts_with("root diameter d_f") {
             Some("--mate-teeth")
         } else if n.starts_with("face_width_mm") {
@@ -245,8 +246,9 @@ fn allowance_pair(a: Option<&[f64]>, what: &str) -> anyhow::Result<Option<(f64, 
     }
 }
 
-/// A report error with the option the user wrote.
-fn report_error(e: ReportError) -> anyhow::Error {
+/// A report error with the option the user wrote; `mate_shift_flag` names where the mate's
+/// shift x2 came from.
+fn report_error(e: ReportError, mate_shift_flag: &str) -> anyhow::Error {
     match e {
         ReportError::Step {
             what,
@@ -257,7 +259,7 @@ fn report_error(e: ReportError) -> anyhow::Error {
             what,
             mate: true,
             source,
-        } => flagged_mate(source, &what),
+        } => flagged_mate(source, &what, mate_shift_flag),
         ReportError::NoSpan(e) => {
             let flag = match e {
                 GeometryError::SpanTooWide { .. } => "--width",
@@ -282,7 +284,9 @@ fn report_error(e: ReportError) -> anyhow::Error {
 /// Runs `gearcomp gear`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let args = args.merge_file()?;
-    let out = GearReport::compute(&request(&args)?).map_err(report_error)?;
+    let req = request(&args)?;
+    let mate_shift_flag = req.mate.as_ref().map_or("--mate-shift", |m| m.shift_name);
+    let out = GearReport::compute(&req).map_err(|e| report_error(e, mate_shift_flag))?;
     let text = if args.json {
         serde_json::to_string_pretty(&out)? + "\n"
     } else {
@@ -337,14 +341,24 @@ fn request(args: &Args) -> anyhow::Result<GearRequest> {
     let allowances_mm = allowance_pair(args.allowances.as_deref(), "--allowances")?;
     let mate = match args.mate_teeth {
         None => {
-            if args.centre_distance.is_some() || args.mate_shift.is_some() {
-                bail!("--centre-distance and --mate-shift need --mate-teeth (the mating gear)");
+            let given = [
+                ("--centre-distance", args.centre_distance.is_some()),
+                ("--mate-shift", args.mate_shift.is_some()),
+                ("--mate-allowances", args.mate_allowances.is_some()),
+                ("--mate-width", args.mate_width.is_some()),
+            ];
+            if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
+                bail!("{flag} needs --mate-teeth (the mating gear); it would be ignored");
             }
             None
         }
         Some(teeth) => Some(MateRequest {
             teeth,
-            shift_name: "--mate-shift",
+            // x2 derived from a_w: its errors and warnings name --centre-distance
+            shift_name: match (args.mate_shift, args.centre_distance) {
+                (None, Some(_)) => "x2 (from --centre-distance)",
+                _ => "--mate-shift",
+            },
             profile_shift: args.mate_shift,
             allowances_mm: allowance_pair(args.mate_allowances.as_deref(), "--mate-allowances")?,
             face_width_mm: args.mate_width,

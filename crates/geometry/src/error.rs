@@ -142,8 +142,15 @@ fn unit_suffix(unit: &str) -> String {
 
 /// A number with at most 6 decimals and no trailing zeros (60, 18.793852, -0.0843).
 fn short(x: f64) -> String {
-    if !x.is_finite() || x.abs() >= 1e9 {
+    if x.is_infinite() {
+        return if x > 0.0 { "∞" } else { "−∞" }.to_string();
+    }
+    if x.is_nan() {
         return format!("{x}");
+    }
+    if x.abs() >= 1e9 {
+        // Huge values (e.g. a width of 1e300) in exponent form, not 300 digits.
+        return format!("{x:e}");
     }
     if x != 0.0 && x.abs() < 1e-4 {
         // Tiny values (e.g. a module of 1e-300) must not read back as 0.

@@ -672,12 +672,26 @@ fn interference_warnings(
             }
         });
         if !ok {
-            warnings.push(format!(
-                "gear {i}: the mate's tip reaches below the usable involute (active root {:?} mm, flank {lo:.4} … {hi:.4} mm): interference",
-                d_nf
-            ));
+            warnings.push(interference_warning(i, d_nf, lo, hi));
         }
     }
+}
+
+/// The interference warning of gear `i`: its active root diameter d_Nf (`None` when the
+/// mate's tip circle cuts the line of action beyond gear i's tangent point T_i, i.e. the
+/// mate's tip would have to reach inside gear i's base circle) against its usable flank.
+fn interference_warning(i: u32, d_nf: Option<f64>, lo: f64, hi: f64) -> String {
+    let root = match d_nf {
+        Some(d) => format!("active root diameter d_Nf{i} = {d:.4} mm"),
+        None => format!(
+            "no active root diameter d_Nf{i}: the mate's tip circle passes the tangent point \
+             T{i} of the line of action, inside the base circle"
+        ),
+    };
+    format!(
+        "gear {i}: the mate's tip reaches outside the usable involute ({root}; usable flank \
+         {lo:.4} … {hi:.4} mm): interference"
+    )
 }
 
 /// The text table, one row per quantity: description, symbol, value, unit.

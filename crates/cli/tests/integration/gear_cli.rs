@@ -727,3 +727,87 @@ fn at_diameter_outside_the_tooth_is_refused() {
     let v = json(&["--module", "1", "--teeth", "20", "--at-diameter", "22"]);
     close(&v, "at_diameter.0.transverse_thickness_mm", 0.6949, 5e-5);
 }
+
+/// Mating-gear options without --mate-teeth were ignored with exit 0 (--mate-allowances,
+/// --mate-width); a mate shift derived from --centre-distance was reported as "--mate-shift"
+/// (an option the user had not written); an external tip circle below the base circle named
+/// no option and printed "… inf mm".
+#[test]
+fn mate_options_and_derived_mate_shift_name_what_the_user_wrote() {
+    for (flag, value) in [
+        ("--mate-allowances", "-0.05,-0.02"),
+        ("--mate-width", "20"),
+        ("--mate-shift", "0.2"),
+        ("--centre-distance", "21"),
+    ] {
+        let out = gearcomp(&["--module", "1", "--teeth", "20", &format!("{flag}={value}")]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{flag}: {err}");
+        assert!(
+            err.contains(flag) && err.contains("--mate-teeth"),
+            "{flag}: {err}"
+        );
+    }
+    let out = gearcomp(&["--module", "1", "--teeth", "10", "--shift=-1.5"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--shift") && err.contains("tip diameter d_a = 9 mm") && !err.contains("inf"),
+        "{err}"
+    );
+    // random pairs whose a_w asks for x2 far beyond any valid tooth: a_w from
+    // inv α_wt = inv α_t + 2 tan α_n (x1 + x2)/(z1 + z2) written here (ISO 21771 6.2)
+    let inv = |a: f64| a.tan() - a;
+    let mut runner = TestRunner::new_with_rng(
+        Config {
+            cases: 24,
+            failure_persistence: None,
+            ..Config::default()
+        },
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[23; 32]),
+    );
+    let strategy = (
+        0.5..10.0f64,
+        17.0..25.0f64,
+        0.0..30.0f64,
+        20u32..120,
+        12u32..120,
+        10.5..14.0f64,
+    );
+    runner
+        .run(&strategy, |(m, a_deg, b_deg, z1, z2, x2)| {
+            let (an, b) = (a_deg.to_radians(), b_deg.to_radians());
+            let at = (an.tan() / b.cos()).atan();
+            let zs = f64::from(z1 + z2);
+            let target = inv(at) + 2.0 * an.tan() * x2 / zs;
+            let (mut lo, mut hi) = (0.0f64, 1.5f64);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if inv(mid) < target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let a_w = 0.5 * m / b.cos() * zs * at.cos() / (0.5 * (lo + hi)).cos();
+            let args = [
+                format!("--module={m}"),
+                format!("--pressure-angle={a_deg}"),
+                format!("--helix={b_deg}"),
+                format!("--teeth={z1}"),
+                format!("--mate-teeth={z2}"),
+                format!("--centre-distance={a_w}"),
+            ];
+            let out = run(&args);
+            let err = String::from_utf8_lossy(&out.stderr);
+            prop_assert_eq!(out.status.code(), Some(2), "{:?}: {}", args, err);
+            prop_assert!(
+                err.contains("x2 (from --centre-distance)") && !err.contains("--mate-shift"),
+                "{:?}: {}",
+                args,
+                err
+            );
+            Ok(())
+        })
+        .unwrap();
+}

@@ -6,5 +6,6 @@ mod bad_input;
 mod construct;
 mod independent_checks;
 mod issue2_vectors;
+mod pair_warnings;
 mod properties;
 mod span_contact;
