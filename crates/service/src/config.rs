@@ -942,7 +942,9 @@ impl ServiceConfig {
     pub fn from_toml_str(text: &str, path: &str) -> Result<Self> {
         let cfg: Self = toml::from_str(text).map_err(|e| ServiceError::Config {
             path: path.into(),
-            message: input_key_error(text, &e).unwrap_or_else(|| e.to_string()),
+            message: crate::error::shorten_message(
+                &input_key_error(text, &e).unwrap_or_else(|| e.to_string()),
+            ),
         })?;
         cfg.validate()?;
         Ok(cfg)
@@ -1665,6 +1667,110 @@ mod tests {
             "configuration m.toml: invalid input.speedup: invalid type: string \"1.0\", \
              expected f64 (the [input] table at line 4)"
         );
+    }
+
+    /// Every line of an error and the whole of it stay readable: a refused 5000-character
+    /// value shows its first 80 characters and its length, never itself.
+    fn assert_short(e: &str, text: &str) {
+        assert!(e.chars().count() < 1500, "{} characters: {e}", e.len());
+        assert!(e.lines().all(|l| l.chars().count() < 480), "{e}");
+        assert!(
+            !text.contains(&"q".repeat(200)) || !e.contains(&"q".repeat(81)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_long_value_is_shown_by_its_start_and_length() {
+        let long = "q".repeat(5000);
+        let head = format!("{}…", "q".repeat(80));
+        let v = format!("{long:?}");
+        // (configuration, what the message names besides the value)
+        let places = [
+            (format!("[storage]\nbackend = {v}\n"), "line 2"),
+            (format!("[storage]\ntls = {v}\n"), "line 2"),
+            (format!("[input]\nkind = {v}\n"), "line 2"),
+            (format!("[engine]\npreset = {v}\n"), "engine.preset"),
+            (format!("[machine]\nname = {v}\n"), "machine.name"),
+            (format!("[cycle]\nperiod_s = {v}\n"), "line 2"),
+            (format!("[storage]\n{long} = 1\n"), "line 2"),
+            (format!("[{long}]\na = 1\n"), "line 1"),
+            (
+                format!("[auth]\ntokens = [{{ role = {v}, sha256 = \"00\" }}]\n"),
+                "line 2",
+            ),
+            (
+                format!("[input]\nkind = \"replay\"\npath = \"l.csv\"\ntargets = [{v}, {v}]\n"),
+                "input.targets[1]",
+            ),
+            (
+                format!("[input]\nkind = \"replay\"\npath = \"l.csv\"\n{long} = 1\n"),
+                "[input] table at line 1",
+            ),
+        ];
+        for (text, key) in &places {
+            let e = ServiceConfig::from_toml_str(text, "m.toml")
+                .unwrap_err()
+                .to_string();
+            assert_short(&e, text);
+            assert!(
+                e.contains(key) && e.contains(&head) && e.contains("(5000 characters)"),
+                "{key}: {e}"
+            );
+        }
+        // The engine file's own messages, through `engine.file`.
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("engine.toml");
+        for engine in [
+            format!("[[channels]]\nname = \"A\"\nsensor = {{ kind = {v} }}\n"),
+            format!("[[channels]]\nname = {v}\nsensor = {{ kind = \"celsius\" }}\nvalid_min = 0.0\nvalid_max = 50.0\nstale_timeout_s = 5.0\n\
+                     [[axes]]\nname = \"X\"\napply = {{ kind = \"command\" }}\nmax_offset_um = 10.0\n\
+                     [[axes.terms]]\nkind = \"linear\"\nchannel = \"B\"\nkd_um_per_c = 1.0\n"),
+        ] {
+            std::fs::write(&f, &engine).unwrap();
+            let mut cfg = ServiceConfig::default();
+            cfg.engine.file = Some(f.clone());
+            let e = crate::service::engine_config(&cfg)
+                .and_then(|(c, _)| Ok(gearcomp_thermal::Engine::new(&c)?))
+                .map(|_| ())
+                .unwrap_err()
+                .to_string();
+            assert_short(&e, &engine);
+            assert!(e.contains("engine") && e.contains(&head), "{e}");
+        }
+        // Every key of every [input] kind written as the long string: refused (a wrong
+        // type, a name too long) or accepted, never echoed whole.
+        for (i, key) in INPUT_KEYS.iter().enumerate() {
+            let text = input_text(i, &v);
+            if let Err(e) = ServiceConfig::from_toml_str(&text, "m.toml") {
+                let e = e.to_string();
+                assert_short(&e, &text);
+                assert!(e.contains(key.2), "{}: {e}", key.2);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 24, failure_persistence: None, ..ProptestConfig::default() })]
+        /// Random long values (spaces, quotes, backslashes, non-ASCII letters) in an enum,
+        /// a name and a number: the message stays short and says the value's length.
+        #[test]
+        fn random_long_values_are_shortened(
+            v in "[a-zA-Z0-9 \"\\\\'µé中_-]{300,3000}",
+            place in 0usize..3,
+        ) {
+            let quoted = toml::Value::String(v.clone()).to_string();
+            let text = match place {
+                0 => format!("[storage]\nbackend = {quoted}\n"),
+                1 => format!("[engine]\npreset = {quoted}\n"),
+                _ => format!("[cycle]\nperiod_s = {quoted}\n"),
+            };
+            let e = ServiceConfig::from_toml_str(&text, "m.toml").unwrap_err().to_string();
+            prop_assert!(e.chars().count() < 1500, "{}", e);
+            prop_assert!(e.lines().all(|l| l.chars().count() < 480), "{}", e);
+            let n = v.chars().count();
+            prop_assert!(e.contains(&format!("({n} characters)")), "{}", e);
+        }
     }
 
     #[test]

@@ -40,7 +40,7 @@ pub enum ServiceError {
     #[error("storage: {0}")]
     Storage(#[from] rusqlite::Error),
     /// The engine configuration was rejected.
-    #[error("engine: {0}")]
+    #[error("engine: {}", shorten_message(&.0.to_string()))]
     Engine(#[from] gearcomp_thermal::ThermalError),
     /// The engine configuration file (`engine.file`) could not be read or is not valid;
     /// the message says why (shown once: no source chain repeating it).
@@ -66,7 +66,7 @@ pub enum ServiceError {
     #[error("csv export: {0}")]
     Csv(#[from] csv::Error),
     /// A row of a CSV replay log is malformed (checked before the replay starts).
-    #[error("replay {path}: line {line}, column {column}: {value:?}; expected {expected}")]
+    #[error("replay {path}: line {line}, column {column}: {value}; expected {expected}")]
     Replay {
         /// The log file.
         path: String,
@@ -74,7 +74,7 @@ pub enum ServiceError {
         line: u64,
         /// The column name (or `(row)` for the row as a whole).
         column: String,
-        /// The offending text.
+        /// The offending text, quoted (shortened as [`shorten_message`] does).
         value: String,
         /// What the cell must hold.
         expected: String,
@@ -104,17 +104,134 @@ pub enum ServiceError {
     },
 }
 
-/// Builds [`ServiceError::Invalid`].
+/// Builds [`ServiceError::Invalid`]; a long value (or a long name inside the key or the
+/// expected form) is shortened as [`shorten_message`] does.
 pub fn invalid(
     field: impl Into<String>,
     value: impl std::fmt::Display,
     expected: impl Into<String>,
 ) -> ServiceError {
     ServiceError::Invalid {
-        field: field.into(),
-        value: value.to_string(),
-        expected: expected.into(),
+        field: shorten_message(&field.into()),
+        value: shorten_value(&value.to_string()),
+        expected: shorten_message(&expected.into()),
     }
+}
+
+/// Characters of a user's value a message shows before it is shortened.
+pub const SHOWN_CHARS: usize = 80;
+
+/// Characters of a value written without quotes (and without spaces) beyond which it is
+/// shortened: longer than a file path usually is, so a path is shown whole.
+const SHOWN_BARE_CHARS: usize = 200;
+
+/// Characters of one message line beyond which it is shortened (after its quoted values).
+const SHOWN_LINE_CHARS: usize = 400;
+
+/// A user's value as a message shows it: whole up to [`SHOWN_CHARS`] characters, else
+/// its first [`SHOWN_CHARS`] characters, `…` and its length (`qqq… (5000 characters)`),
+/// so a 5000-character value stays one readable line.
+pub fn shown(value: &str) -> String {
+    let n = value.chars().count();
+    if n <= SHOWN_CHARS {
+        value.to_string()
+    } else {
+        let head: String = value.chars().take(SHOWN_CHARS).collect();
+        format!("{head}… ({n} characters)")
+    }
+}
+
+/// The value of an [`ServiceError::Invalid`]: quoted (`"name"`, a list of quoted names)
+/// as [`shorten_message`] shortens it, written bare (a number, a name) as [`shown`].
+fn shorten_value(value: &str) -> String {
+    if value.contains(['"', '`']) {
+        shorten_message(value)
+    } else {
+        shown(value)
+    }
+}
+
+/// A message with every long user value shortened: each quoted value (`` `…` `` as serde
+/// quotes a variant or key, `"…"` with its escapes as a string is written or debug-printed)
+/// longer than [`SHOWN_CHARS`] characters keeps its start and says its length
+/// (`"qqq…" (5000 characters)`); a line still longer than 400 characters (the source line
+/// and the `^^^` marker of a TOML parse error, an unquoted value) is cut the same way.
+pub fn shorten_message(text: &str) -> String {
+    let lines: Vec<String> = text.split('\n').map(shorten_line).collect();
+    lines.join("\n")
+}
+
+fn shorten_line(line: &str) -> String {
+    let chars: Vec<char> = line.chars().collect();
+    let mut out = String::with_capacity(line.len().min(2 * SHOWN_LINE_CHARS));
+    let mut i = 0;
+    while i < chars.len() {
+        let q = chars[i];
+        if q == '`' || q == '"' {
+            // The value's characters up to the closing quote, an escape of a debug-printed
+            // string (`\"`, `\\`, `\n`, `\u{1f600}`) as one character.
+            let mut ends = Vec::new();
+            let mut j = i + 1;
+            while j < chars.len() && chars[j] != q {
+                if q == '"' && chars[j] == '\\' {
+                    j += if chars.get(j + 1) == Some(&'u') {
+                        chars[j..].iter().position(|c| *c == '}').unwrap_or(1) + 1
+                    } else {
+                        2
+                    };
+                } else {
+                    j += 1;
+                }
+                ends.push(j.min(chars.len()));
+            }
+            if j < chars.len() {
+                if ends.len() > SHOWN_CHARS {
+                    out.push(q);
+                    out.extend(&chars[i + 1..ends[SHOWN_CHARS - 1]]);
+                    out.push('…');
+                    out.push(q);
+                    out.push_str(&format!(" ({} characters)", ends.len()));
+                } else {
+                    out.extend(&chars[i..=j]);
+                }
+                i = j + 1;
+                continue;
+            }
+        }
+        out.push(q);
+        i += 1;
+    }
+    let carets = out.chars().filter(|c| *c == '^').count();
+    if carets > SHOWN_CHARS + 2 && out.chars().all(|c| matches!(c, ' ' | '|' | '^')) {
+        // The marker under a source line whose value was shortened: as wide as the
+        // shortened value with its quotes.
+        let lead = out.chars().take_while(|c| *c != '^').count();
+        let head: String = out.chars().take(lead + SHOWN_CHARS + 2).collect();
+        return format!("{head}…");
+    }
+    // A bare value (a key of 5000 letters, an unquoted name) longer than a path would be.
+    if out
+        .split_whitespace()
+        .any(|w| w.chars().count() > SHOWN_BARE_CHARS)
+    {
+        out = out
+            .split(' ')
+            .map(|w| {
+                if w.chars().count() > SHOWN_BARE_CHARS {
+                    shown(w)
+                } else {
+                    w.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(" ");
+    }
+    let n = out.chars().count();
+    if n <= SHOWN_LINE_CHARS {
+        return out;
+    }
+    let head: String = out.chars().take(SHOWN_LINE_CHARS).collect();
+    format!("{head}… ({n} characters)")
 }
 
 /// The index of the engine axis `name` among `axes`, or the error naming the config key
@@ -147,7 +264,72 @@ pub fn number(v: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{engine_axis, ServiceError};
+    use super::{engine_axis, shorten_message, shown, ServiceError};
+
+    #[test]
+    fn long_values_keep_their_start_and_say_their_length() {
+        let head = "q".repeat(80);
+        assert_eq!(shown(&"q".repeat(80)), head);
+        assert_eq!(shown(&"q".repeat(81)), format!("{head}… (81 characters)"));
+        // Characters, not bytes: 81 'µ' are 162 bytes.
+        assert_eq!(
+            shown(&"µ".repeat(81)),
+            format!("{}… (81 characters)", "µ".repeat(80))
+        );
+        // Quoted values inside a message, serde's `…` and a debug-printed "…" whose escapes
+        // count as one character each and are not cut; short ones and the rest unchanged.
+        let long = "q".repeat(5000);
+        let m = format!("unknown variant `{long}`, expected `sqlite` or `postgres`");
+        assert_eq!(
+            shorten_message(&m),
+            format!("unknown variant `{head}…` (5000 characters), expected `sqlite` or `postgres`")
+        );
+        let v = format!("{:?}", format!("{}\"{long}", "a\\".repeat(40)));
+        assert_eq!(
+            shorten_message(&format!("invalid x = {v}: expected y")),
+            format!(
+                "invalid x = \"{}…\" (5081 characters): expected y",
+                "a\\\\".repeat(40)
+            )
+        );
+        let v = format!("{:?}", format!("{}\"{long}", "a".repeat(60)));
+        assert_eq!(
+            shorten_message(&format!("invalid x = {v}: expected y")),
+            format!(
+                "invalid x = \"{}\\\"{}…\" (5061 characters): expected y",
+                "a".repeat(60),
+                "q".repeat(19)
+            )
+        );
+        // A bare key of 5000 letters; a path of 150 characters is kept whole.
+        assert_eq!(
+            shorten_message(&format!("2 | {long} = 1")),
+            format!("2 | {head}… (5000 characters) = 1")
+        );
+        let path = format!("/{}", "p".repeat(149));
+        assert_eq!(
+            shorten_message(&format!("cannot read {path}")),
+            format!("cannot read {path}")
+        );
+        // A TOML parse error's source line and marker.
+        let m = format!(
+            "  |\n2 | backend = \"{long}\"\n  |           {}\nunknown",
+            "^".repeat(5002)
+        );
+        assert_eq!(
+            shorten_message(&m),
+            format!(
+                "  |\n2 | backend = \"{head}…\" (5000 characters)\n  |           {}…\nunknown",
+                "^".repeat(82)
+            )
+        );
+        // Unquoted, a line is cut at 400 characters.
+        let m = shorten_message(&"w ".repeat(1000));
+        assert_eq!(m, format!("{}… (2000 characters)", "w ".repeat(200)));
+        let m = shorten_message(&"u".repeat(150).repeat(3).replace("uu", "u u"));
+        assert!(m.ends_with("characters)") && m.chars().count() < 430, "{m}");
+        assert_eq!(shorten_message("a `b` \"c\" `d"), "a `b` \"c\" `d");
+    }
 
     #[test]
     fn engine_axis_finds_the_index_or_names_key_value_and_axes() {

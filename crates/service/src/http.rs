@@ -134,10 +134,12 @@ impl From<crate::error::ServiceError> for ApiError {
 /// What a handler returns.
 type ApiResult<T = Response> = Result<T, ApiError>;
 
+/// An API error; a long value the caller sent is shown by its start and length
+/// ([`crate::error::shorten_message`]).
 fn err(code: StatusCode, msg: impl Into<String>) -> ApiError {
     ApiError {
         status: code,
-        message: msg.into(),
+        message: crate::error::shorten_message(&msg.into()),
     }
 }
 

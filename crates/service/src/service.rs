@@ -44,7 +44,7 @@ pub fn engine_config(cfg: &ServiceConfig) -> Result<(EngineConfig, String)> {
     if let Some(f) = &cfg.engine.file {
         let c = EngineConfig::load(f).map_err(|e| ServiceError::EngineFile {
             path: f.display().to_string(),
-            message: e.to_string(),
+            message: crate::error::shorten_message(&e.to_string()),
         })?;
         return Ok((c, f.display().to_string()));
     }

@@ -68,7 +68,7 @@ fn row_error(path: &Path, line: u64, column: &str, value: &str, expected: &str) 
         path: path.display().to_string(),
         line,
         column: column.to_string(),
-        value: value.chars().take(60).collect(),
+        value: crate::error::shorten_message(&format!("{value:?}")),
         expected: expected.to_string(),
     }
 }
