@@ -311,11 +311,19 @@ pub struct Args {
     /// drives the filters and lags but is neither fitted nor scored.
     #[arg(long, value_enum, default_value = "error")]
     pub missing: MissingArg,
-    /// Values a data logger writes for a missing sample (e.g. -9999 32767), read as empty
-    /// cells: an input's then follow --missing, a target's are rows without a measurement.
-    /// Without it, a common code far outside its column's other values is refused.
+    /// Values a data logger writes for a missing sample, numbers (e.g. -9999 32767) or texts
+    /// (e.g. "#N/A" OVF; write --missing-code=--- for a text that starts with a dash), read
+    /// as empty cells: an input's then follow --missing, a target's are rows without a
+    /// measurement. Without it, a common code far outside its column's other values is
+    /// refused, and so is a text.
     #[arg(long, num_args = 1.., allow_negative_numbers = true)]
-    pub missing_code: Vec<f64>,
+    pub missing_code: Vec<String>,
+    /// Fit values that stand far apart from their column's others as written. Without it, a
+    /// few values (at most 1 % of a column) separated from all the others by a gap of more
+    /// than 15 times their span are refused as a sensor fault (an open Pt100 at 850 °C, an
+    /// overflow written as 3276.7, a probe off its surface).
+    #[arg(long)]
+    pub keep_far_values: bool,
     /// Unit of the target columns; the model's offsets are µm, so another unit is converted
     /// on reading, with a note. auto: the log's units row, else the column name (z_mm,
     /// Weg [mm]), else µm; a units-row cell that is no length unit is refused.
@@ -392,8 +400,9 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         no_header: args.no_header,
         target_unit: Some(args.target_unit.into()),
         time_unit: Some(args.time_unit.into()),
-        missing_codes: gearcomp_identify::missing_code::MissingCodes::new(&args.missing_code)?,
+        missing_codes: gearcomp_identify::missing_code::MissingCodes::parse(&args.missing_code)?,
         runs_at_restarts: args.runs_at_restarts,
+        keep_far_values: args.keep_far_values,
         ..ReadOptions::default()
     })
 }

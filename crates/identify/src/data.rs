@@ -73,6 +73,9 @@ pub struct ReadOptions {
     /// column: `1`, `2` … in file order; within a named run `name`, `name/2` …) instead of
     /// a bad row.
     pub runs_at_restarts: bool,
+    /// Values standing far apart from their column's others (a sensor fault:
+    /// [`crate::missing_code::check_far_values`]) are fitted as written instead of refused.
+    pub keep_far_values: bool,
 }
 
 impl Default for ReadOptions {
@@ -89,6 +92,7 @@ impl Default for ReadOptions {
             time_unit: None,
             missing_codes: crate::missing_code::MissingCodes::default(),
             runs_at_restarts: false,
+            keep_far_values: false,
         }
     }
 }
@@ -1387,12 +1391,16 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         .zip(&t.inputs)
         .chain(t.target_names.iter().zip(&t.targets))
         .map(|(n, c)| (n.as_str(), c.as_slice()));
-    crate::missing_code::check_logger_codes(columns, &|i| {
+    let line_of = |i: usize| {
         where_(
             t.file_of_row.get(i).copied().unwrap_or(0),
             t.lines.get(i).copied().unwrap_or(0),
         )
-    })?;
+    };
+    crate::missing_code::check_logger_codes(columns.clone(), &line_of)?;
+    if !opts.keep_far_values {
+        crate::missing_code::check_far_values(columns, &line_of)?;
+    }
     let time_note = match (opts.time_unit, &time_column) {
         (Some(choice), Some((column, cell))) => {
             to_seconds(&mut t, choice, column, cell.as_deref(), time_stamps)?
@@ -1957,8 +1965,17 @@ impl Reader<'_> {
         let mut written: Vec<Option<f64>> = vec![None; if hold { n_in } else { 0 }];
         for (k, i) in c.input_idx.iter().chain(&c.target_idx).enumerate() {
             let s = rec.get(*i).copied().unwrap_or("");
-            let parsed = dialect::parse_number(s, &c.header[*i], dc).and_then(|v| {
-                if self.opts.missing_codes.contains(v) {
+            let codes = &self.opts.missing_codes;
+            let parsed = if codes.contains_text(s) {
+                Err(CellError::Missing(format!(
+                    "{} = {s:?} (a missing-value code, --missing-code)",
+                    c.header[*i]
+                )))
+            } else {
+                dialect::parse_number(s, &c.header[*i], dc)
+            }
+            .and_then(|v| {
+                if codes.contains(v) {
                     Err(CellError::Missing(format!(
                         "{} = {s} (a missing-value code, --missing-code)",
                         c.header[*i]
@@ -2123,8 +2140,14 @@ fn time_cell(
     }
     if st.stamps != Some(true) {
         return dialect::parse_number(s, col, decimal_comma).map_err(|e| match e {
-            CellError::Bad(b) if b.ends_with("is not a number") => {
-                format!("{b}: expected {}", dialect::TIMESTAMP_FORMS)
+            // A time cell is never a missing-value code: no --missing-code hint here.
+            CellError::Bad(b)
+                if b.ends_with("is not a number") || b.ends_with("reads it as an empty cell)") =>
+            {
+                format!(
+                    "{col} = {s:?} is not a number: expected {}",
+                    dialect::TIMESTAMP_FORMS
+                )
             }
             CellError::Missing(m) | CellError::Bad(m) => m,
         });

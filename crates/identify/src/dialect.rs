@@ -189,6 +189,11 @@ pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, Cell
         Err(_) if is_comma_decimal(s) => Err(CellError::Bad(format!(
             "{col} = {s:?} is not a number (written with a decimal comma: the log's delimiter must be ';' or tab, force the form with --decimal-comma)"
         ))),
+        // Text without a digit is most often a logger's or a spreadsheet's mark for a
+        // missing sample (#N/A, OVF, ---, Err): say how to read it as one.
+        Err(_) if !s.bytes().any(|b| b.is_ascii_digit()) => Err(CellError::Bad(format!(
+            "{col} = {s:?} is not a number (a logger's mark for a missing sample? --missing-code={s:?} reads it as an empty cell)"
+        ))),
         Err(_) => Err(CellError::Bad(format!("{col} = {s:?} is not a number"))),
     }
 }

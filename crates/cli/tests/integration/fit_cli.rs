@@ -41,6 +41,7 @@ fn fit_help_lists_every_option() {
         "--target-unit",
         "--time-unit",
         "--missing-code",
+        "--keep-far-values",
         "--json",
         "--family",
         "--delay-s",
@@ -622,6 +623,91 @@ fn fit_reads_a_logger_missing_code_only_when_named() {
     for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
         assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
     }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Texts for a missing sample (`#N/A` in an input, `OVF` in the target, a number code
+/// beside them): refused with the hint naming `--missing-code`; named, the fit is the fit of
+/// the log with those cells empty.
+#[test]
+fn fit_reads_text_marks_named_with_missing_code() {
+    let d = tmp("text_marks");
+    let rows = plain_rows();
+    let marked = |input: &str, target: &str| -> String {
+        let mut r = rows.clone();
+        for i in [40, 41, 90] {
+            r[i][1] = input.to_string();
+        }
+        for i in (7..r.len()).step_by(11) {
+            r[i][3] = target.to_string();
+        }
+        plain_text(&r)
+    };
+    let e = fit_json(&d, "marked.csv", &marked("#N/A", "OVF"), &[]).unwrap_err();
+    assert!(
+        e.contains(r#"y_um = "OVF" is not a number (a logger's mark for a missing sample? --missing-code="OVF" reads it"#),
+        "{e}"
+    );
+    let want = fit_json(&d, "empty.csv", &marked("", ""), &["--missing", "split"]).unwrap();
+    let args = [
+        "--missing",
+        "split",
+        "--missing-code",
+        "#n/a",
+        "OVF",
+        "-9999",
+    ];
+    let got = fit_json(&d, "marked.csv", &marked("#N/A", "OVF"), &args).unwrap();
+    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
+        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// An open Pt100 reading 850 °C on two rows of a log of 20–24 °C: refused as a sensor
+/// fault, naming the column, the value, its lines and both ways on; with `--missing-code 850
+/// --missing split` the fit is the fit of the log with those cells empty; with
+/// `--keep-far-values` the values are fitted as written, and the fit is more than ten times
+/// worse than with the cells empty (the refusal is not a formality: two such rows spoil the
+/// lag law).
+#[test]
+fn fit_refuses_far_values_unless_named_or_kept() {
+    let d = tmp("far_values");
+    let rows = plain_rows();
+    let with = |cell: &str| -> String {
+        let mut r = rows.clone();
+        for i in [60, 61] {
+            r[i][1] = cell.to_string();
+        }
+        plain_text(&r)
+    };
+    let e = fit_json(&d, "far.csv", &with("850"), &[]).unwrap_err();
+    assert!(
+        e.contains("a_c = 850 on 2 row(s)")
+            && e.contains("--missing-code 850")
+            && e.contains("--keep-far-values"),
+        "{e}"
+    );
+    let args = ["--missing", "split"];
+    let want = fit_json(&d, "empty.csv", &with(""), &args).unwrap();
+    let named = fit_json(
+        &d,
+        "far.csv",
+        &with("850"),
+        &["--missing", "split", "--missing-code", "850"],
+    )
+    .unwrap();
+    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
+        assert_eq!(named["targets"][0][key], want["targets"][0][key], "{key}");
+    }
+    let kept = fit_json(&d, "far.csv", &with("850"), &["--keep-far-values"]).unwrap();
+    let rmse = |v: &serde_json::Value| v["targets"][0]["train_rmse_um"].as_f64().unwrap();
+    assert!(
+        rmse(&kept) > 10.0 * rmse(&want),
+        "{} {}",
+        rmse(&want),
+        rmse(&kept)
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }
 

@@ -5,6 +5,7 @@
 
 mod common;
 mod dialects;
+mod far_values;
 mod fl_auto;
 mod fl_thermal;
 mod generalise;

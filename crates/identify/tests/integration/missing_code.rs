@@ -105,3 +105,89 @@ fn a_code_inside_the_range_is_a_value() {
         "{e}"
     );
 }
+
+/// Texts a logger or a spreadsheet writes for a missing sample (`#N/A`, `OVF`, `---`,
+/// `n/a`): refused as written, each with the hint naming `--missing-code`; named (in any
+/// ASCII case) with `--missing-code` and `--missing` split or hold, the table read is the
+/// table of the same log with those cells empty (the reference). Random cells and marks.
+#[test]
+fn text_marks_are_refused_with_a_hint_or_read_as_empty_cells() {
+    let sel = Selection {
+        targets: vec!["y_um".into()],
+        ..Selection::default()
+    };
+    let marks = ["#N/A", "OVF", "---", "n/a", "Err"];
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+    };
+    for seed in [1u64, 2, 3, 4, 5, 6, 7, 8, rand_seed()] {
+        let mut uni = uniform(seed);
+        let n = 60 + (uni() * 60.0) as usize;
+        let mut marked = String::from("time_s,a_c,b_c,y_um\n");
+        let mut empty = marked.clone();
+        let mut first: Option<&str> = None;
+        for i in 0..n {
+            let mut cells = [
+                format!("{:.3}", 20.0 + 3.0 * uni()),
+                format!("{:.3}", 22.0 + 2.0 * uni()),
+                format!("{:.3}", 5.0 * uni()),
+            ];
+            let mut blank = cells.clone();
+            // Rows 0–2 and every row with a mark in an input stay out of the comparison
+            // only through the missing-cell rule, the same for both logs.
+            if i > 2 && uni() < 0.15 {
+                let col = ((uni() * 3.0) as usize).min(2);
+                let mark = marks[((uni() * marks.len() as f64) as usize).min(marks.len() - 1)];
+                cells[col] = if uni() < 0.5 {
+                    mark.to_string()
+                } else {
+                    mark.to_lowercase()
+                };
+                blank[col] = String::new();
+                first.get_or_insert(mark);
+            }
+            marked += &format!("{},{}\n", i * 60, cells.join(","));
+            empty += &format!("{},{}\n", i * 60, blank.join(","));
+        }
+        let Some(_) = first else { continue };
+        let e = read_csv(&marked, "log.csv", &sel, ReadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("is not a number (a logger's mark for a missing sample? --missing-code="),
+            "{e}"
+        );
+        for missing in [MissingCells::Split, MissingCells::Hold] {
+            let named = ReadOptions {
+                missing,
+                missing_codes: MissingCodes::parse(&marks.map(String::from)).unwrap(),
+                ..ReadOptions::default()
+            };
+            let plain = ReadOptions {
+                missing,
+                ..ReadOptions::default()
+            };
+            let got = read_csv(&marked, "log.csv", &sel, named).unwrap();
+            let want = read_csv(&empty, "log.csv", &sel, plain).unwrap();
+            assert!(same(&got.time_s, &want.time_s), "seed {seed}");
+            for k in 0..2 {
+                assert!(
+                    same(&got.inputs[k], &want.inputs[k]),
+                    "seed {seed} input {k}"
+                );
+            }
+            assert!(same(&got.targets[0], &want.targets[0]), "seed {seed}");
+        }
+    }
+}
+
+/// A fresh seed per run (printed on failure through the assertion messages).
+fn rand_seed() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(9)
+}
