@@ -287,7 +287,9 @@ impl RollLimits {
     /// # Formula
     /// r_a,min = r + m_n·(1 + x) − (b/2)·|tan ϑ2| (tip cone parallel to the reference cone:
     /// addendum m_n over the local profile shift x(z) = z·tan ϑ2/m_n);
-    /// default end √(r_a,min² − r_b²) with r_b of the pair's gear flank.
+    /// default end √(r_a,min² − r_bF²) with r_bF of the pair's gear flank; the root form and
+    /// tip circles at z = 0 as roll distances on that flank, √(r² − r_bF²) (not on the
+    /// cylinder's base circle: mixing the two refused valid gears with "w_end > w_start").
     /// # Source
     /// Beveloid local profile shift, docs/grinding.md "Conical tool and workpiece"
     /// [RECONSTRUCTED]; addendum h_a = m_n, ISO 53 basic rack [STANDARD].
@@ -304,9 +306,17 @@ impl RollLimits {
             - 0.5 * face_width_mm * gear_cone_rad.tan().abs();
         let rb = pair.gear.r_b_mm;
         let lim = body.flank_limits(flank)?;
+        // The body's roll distances are on the cylinder's base circle; the grid is on the
+        // beveloid flank, whose base radius r_bF differs (about 2 % at ϑ2 = 4°, β = 26°):
+        // carry the root form and tip circles over as radii.
+        let rb_body = body.flank(flank).r_b_mm;
+        let roll = |w_body: f64| {
+            let r_sq = w_body * w_body + rb_body * rb_body;
+            (r_sq - rb * rb).max(0.0).sqrt()
+        };
         Ok(RollLimits {
-            lo_mm: lim.w_root_form_mm.max(1e-6),
-            hi_mm: lim.w_tip_mm,
+            lo_mm: roll(lim.w_root_form_mm).max(1e-6),
+            hi_mm: roll(lim.w_tip_mm),
             lo: RollBound::RootFormAtZ0,
             hi: RollBound::TipAtZ0(lim.tip_diameter_mm),
             default_hi_mm: (r_tip * r_tip - rb * rb).max(0.0).sqrt(),

@@ -457,3 +457,76 @@ fn bad_points_are_clear_errors() {
     let e = p.map_gear_point(&cpl, 17.0, f64::INFINITY).unwrap_err();
     assert!(e.to_string().contains("z2_mm"), "{e}");
 }
+
+/// `RollLimits::conical` gives the root form and tip circles at z = 0 as roll distances on the
+/// beveloid flank the grid lies on (base radius r_bF of the pair's gear flank), not on the
+/// cylinder's base circle. Mixing the two put the usable range [lo, hi] and the default end in
+/// different parametrisations: `grind simulate --teeth 269 --module-mm 4.946
+/// --helix-angle-deg=-25.63 --face-width-mm 80.3 --profile-shift=0.587 --flank left
+/// --pressure-angle-left-deg 23.52 --gear-cone-deg=-3.94` was refused with "w_end_mm = 311.88
+/// is out of range: expected w_end > w_start" (+3.94° was accepted). Checked: √(hi² + r_bF²)
+/// is the tip radius r + m_n(1 + x) written here (DIN 867 addendum), and the default range is
+/// not empty whenever the narrow end's tip r + m_n(1 + x) − (b/2)|tan ϑ2| lies above the
+/// reference circle by m_n/4.
+#[test]
+fn conical_roll_limits_are_on_the_beveloid_flank() {
+    use gearcomp_grinding::setup::{checked_gear, grinding_worm, RollLimits};
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let strategy = (
+        20u32..300,
+        0.5..20.0f64,
+        16.0..28.0f64,
+        16.0..28.0f64,
+        -40.0..40.0f64,
+        -0.2..0.6f64,
+        -5.0..5.0f64,
+        3.0..20.0f64,
+        any::<bool>(),
+    );
+    let checked = std::cell::Cell::new(0);
+    for seed in [[7u8; 32], [41u8; 32]] {
+        let mut runner = TestRunner::new_with_rng(
+            Config {
+                cases: 120,
+                failure_persistence: None,
+                ..Config::default()
+            },
+            TestRng::from_seed(RngAlgorithm::ChaCha, &seed),
+        );
+        runner
+            .run(
+                &strategy,
+                |(z, m, ar, al, b_deg, x, cone_deg, b_m, left)| {
+                    let (ar, al, beta) = (ar.to_radians(), al.to_radians(), b_deg.to_radians());
+                    let Ok(gear) = checked_gear(z, m, ar, al, beta, x) else {
+                        return Ok(()); // not a valid gear (pointed, undercut): not the subject
+                    };
+                    let worm = grinding_worm(1, m, ar, al, 30.0 * m, Hand::Right).unwrap();
+                    let flank = if left { Flank::Left } else { Flank::Right };
+                    let cone = cone_deg.to_radians();
+                    let bev2 = BeveloidGear::new(gear, cone).unwrap();
+                    let bev1 = BeveloidGear::new(worm, 0.0).unwrap();
+                    let Ok(pair) = ConicalPair::reference(&bev1, &bev2, flank) else {
+                        return Ok(());
+                    };
+                    let b = b_m * m;
+                    let lim = RollLimits::conical(&gear, flank, &pair, b, cone).unwrap();
+                    let r = f64::from(z) * m / (2.0 * beta.cos());
+                    let rb = pair.gear.r_b_mm;
+                    let r_a = r + m * (1.0 + x);
+                    let r_hi = (lim.hi_mm * lim.hi_mm + rb * rb).sqrt();
+                    prop_assert!((r_hi - r_a).abs() < 1e-9 * r_a, "tip {r_hi} vs {r_a}");
+                    let r_tip_narrow = r_a - 0.5 * b * cone.tan().abs();
+                    if r_tip_narrow > r + 0.25 * m {
+                        let (w0, w1) = lim.default_range_mm(&pair.gear, m);
+                        prop_assert!(w0 < w1, "default range {w0} … {w1}");
+                        checked.set(checked.get() + 1);
+                    }
+                    Ok(())
+                },
+            )
+            .unwrap();
+    }
+    assert!(checked.get() > 100, "{} gears checked", checked.get());
+}
