@@ -109,10 +109,11 @@ pub struct FlankEvaluation {
     pub profile: TraceEvaluation,
     /// Helix evaluation (F_β, f_fβ, f_Hβ).
     pub helix: TraceEvaluation,
-    /// Tolerances of the class.
-    pub tolerances: Tolerances,
-    /// Every value within its tolerance.
-    pub within_tolerance: bool,
+    /// Tolerances of the class; `None` for a gear outside ISO 1328-1:2013's scope
+    /// ([`OUT_OF_SCOPE`]).
+    pub tolerances: Option<Tolerances>,
+    /// Every value within its tolerance; `None` without tolerances.
+    pub within_tolerance: Option<bool>,
 }
 
 /// A trace evaluated at a position: width z of a profile trace, roll distance w of a helix
@@ -173,15 +174,49 @@ pub struct MultiTraceEvaluation {
     pub profile_worst: WorstTrace,
     /// Largest helix values (F_β, f_fβ, f_Hβ).
     pub helix_worst: WorstTrace,
-    /// Tolerances of the requested class.
-    pub tolerances: Tolerances,
-    /// Every trace within the requested class.
-    pub within_tolerance: bool,
+    /// Tolerances of the requested class; `None` for a gear outside ISO 1328-1:2013's scope
+    /// ([`OUT_OF_SCOPE`]).
+    pub tolerances: Option<Tolerances>,
+    /// Every trace within the requested class; `None` without tolerances.
+    pub within_tolerance: Option<bool>,
     /// The best class (1 … 11) whose profile and helix tolerances every trace meets, None if
-    /// not even class 11.
+    /// not even class 11 or without tolerances.
     pub class_achieved: Option<u8>,
     /// Pitch deviations: not evaluated (see [`PITCH_NOT_EVALUATED`]).
     pub pitch: &'static str,
+}
+
+/// What the evaluation says of a gear outside the standard's scope: the deviations are
+/// evaluated, the tolerances are not (ISO 1328-1:2013 gives its formulas for these ranges only).
+pub const OUT_OF_SCOPE: &str =
+    "no ISO 1328-1 tolerances: the gear is outside ISO 1328-1:2013's scope (5 ≤ d ≤ 15 000 mm, \
+     0.5 ≤ m_n ≤ 70 mm, 4 ≤ b ≤ 1200 mm); deviations only";
+
+/// Tolerances of class A (1 … 11) for reference diameter d, normal module m_n and facewidth b,
+/// `None` if the gear is outside the standard's scope (a valid gear still ground and evaluated:
+/// a module-0.4 or a 3 mm wide gear was refused "ISO 1328-1 tolerances: normal module m_n =
+/// 0.363 mm is outside the allowed range 0.5 … 70 mm").
+///
+/// # Errors
+/// A class outside 1 … 11, or a d, m_n or b that is not a positive finite number.
+pub fn tolerances_in_scope(
+    d_mm: f64,
+    m_n_mm: f64,
+    b_mm: f64,
+    class: u8,
+) -> Result<Option<Tolerances>> {
+    match tolerances(d_mm, m_n_mm, b_mm, class) {
+        Ok(t) => Ok(Some(t)),
+        Err(_)
+            if (1..=11).contains(&class)
+                && [d_mm, m_n_mm, b_mm]
+                    .iter()
+                    .all(|v| v.is_finite() && *v > 0.0) =>
+        {
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 fn within(t: &Tolerances, p: &WorstTrace, h: &WorstTrace) -> bool {
@@ -283,7 +318,7 @@ impl DeviationMap {
                 expected: "3 ..= 101",
             });
         }
-        let tol = tolerances(d_mm, m_n_mm, b_mm, class)?;
+        let tol = tolerances_in_scope(d_mm, m_n_mm, b_mm, class)?;
         let g = self.grid;
         let pr = profile_evaluation_range(g.w_range_mm);
         let hr = helix_evaluation_range(g.z_range_mm, m_n_mm);
@@ -307,10 +342,12 @@ impl DeviationMap {
         let pw = WorstTrace::of(&profiles);
         let hw = WorstTrace::of(&helices);
         let mut class_achieved = None;
-        for c in 1..=11u8 {
-            if within(&tolerances(d_mm, m_n_mm, b_mm, c)?, &pw, &hw) {
-                class_achieved = Some(c);
-                break;
+        if tol.is_some() {
+            for c in 1..=11u8 {
+                if within(&tolerances(d_mm, m_n_mm, b_mm, c)?, &pw, &hw) {
+                    class_achieved = Some(c);
+                    break;
+                }
             }
         }
         Ok(MultiTraceEvaluation {
@@ -318,7 +355,7 @@ impl DeviationMap {
             helices,
             profile_worst: pw,
             helix_worst: hw,
-            within_tolerance: within(&tol, &pw, &hw),
+            within_tolerance: tol.map(|t| within(&t, &pw, &hw)),
             tolerances: tol,
             class_achieved,
             pitch: PITCH_NOT_EVALUATED,
@@ -327,7 +364,8 @@ impl DeviationMap {
 
     /// ISO 1328-1 evaluation: profile at mid face width, helix at the middle of L_α; the grid's
     /// w range is taken as the active profile and its z range as the face width.
-    pub fn evaluate(&self, tol: Tolerances, m_n_mm: f64) -> Result<FlankEvaluation> {
+    /// `tol` is `None` for a gear outside the standard's scope ([`tolerances_in_scope`]).
+    pub fn evaluate(&self, tol: Option<Tolerances>, m_n_mm: f64) -> Result<FlankEvaluation> {
         let g = self.grid;
         let pr = profile_evaluation_range(g.w_range_mm);
         let hr = helix_evaluation_range(g.z_range_mm, m_n_mm);
@@ -337,12 +375,14 @@ impl DeviationMap {
         let profile = evaluate_trace(&x, &f, pr)?;
         let (x, f) = self.trace_um(false, w_mid, hr);
         let helix = evaluate_trace(&x, &f, hr)?;
-        let within = profile.total_um <= tol.total_alpha_t_um
-            && profile.form_um <= tol.f_f_alpha_t_um
-            && profile.slope_um.abs() <= tol.f_h_alpha_t_um
-            && helix.total_um <= tol.total_beta_t_um
-            && helix.form_um <= tol.f_f_beta_t_um
-            && helix.slope_um.abs() <= tol.f_h_beta_t_um;
+        let within = tol.map(|tol| {
+            profile.total_um <= tol.total_alpha_t_um
+                && profile.form_um <= tol.f_f_alpha_t_um
+                && profile.slope_um.abs() <= tol.f_h_alpha_t_um
+                && helix.total_um <= tol.total_beta_t_um
+                && helix.form_um <= tol.f_f_beta_t_um
+                && helix.slope_um.abs() <= tol.f_h_beta_t_um
+        });
         Ok(FlankEvaluation {
             profile_z_mm: z_mid,
             helix_w_mm: w_mid,
@@ -372,7 +412,7 @@ mod tests {
     #[test]
     fn a_coarse_grid_evaluates_the_plane_it_spans() {
         let (a, c) = (2e-4, -1.5e-4); // mm per mm
-        let tol = tolerances(80.0, 2.0, 20.0, 6).unwrap();
+        let tol = tolerances(80.0, 2.0, 20.0, 6).ok();
         for (n_w, n_z) in [(2, 2), (2, 31), (25, 2), (3, 3), (25, 31)] {
             let g = FlankGrid::new((8.0, 22.0), (-10.0, 10.0), n_w, n_z).unwrap();
             let f: Vec<f64> = (0..n_w)
@@ -423,7 +463,7 @@ mod tests {
         }
         let map = DeviationMap::new(grid, f).unwrap();
         let tol = tolerances(80.0, 2.0, 20.0, 6).unwrap();
-        let e = map.evaluate(tol, 2.0).unwrap();
+        let e = map.evaluate(Some(tol), 2.0).unwrap();
         assert_eq!(e.profile.range_mm, (11.0, 22.4));
         assert_relative_eq!(e.helix.range_mm.0, -9.0, epsilon = 1e-12);
         assert_relative_eq!(e.profile.slope_um, 0.5 * 11.4, epsilon = 1e-9);
@@ -433,11 +473,11 @@ mod tests {
         assert_relative_eq!(e.helix.total_um, 8.1, epsilon = 1e-9);
         assert_relative_eq!(e.helix.form_um, 8.1, epsilon = 1e-9);
         // 5.7 ≤ 7.0, 5.7 ≤ 11, 8.1 ≤ 9.5, 8.1 ≤ 13 ⇒ class 6 passes; class 5 (f_fβT 6.5) fails
-        assert!(e.within_tolerance);
+        assert_eq!(e.within_tolerance, Some(true));
         let e5 = map
-            .evaluate(tolerances(80.0, 2.0, 20.0, 5).unwrap(), 2.0)
+            .evaluate(tolerances(80.0, 2.0, 20.0, 5).ok(), 2.0)
             .unwrap();
-        assert!(!e5.within_tolerance);
+        assert_eq!(e5.within_tolerance, Some(false));
     }
 
     /// A twist f = k·(w − 16.7)·z (k = 1e-4 mm/mm²) on w ∈ [11, 23], z ∈ [−10, 10], m_n = 2:
@@ -458,7 +498,7 @@ mod tests {
         }
         let map = DeviationMap::new(grid, f).unwrap();
         let one = map
-            .evaluate(tolerances(80.0, 2.0, 20.0, 6).unwrap(), 2.0)
+            .evaluate(tolerances(80.0, 2.0, 20.0, 6).ok(), 2.0)
             .unwrap();
         assert!(one.profile.total_um < 1e-9 && one.helix.total_um < 1e-9);
         let e = map.evaluate_traces(80.0, 2.0, 20.0, 6, 3).unwrap();
@@ -482,8 +522,39 @@ mod tests {
                 && t.total_beta_t_um >= 10.26
         });
         assert_eq!(e.class_achieved, expect);
-        assert!(expect.unwrap() > 6 && !e.within_tolerance);
+        assert!(expect.unwrap() > 6 && e.within_tolerance == Some(false));
         assert!(e.pitch.contains("not evaluated"));
         assert!(map.evaluate_traces(80.0, 2.0, 20.0, 6, 2).is_err());
+    }
+
+    /// Outside the standard's scope: no tolerances (deviations only), inside: the class's
+    /// tolerances; a bad class or a non-finite size stays an error.
+    #[test]
+    fn tolerances_in_scope_separates_scope_from_bad_input() {
+        assert_eq!(
+            tolerances_in_scope(80.0, 2.0, 20.0, 6).unwrap(),
+            Some(tolerances(80.0, 2.0, 20.0, 6).unwrap())
+        );
+        for (d, m, b) in [
+            (80.0, 0.4, 20.0),
+            (80.0, 2.0, 3.0),
+            (16_000.0, 20.0, 200.0),
+            (4.0, 0.5, 4.0),
+        ] {
+            assert_eq!(
+                tolerances_in_scope(d, m, b, 6).unwrap(),
+                None,
+                "{d} {m} {b}"
+            );
+        }
+        for (d, m, b, c) in [
+            (80.0, 2.0, 20.0, 0),
+            (80.0, 2.0, 20.0, 12),
+            (f64::NAN, 2.0, 20.0, 6),
+            (80.0, -2.0, 20.0, 6),
+            (80.0, 2.0, f64::INFINITY, 6),
+        ] {
+            assert!(tolerances_in_scope(d, m, b, c).is_err(), "{d} {m} {b} {c}");
+        }
     }
 }

@@ -19,7 +19,7 @@ use crate::conical::ConicalPair;
 use crate::contact::WormGearPair;
 use crate::diagonal::LineMap;
 use crate::envelope::{AnalyticTransfer, GroundFlank};
-use crate::iso1328::{FlankEvaluation, MultiTraceEvaluation};
+use crate::iso1328::{FlankEvaluation, MultiTraceEvaluation, OUT_OF_SCOPE};
 use crate::kinematics::FeedCoupling;
 use crate::modification::{FlankModification, LineModification, Poly};
 use crate::solve::{IteratedSolve, IterationOptions};
@@ -550,47 +550,19 @@ pub fn fmt_poly(v: &[f64]) -> String {
 }
 
 /// ISO 1328-1 rows (name, value µm, tolerance µm, within): F_α, f_fα, f_Hα, F_β, f_fβ, f_Hβ;
-/// the slopes f_H are compared by magnitude.
-pub fn iso_rows(e: &FlankEvaluation) -> Vec<(&'static str, f64, f64, bool)> {
-    let t = &e.tolerances;
+/// the slopes f_H are compared by magnitude. Tolerance and verdict are `None` for a gear
+/// outside the standard's scope.
+pub fn iso_rows(e: &FlankEvaluation) -> Vec<(&'static str, f64, Option<f64>, Option<bool>)> {
     let (p, h) = (&e.profile, &e.helix);
+    let row = |name, v: f64, tol: Option<f64>| (name, v, tol, tol.map(|t| v.abs() <= t));
+    let t = e.tolerances;
     vec![
-        (
-            "F_α",
-            p.total_um,
-            t.total_alpha_t_um,
-            p.total_um <= t.total_alpha_t_um,
-        ),
-        (
-            "f_fα",
-            p.form_um,
-            t.f_f_alpha_t_um,
-            p.form_um <= t.f_f_alpha_t_um,
-        ),
-        (
-            "f_Hα",
-            p.slope_um,
-            t.f_h_alpha_t_um,
-            p.slope_um.abs() <= t.f_h_alpha_t_um,
-        ),
-        (
-            "F_β",
-            h.total_um,
-            t.total_beta_t_um,
-            h.total_um <= t.total_beta_t_um,
-        ),
-        (
-            "f_fβ",
-            h.form_um,
-            t.f_f_beta_t_um,
-            h.form_um <= t.f_f_beta_t_um,
-        ),
-        (
-            "f_Hβ",
-            h.slope_um,
-            t.f_h_beta_t_um,
-            h.slope_um.abs() <= t.f_h_beta_t_um,
-        ),
+        row("F_α", p.total_um, t.map(|t| t.total_alpha_t_um)),
+        row("f_fα", p.form_um, t.map(|t| t.f_f_alpha_t_um)),
+        row("f_Hα", p.slope_um, t.map(|t| t.f_h_alpha_t_um)),
+        row("F_β", h.total_um, t.map(|t| t.total_beta_t_um)),
+        row("f_fβ", h.form_um, t.map(|t| t.f_f_beta_t_um)),
+        row("f_Hβ", h.slope_um, t.map(|t| t.f_h_beta_t_um)),
     ]
 }
 
@@ -698,8 +670,9 @@ impl GrindReport {
         let e = &self.iso1328;
         let _ = writeln!(
             t,
-            "  ISO 1328-1:2013 class {} (profile at z = {:.2} mm over w {:.3}…{:.3} mm; helix at w = {:.3} mm over z {:.3}…{:.3} mm)",
-            e.tolerances.class,
+            "  ISO 1328-1:2013 {} (profile at z = {:.2} mm over w {:.3}…{:.3} mm; helix at w = {:.3} mm over z {:.3}…{:.3} mm)",
+            e.tolerances
+                .map_or("deviations".to_string(), |t| format!("class {}", t.class)),
             e.profile_z_mm,
             e.profile.range_mm.0,
             e.profile.range_mm.1,
@@ -709,13 +682,14 @@ impl GrindReport {
         );
         let _ = writeln!(t, "    {:<6} {:>10} {:>10}  ok", "", "value µm", "tol µm");
         for (name, v, tol, ok) in iso_rows(e) {
-            let ok = if ok { "yes" } else { "NO" };
-            let _ = writeln!(t, "    {name:<6} {v:>10.3} {tol:>10.1}  {ok}");
+            let ok = ok.map_or("–", |ok| if ok { "yes" } else { "NO" });
+            let tol = tol.map_or("–".to_string(), |tol| format!("{tol:.1}"));
+            let _ = writeln!(t, "    {name:<6} {v:>10.3} {tol:>10}  {ok}");
         }
-        let verdict = if e.within_tolerance {
-            "within tolerance"
-        } else {
-            "OUT of tolerance"
+        let verdict = match e.within_tolerance {
+            Some(true) => "within tolerance",
+            Some(false) => "OUT of tolerance",
+            None => OUT_OF_SCOPE,
         };
         let _ = writeln!(t, "  verdict: {verdict}");
     }
@@ -752,10 +726,17 @@ impl GrindReport {
                 h.total_um,
                 h.form_um,
                 h.slope_um,
-                m.tolerances.class,
-                if m.within_tolerance { "within" } else { "OUT" },
-                m.class_achieved
-                    .map_or("worse than 11".to_string(), |c| c.to_string())
+                m.tolerances
+                    .map_or("–".to_string(), |t| t.class.to_string()),
+                match m.within_tolerance {
+                    Some(true) => "within",
+                    Some(false) => "OUT",
+                    None => "no tolerances (outside ISO 1328-1's scope)",
+                },
+                match (m.tolerances, m.class_achieved) {
+                    (None, _) => "–".to_string(),
+                    (Some(_), c) => c.map_or("worse than 11".to_string(), |c| c.to_string()),
+                }
             );
         }
         let _ = writeln!(t, "  {}", tr.from_design.pitch);

@@ -50,7 +50,10 @@ use gearcomp_grinding::envelope::EnvelopeGrinder;
 use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
 use gearcomp_grinding::equalise_request::EqualiseConfig;
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
-use gearcomp_grinding::iso1328::{tolerances, DeviationMap, FlankEvaluation, MultiTraceEvaluation};
+use gearcomp_grinding::iso1328::{
+    tolerances, tolerances_in_scope, DeviationMap, FlankEvaluation, MultiTraceEvaluation,
+    OUT_OF_SCOPE,
+};
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::mesh::GrindingMesh;
 use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};

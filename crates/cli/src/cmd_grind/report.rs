@@ -90,8 +90,8 @@ fn iso_section(r: &mut HtmlReport, e: &FlankEvaluation) {
             vec![
                 n.to_string(),
                 format!("{v:.3}"),
-                format!("{t:.1}"),
-                if ok { "yes".into() } else { "NO".into() },
+                t.map_or("–".into(), |t| format!("{t:.1}")),
+                ok.map_or("–".into(), |ok| if ok { "yes".into() } else { "NO".into() }),
             ]
         })
         .collect();
@@ -103,11 +103,16 @@ fn iso_section(r: &mut HtmlReport, e: &FlankEvaluation) {
         "Class {}; profile evaluation range {:.3}…{:.3} mm of roll distance (95 % of the active \
          profile from its start), helix evaluation range {:.3}…{:.3} mm (face width less min(5 % b, \
          m_n) per end). Verdict: {}.",
-        e.tolerances.class,
+        e.tolerances
+            .map_or("–".to_string(), |t| t.class.to_string()),
         e.profile.range_mm.0,
         e.profile.range_mm.1,
         e.helix.range_mm.0,
         e.helix.range_mm.1,
-        if e.within_tolerance { "within tolerance" } else { "out of tolerance" }
+        match e.within_tolerance {
+            Some(true) => "within tolerance",
+            Some(false) => "out of tolerance",
+            None => OUT_OF_SCOPE,
+        }
     ));
 }

@@ -65,6 +65,7 @@ pub(super) fn grind_and_report<M: GrindingMesh>(
     let (iso, iso_traces) = iso_evaluation(gear, g, a, &cmp, wanted.is_some())?;
     let mut warnings = cmp.flag_warnings();
     warnings.extend(extras.solve.as_ref().and_then(SolveReport::warning));
+    warnings.extend(scope_warning(gear, a, &iso));
     Ok(GrindReport {
         mode,
         worm_cone_deg: cones.worm_deg,
@@ -121,6 +122,24 @@ fn grind<M: GrindingMesh>(
     Ok(ground)
 }
 
+/// Why a gear has no ISO 1328-1 tolerances (outside the standard's scope), naming the option.
+fn scope_warning(gear: &InvoluteGear, a: &SetupArgs, iso: &FlankEvaluation) -> Option<String> {
+    if iso.tolerances.is_some() {
+        return None;
+    }
+    let d_mm = 2.0 * gear.reference_radius_mm();
+    let why = tolerances(d_mm, gear.m_n_mm, a.face_width_mm, a.class).err()?;
+    let why = why.to_string();
+    let flag = if why.starts_with("normal module") {
+        "--module-mm"
+    } else if why.starts_with("facewidth") {
+        "--face-width-mm"
+    } else {
+        "--teeth/--module-mm/--helix-angle-deg"
+    };
+    Some(format!("{OUT_OF_SCOPE}: {flag}: {why}"))
+}
+
 /// ISO 1328-1 of the deviation map (middle traces), and over three traces from the design
 /// and from the unmodified flank.
 fn iso_evaluation(
@@ -131,8 +150,9 @@ fn iso_evaluation(
     wanted: bool,
 ) -> Result<(FlankEvaluation, TracesReport)> {
     let d_mm = 2.0 * gear.reference_radius_mm();
-    let tol =
-        tolerances(d_mm, gear.m_n_mm, a.face_width_mm, a.class).context("ISO 1328-1 tolerances")?;
+    // None outside the standard's scope (m_n < 0.5 mm, b < 4 mm, d > 15 m): deviations only
+    let tol = tolerances_in_scope(d_mm, gear.m_n_mm, a.face_width_mm, a.class)
+        .context("ISO 1328-1 tolerances (--class)")?;
     let iso = DeviationMap::new(g, cmp.deviation_mm.clone())?
         .evaluate(tol, gear.m_n_mm)
         .context("ISO 1328-1 evaluation")?;

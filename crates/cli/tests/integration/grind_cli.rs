@@ -140,3 +140,72 @@ fn grind_rejects_bad_input() {
         assert!(!err.contains("panicked"));
     }
 }
+
+/// Gears outside ISO 1328-1:2013's scope (m_n < 0.5 mm, b < 4 mm) are ground and their
+/// deviations evaluated, without tolerances: they were refused "ISO 1328-1 tolerances: normal
+/// module m_n = 0.363 mm is outside the allowed range 0.5 … 70 mm" (no option named), although
+/// the simulation does not need the standard. Checked against a construction written here: a
+/// constant worm modification c grinds the constant f_Ft2 = −c·cos β_b1/cos β_b2 (docs/grinding.md
+/// "Modifications"), with cos β1 = z1·m_n/(2·r1) and sin β_b = sin β·cos α_n.
+#[test]
+fn grind_outside_the_iso1328_scope_gives_deviations_without_tolerances() {
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let mut runner = TestRunner::new_with_rng(
+        Config {
+            cases: 12,
+            failure_persistence: None,
+            ..Config::default()
+        },
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[5; 32]),
+    );
+    let strategy = (
+        0.3..0.49f64,
+        30u32..200,
+        16.0..25.0f64,
+        -30.0..30.0f64,
+        1u32..4,
+        -15.0..15.0f64,
+        any::<bool>(),
+    );
+    runner
+        .run(&strategy, |(m, z, a_deg, b_deg, starts, c, narrow)| {
+            let r1 = 40.0 * m;
+            let b = if narrow { 3.0 } else { 10.0 };
+            let args: Vec<String> = vec![
+                "grind".into(),
+                "simulate".into(),
+                format!("--module-mm={m}"),
+                format!("--teeth={z}"),
+                format!("--pressure-angle-deg={a_deg}"),
+                format!("--helix-angle-deg={b_deg}"),
+                format!("--worm-starts={starts}"),
+                format!("--worm-radius-mm={r1}"),
+                format!("--face-width-mm={b}"),
+                format!("--worm-c={c}"),
+                "--grid-w=9".into(),
+                "--grid-z=9".into(),
+            ];
+            let a: Vec<&str> = args.iter().map(String::as_str).collect();
+            let v = gearcomp_json(&a);
+            let iso = &v["iso1328"];
+            prop_assert!(iso["tolerances"].is_null() && iso["within_tolerance"].is_null());
+            prop_assert!(v["iso1328_traces"]["from_design"]["class_achieved"].is_null());
+            let w = v["warnings"].to_string();
+            prop_assert!(w.contains("--module-mm") && w.contains("scope"), "{}", w);
+            let an = a_deg.to_radians();
+            let beta1 = (f64::from(starts) * m / (2.0 * r1)).acos();
+            let bb1 = (beta1.sin() * an.cos()).asin();
+            let bb2 = (b_deg.to_radians().sin() * an.cos()).asin();
+            let want = c.abs() * bb1.cos() / bb2.cos();
+            let got = v["max_abs_ground_um"].as_f64().unwrap();
+            prop_assert!(
+                (got - want).abs() < 1e-6 * (1.0 + want),
+                "{} vs {}",
+                got,
+                want
+            );
+            Ok(())
+        })
+        .unwrap();
+}
