@@ -63,9 +63,7 @@ pub(super) fn grind_and_report<M: GrindingMesh>(
     let cmp = FlankComparison::new(mesh, &cpl, worm_mod, &ground, wanted)
         .with_context(|| format!("analytic map of the {}", M::NAME))?;
     let (iso, iso_traces) = iso_evaluation(gear, g, a, &cmp, wanted.is_some())?;
-    let mut warnings = cmp.flag_warnings();
-    warnings.extend(extras.solve.as_ref().and_then(SolveReport::warning));
-    warnings.extend(scope_warning(gear, a, &iso));
+    let warnings = run_warnings(&cmp, extras.solve.as_ref(), gear, a, &iso);
     Ok(GrindReport {
         mode,
         worm_cone_deg: cones.worm_deg,
@@ -120,6 +118,20 @@ fn grind<M: GrindingMesh>(
          modification)",
     )?;
     Ok(ground)
+}
+
+/// The flagged points' warnings, the solve's and [`scope_warning`].
+fn run_warnings(
+    cmp: &FlankComparison,
+    solve: Option<&SolveReport>,
+    gear: &InvoluteGear,
+    a: &SetupArgs,
+    iso: &FlankEvaluation,
+) -> Vec<String> {
+    let mut warnings = cmp.flag_warnings();
+    warnings.extend(solve.and_then(SolveReport::warning));
+    warnings.extend(scope_warning(gear, a, iso));
+    warnings
 }
 
 /// Why a gear has no ISO 1328-1 tolerances (outside the standard's scope), naming the option.
