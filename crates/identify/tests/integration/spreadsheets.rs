@@ -258,7 +258,7 @@ fn bad_cells_name_the_sheet_and_the_cell() {
     assert_eq!(t.measured().iter().filter(|&&m| !m).count(), 1);
     assert_eq!(
         issues[1],
-        "line 17: bad row: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number"
+        "line 17: bad row: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number (a logger's mark for a missing sample? --missing-code=\"oops\" reads it as an empty cell)"
     );
     // Row 5's b_c is the text "21.5"; the value of row k (sheet row k + 2) is 21 + 0.05 k².
     let row5 = t.lines.iter().position(|&l| l == 5).unwrap();
@@ -275,7 +275,7 @@ fn bad_cells_name_the_sheet_and_the_cell() {
     .to_string();
     assert!(
         e.ends_with(
-            "1 bad row(s) at line(s) 17: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number"
+            "1 bad row(s) at line(s) 17: Sheet 'day 3' cell C17: b_c = \"oops\" is not a number (a logger's mark for a missing sample? --missing-code=\"oops\" reads it as an empty cell)"
         ),
         "{e}"
     );
