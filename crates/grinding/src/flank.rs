@@ -51,21 +51,24 @@ impl InvoluteGear {
             });
         }
         check_range("m_n_mm", m_n_mm, 1e-3, 1e3, "0.001 ..= 1000 mm")?;
+        // angles are checked and reported in degrees, the unit the user wrote
+        // (--pressure-angle-deg 50 read "alpha_n_right_rad = 0.8726646259971648 … 1° ..= 45°")
+        let deg = f64::to_degrees;
         check_range(
-            "alpha_n_right_rad",
-            alpha_n_right_rad,
-            0.017,
-            0.79,
+            "alpha_n_right_deg",
+            deg(alpha_n_right_rad),
+            1.0,
+            45.0,
             "1° ..= 45°",
         )?;
         check_range(
-            "alpha_n_left_rad",
-            alpha_n_left_rad,
-            0.017,
-            0.79,
+            "alpha_n_left_deg",
+            deg(alpha_n_left_rad),
+            1.0,
+            45.0,
             "1° ..= 45°",
         )?;
-        check_range("beta_rad", beta_rad, -1.5703, 1.5703, "|β| < 89.97°")?;
+        check_range("beta_deg", deg(beta_rad), -89.97, 89.97, "|β| ≤ 89.97°")?;
         check_range("x_shift", x_shift, -5.0, 5.0, "-5 ..= 5")?;
         Ok(Self {
             teeth,
@@ -100,12 +103,20 @@ impl InvoluteGear {
             1e5,
             "0.001 ..= 100000 mm",
         )?;
+        if starts == 0 {
+            return Err(GrindError::OutOfRange {
+                field: "worm starts",
+                value: 0.0,
+                expected: "1 ..= 100000",
+            });
+        }
         let cos_beta = f64::from(starts) * m_n_mm / (2.0 * reference_radius_mm);
         if !(cos_beta > 0.0 && cos_beta < 0.9) {
             return Err(GrindError::OutOfRange {
                 field: "worm_reference_radius_mm",
                 value: reference_radius_mm,
-                expected: "larger than starts·m_n/1.8 (lead angle below 64°), and starts ≥ 1",
+                expected: "larger than starts·m_n/1.8 (lead angle below 64°; fewer --worm-starts \
+                           or a larger --worm-radius-mm)",
             });
         }
         Self::new(starts, m_n_mm, alpha_n_rad, hand.sign() * cos_beta.acos())
@@ -440,5 +451,56 @@ mod tests {
         assert!(two.flank_limits(Flank::Right).is_err());
         let pointed = InvoluteGear::asymmetric(12, 3.0, 0.35, 0.35, 0.0, 2.5).unwrap();
         assert!(pointed.flank_limits(Flank::Right).is_err());
+    }
+
+    /// Angles out of range are reported in degrees (the unit of the options), over random
+    /// angles either side of the limits; zero worm starts are named as such.
+    #[test]
+    fn angle_errors_read_in_degrees() {
+        use proptest::prelude::*;
+        use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+        let mut runner = TestRunner::new_with_rng(
+            Config {
+                cases: 64,
+                failure_persistence: None,
+                ..Config::default()
+            },
+            TestRng::from_seed(RngAlgorithm::ChaCha, &[3; 32]),
+        );
+        let bad = prop_oneof![0.01..0.99f64, 45.01..89.0f64];
+        runner
+            .run(&(bad, 0usize..3), |(a_deg, which)| {
+                let a = a_deg.to_radians();
+                let ok = 20f64.to_radians();
+                let e = match which {
+                    0 => InvoluteGear::asymmetric(31, 3.0, a, ok, 0.0, 0.0),
+                    1 => InvoluteGear::asymmetric(31, 3.0, ok, a, 0.0, 0.0),
+                    _ => {
+                        InvoluteGear::asymmetric(31, 3.0, ok, ok, (90.0 + a_deg).to_radians(), 0.0)
+                    }
+                }
+                .unwrap_err()
+                .to_string();
+                let (name, v) = match which {
+                    0 => ("alpha_n_right_deg", a_deg),
+                    1 => ("alpha_n_left_deg", a_deg),
+                    _ => ("beta_deg", 90.0 + a_deg),
+                };
+                // the value as written in degrees (to the rounding of the conversion)
+                let shown: f64 = e
+                    .split(" = ")
+                    .nth(1)
+                    .and_then(|t| t.split(' ').next())
+                    .and_then(|t| t.parse().ok())
+                    .unwrap_or(f64::NAN);
+                prop_assert!(e.starts_with(name), "{}", e);
+                prop_assert!((shown - v).abs() < 1e-9 * v, "{} vs {}", e, v);
+                Ok(())
+            })
+            .unwrap();
+        let e = InvoluteGear::worm(0, 3.0, 0.35, 130.0, Hand::Right)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("worm starts = 0"), "{e}");
     }
 }

@@ -96,9 +96,9 @@ pub(super) fn gear_error(e: &GrindError) -> anyhow::Error {
     let opt = match field {
         "teeth" => "--teeth",
         "m_n_mm" | "normal_module_mm" => "--module-mm",
-        "alpha_n_right_rad" | "normal_pressure_angle" => "--pressure-angle-deg",
-        "alpha_n_left_rad" => "--pressure-angle-left-deg",
-        "beta_rad" | "helix_angle" => "--helix-angle-deg",
+        "alpha_n_right_deg" | "normal_pressure_angle" => "--pressure-angle-deg",
+        "alpha_n_left_deg" => "--pressure-angle-left-deg",
+        "beta_deg" | "helix_angle" => "--helix-angle-deg",
         "x_shift" | "profile_shift" => "--profile-shift",
         _ => "--teeth/--module-mm/--pressure-angle-deg/--helix-angle-deg/--profile-shift",
     };
