@@ -106,6 +106,31 @@ pub fn decode_pulse_total(words: [u16; 2]) -> i64 {
     i64::from(((u32::from(words[0]) << 16) | u32::from(words[1])) as i32)
 }
 
+/// Reads `n` registers of `table` from `address`, the words as the device answered them
+/// (their count is the caller's to check). Through `Client::call` rather than
+/// `read_input_registers` / `read_holding_registers`, which `debug_assert` that the device
+/// answered `n` words: a device answering another count (a valid frame with byte count 0
+/// or 4) panicked the adapter's task in a debug build, and in a release build the register
+/// poll skipped the reading without an alarm.
+async fn read_registers(
+    ctx: &mut client::Context,
+    table: RegisterTable,
+    address: u16,
+    n: u16,
+) -> tokio_modbus::Result<Vec<u16>> {
+    let request = match table {
+        RegisterTable::Input => Request::ReadInputRegisters(address, n),
+        RegisterTable::Holding => Request::ReadHoldingRegisters(address, n),
+    };
+    // `call` refuses a response of another function; nothing else can come back.
+    ctx.call(request).await.map(|r| {
+        r.map(|response| match response {
+            Response::ReadInputRegisters(w) | Response::ReadHoldingRegisters(w) => w,
+            _ => Vec::new(),
+        })
+    })
+}
+
 /// Everything the Modbus adapter needs.
 pub struct ModbusParts {
     /// The configuration.
@@ -296,12 +321,10 @@ async fn run_module(
         'poll: loop {
             tick.tick().await;
             for (r, &ch) in m.registers.iter().zip(&index) {
-                let res = tokio::time::timeout(Duration::from_secs(3), async {
-                    match r.table {
-                        RegisterTable::Input => ctx.read_input_registers(r.address, 1).await,
-                        RegisterTable::Holding => ctx.read_holding_registers(r.address, 1).await,
-                    }
-                })
+                let res = tokio::time::timeout(
+                    Duration::from_secs(3),
+                    read_registers(&mut ctx, r.table, r.address, 1),
+                )
                 .await;
                 let stamp_s = clock.now_s();
                 let key = format!("modbus.{i}.register.{}", r.address);
@@ -317,8 +340,17 @@ async fn run_module(
                 }
                 match res {
                     Ok(Ok(Ok(words))) => {
-                        let Some(&w) = words.first() else { continue };
-                        match decode_register(w, r) {
+                        // A device answering another count of words than asked is a bad
+                        // reading (alarmed, NaN), not a poll skipped without a word.
+                        let decoded = match words.as_slice() {
+                            [w] => decode_register(*w, r),
+                            _ => Err(format!(
+                                "register {}: {} words answered, 1 expected",
+                                r.address,
+                                words.len()
+                            )),
+                        };
+                        match decoded {
                             Ok(v) => {
                                 send(&tx, InputMsg::ClearAlarm { key });
                                 send(
@@ -468,12 +500,10 @@ async fn read_positions(
 ) -> std::result::Result<(), ()> {
     for (p, axis) in &f.positions {
         let n = u16::from(p.words);
-        let res = tokio::time::timeout(Duration::from_secs(3), async {
-            match p.table {
-                RegisterTable::Input => ctx.read_input_registers(p.address, n).await,
-                RegisterTable::Holding => ctx.read_holding_registers(p.address, n).await,
-            }
-        })
+        let res = tokio::time::timeout(
+            Duration::from_secs(3),
+            read_registers(ctx, p.table, p.address, n),
+        )
         .await;
         let key = format!("modbus.position.{}", p.axis);
         let pos = match res {
@@ -538,7 +568,7 @@ async fn write_pulses(
     if !st.pulses_checked {
         let read = tokio::time::timeout(
             Duration::from_secs(3),
-            ctx.read_holding_registers(o.address, 2),
+            read_registers(ctx, RegisterTable::Holding, o.address, 2),
         )
         .await;
         match read {
@@ -794,7 +824,7 @@ async fn write_output(
             held.next_check = Some(now + Duration::from_secs_f64(o.refresh_s));
             let read = tokio::time::timeout(
                 Duration::from_secs(3),
-                ctx.read_holding_registers(o.address, 1),
+                read_registers(ctx, RegisterTable::Holding, o.address, 1),
             )
             .await;
             match read {

@@ -15,6 +15,7 @@ mod http_api;
 mod http_client_certs;
 mod http_limits;
 mod modbus;
+mod modbus_fuzz;
 mod modbus_output;
 mod modbus_pulses;
 mod modbus_silent;
