@@ -28,11 +28,16 @@ pub struct Selection {
     pub run: Option<String>,
 }
 
+/// The time column a selection names by default. When a log has no column of this name
+/// and exactly one column reads as a time axis (`time`, `Zeit [s]`, `time_ms`:
+/// [`crate::time_unit::looks_like_time`]), that column is the time, with a note.
+pub const DEFAULT_TIME_COLUMN: &str = "time_s";
+
 impl Default for Selection {
     /// `time_s`, every `*_c` column (°C by the naming convention) as input, no target.
     fn default() -> Self {
         Self {
-            time: "time_s".into(),
+            time: DEFAULT_TIME_COLUMN.into(),
             inputs: vec!["*_c".into()],
             targets: Vec::new(),
             run: None,
@@ -179,6 +184,12 @@ pub enum DataIssue {
         /// How many cells of it hold a value.
         cells: usize,
     },
+    /// The log has no [`DEFAULT_TIME_COLUMN`] and one column that reads as a time axis,
+    /// taken as the time.
+    TimeColumn {
+        /// The column taken.
+        column: String,
+    },
     /// Lines that are not data: title lines above the header, a units row under it
     /// ([`crate::preamble`]).
     Skipped {
@@ -199,6 +210,10 @@ impl std::fmt::Display for DataIssue {
                 to_s - from_s
             ),
             DataIssue::Skipped { line, reason } => write!(f, "line {line}: {reason}"),
+            DataIssue::TimeColumn { column } => write!(
+                f,
+                "time column: {column:?} (the log has no {DEFAULT_TIME_COLUMN} column and this one reads as a time axis; name another with --time-column)"
+            ),
             DataIssue::Missing {
                 line,
                 reason,
@@ -297,7 +312,8 @@ impl Table {
                 | DataIssue::Skipped { .. }
                 | DataIssue::Held { .. }
                 | DataIssue::Unit { .. }
-                | DataIssue::TimeUnit { .. } => None,
+                | DataIssue::TimeUnit { .. }
+                | DataIssue::TimeColumn { .. } => None,
             })
             .collect();
         (lines.len(), lines.into_iter().take(10).collect())
@@ -951,6 +967,8 @@ struct Reader<'a> {
     time_column: Option<(String, Option<String>)>,
     /// A time stamp was read in the time column.
     time_stamps: bool,
+    /// The time column taken for a missing [`DEFAULT_TIME_COLUMN`] (the first file's).
+    time_taken: Option<String>,
     /// Rows whose time does not increase, for the hint of the bad-rows error (a restart, a
     /// log newest first).
     drops: Drops,
@@ -988,6 +1006,7 @@ impl<'a> Reader<'a> {
             target_unit_cells: Vec::new(),
             time_column: None,
             time_stamps: false,
+            time_taken: None,
             drops: Drops::default(),
             named_runs: false,
             skipped: Vec::new(),
@@ -1336,6 +1355,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         target_unit_cells,
         time_column,
         time_stamps,
+        time_taken,
         drops,
         named_runs,
         skipped,
@@ -1515,6 +1535,9 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         to_micrometres(&mut t, choice, &target_unit_cells)?;
     }
     t.issues.splice(0..0, time_note);
+    if let Some(column) = time_taken {
+        t.issues.insert(0, DataIssue::TimeColumn { column });
+    }
     for (name, y) in t.target_names.iter().zip(&t.targets) {
         if !y.iter().any(|v| v.is_finite()) {
             return Err(invalid(
@@ -1638,13 +1661,20 @@ impl Reader<'_> {
                 header.iter().position(|h| h == d)
             }
             None => {
-                if !header.contains(&sel.time) {
-                    let like = header
-                        .iter()
-                        .find(|h| crate::time_unit::looks_like_time(h))
-                        .map_or(String::new(), |h| {
-                            format!(" ({h:?} looks like one: --time-column {h:?})")
-                        });
+                let like: Vec<usize> = (0..header.len())
+                    .filter(|&i| crate::time_unit::looks_like_time(&header[i]))
+                    .collect();
+                if !header.contains(&sel.time) && sel.time == DEFAULT_TIME_COLUMN && like.len() == 1
+                {
+                    if fi == 0 {
+                        self.time_taken = Some(header[like[0]].clone());
+                    }
+                    Some(like[0])
+                } else if !header.contains(&sel.time) {
+                    let like = like.first().map_or(String::new(), |&i| {
+                        let h = &header[i];
+                        format!(" ({h:?} looks like one: --time-column {h:?})")
+                    });
                     return Err(invalid(
                         "--time-column",
                         &sel.time,
@@ -1653,8 +1683,9 @@ impl Reader<'_> {
                             header.join(", ")
                         ),
                     ));
+                } else {
+                    Some(resolve(std::slice::from_ref(&sel.time), &header, &[])?[0])
                 }
-                Some(resolve(std::slice::from_ref(&sel.time), &header, &[])?[0])
             }
         };
         let run_idx = match &sel.run {
@@ -2014,8 +2045,13 @@ impl Reader<'_> {
             (Some(ti), None) => rec.get(ti).copied().unwrap_or("").into(),
             _ => "".into(),
         };
+        // The time column as the log names it (the selection's name for DATE+TIME).
+        let time_name: &str = match (c.time_idx, c.time2_idx) {
+            (Some(ti), None) => c.header.get(ti).map_or(sel.time.as_str(), |h| h.as_str()),
+            _ => sel.time.as_str(),
+        };
         let time = match (c.time_idx, self.opts.sample_interval_s) {
-            (Some(_), _) => time_cell(time_text.trim(), &sel.time, dc, st),
+            (Some(_), _) => time_cell(time_text.trim(), time_name, dc, st),
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };
@@ -2061,7 +2097,7 @@ impl Reader<'_> {
                     line,
                     format!(
                         "{} = {} does not increase (previous {prev}{}){}",
-                        sel.time,
+                        time_name,
                         // A time stamp: the text as written, and s since the run's first.
                         if st.stamps == Some(true) {
                             format!("{time_text:?} ({time} s after the run's first stamp)")

@@ -626,6 +626,44 @@ fn fit_reads_a_logger_missing_code_only_when_named() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// A log whose only time axis is `time_ms` (epoch milliseconds, no `time_s`): taken as the
+/// time with a note, converted from ms; the fit is the fit of the same log in seconds.
+#[test]
+fn fit_takes_a_lone_time_axis_with_a_note() {
+    let d = tmp("lone_time");
+    let rows = plain_rows();
+    let want = fit_json(&d, "s.csv", &plain_text(&rows), &[]).unwrap();
+    let body: String = rows
+        .iter()
+        .map(|r| {
+            let t: f64 = r[0].parse().unwrap();
+            format!("{},{}\n", 1.764e12 + t * 1000.0, r[1..].join(","))
+        })
+        .collect();
+    let p = d.join("ms.csv");
+    std::fs::write(&p, format!("time_ms,a_c,b_c,y_um\n{body}")).unwrap();
+    let out = bin()
+        .args(["fit", "--target", "y_um", "--no-test", "--data"])
+        .arg(&p)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("note: time column: \"time_ms\" (the log has no time_s column"),
+        "{stdout}"
+    );
+    let got = fit_json(&d, "ms.csv", &format!("time_ms,a_c,b_c,y_um\n{body}"), &[]).unwrap();
+    for key in ["family", "validation_rmse_um", "train_rmse_um"] {
+        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// Texts for a missing sample (`#N/A` in an input, `OVF` in the target, a number code
 /// beside them): refused with the hint naming `--missing-code`; named, the fit is the fit of
 /// the log with those cells empty.

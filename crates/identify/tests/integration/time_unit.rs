@@ -184,8 +184,9 @@ fn a_time_unit_that_is_none_is_refused() {
 }
 
 /// A log named otherwise than FL_THERMAL (`time`, `t1`, `disp`): each missing default
-/// column is refused naming the option that names it, and a column that reads as a time
-/// axis is offered for `--time-column`.
+/// column is refused naming the option that names it; without `time_s`, two columns that
+/// read as a time axis are refused with the first offered for `--time-column` (one alone is
+/// taken: `a_lone_time_axis_is_taken_with_a_note`).
 #[test]
 fn columns_named_otherwise_are_refused_naming_the_option() {
     let text = "Zeit [min],program,t1,t2,disp\n0,P1,20,21,1\n1,P1,21,22,2\n2,P2,22,23,3\n";
@@ -194,15 +195,29 @@ fn columns_named_otherwise_are_refused_naming_the_option() {
             .unwrap_err()
             .to_string()
     };
-    let e = read(&Selection {
-        targets: vec!["disp".into()],
-        ..Selection::default()
-    });
+    let two = "Zeit [min],elapsed,t1,t2,disp\n0,0,20,21,1\n1,60,21,22,2\n2,120,22,23,3\n";
+    let e = read_csv(
+        two,
+        "log.csv",
+        &Selection {
+            targets: vec!["disp".into()],
+            ..Selection::default()
+        },
+        ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         e.contains("--time-column = time_s")
             && e.contains("\"Zeit [min]\" looks like one: --time-column \"Zeit [min]\""),
         "{e}"
     );
+    // One time axis alone is taken: the first error is then the inputs'.
+    let e = read(&Selection {
+        targets: vec!["disp".into()],
+        ..Selection::default()
+    });
+    assert!(e.contains("\"*_c\" not found"), "{e}");
     let e = read(&Selection {
         time: "Zeit [min]".into(),
         targets: vec!["disp".into()],
@@ -421,4 +436,95 @@ fn restart_runs_are_named_after_their_run_or_file() {
     let t =
         gearcomp_identify::data::read_runs(&[(f, "d1.csv"), (f, "d2.csv")], &sel, opts).unwrap();
     assert_eq!(t.run_names, ["d1", "d1/2", "d2", "d2/2"]);
+}
+
+/// Without a `time_s` column, the one column that reads as a time axis is the time, with a
+/// note, in the unit its name or units row gives: every table equals the table of the same
+/// log with the time written in seconds under `time_s` (the reference). A name given
+/// otherwise than the default, and two time-like columns, are refused.
+#[test]
+fn a_lone_time_axis_is_taken_with_a_note() {
+    let mut uni = uniform(7);
+    let n = 40;
+    let t_s: Vec<f64> = (0..n)
+        .map(|i| 30.0 * i as f64 + (uni() * 10.0).floor())
+        .collect();
+    let body = |scale: f64| -> String {
+        (0..n)
+            .map(|i| {
+                format!(
+                    "{},{},{}\n",
+                    t_s[i] / scale,
+                    20.0 + i as f64 * 0.1,
+                    i as f64 * 0.5
+                )
+            })
+            .collect()
+    };
+    let sel = Selection {
+        targets: vec!["y_um".into()],
+        ..Selection::default()
+    };
+    let want = read_csv(
+        &format!("time_s,a_c,y_um\n{}", body(1.0)),
+        "log.csv",
+        &sel,
+        ReadOptions::default(),
+    )
+    .unwrap();
+    for (name, scale) in [
+        ("time", 1.0),
+        ("Time", 1.0),
+        ("Zeit [s]", 1.0),
+        ("elapsed", 1.0),
+        ("t", 1.0),
+        ("time_ms", 0.001),
+        ("Zeit [min]", 60.0),
+        ("time_h", 3600.0),
+    ] {
+        let text = format!("{name},a_c,y_um\n{}", body(scale));
+        let auto = ReadOptions {
+            time_unit: Some(TimeUnitChoice::Auto),
+            ..ReadOptions::default()
+        };
+        let t = read_csv(&text, "log.csv", &sel, auto).unwrap();
+        assert_eq!(t.time_s.len(), n, "{name}");
+        for (a, b) in t.time_s.iter().zip(&want.time_s) {
+            assert!(
+                (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+                "{name}: {a} vs {b}"
+            );
+        }
+        assert_eq!(t.inputs, want.inputs, "{name}");
+        let note = t
+            .issues
+            .iter()
+            .find(|i| matches!(i, DataIssue::TimeColumn { .. }))
+            .unwrap()
+            .to_string();
+        assert!(
+            note.contains(&format!("time column: {name:?}")) && note.contains("--time-column"),
+            "{note}"
+        );
+    }
+    // A name the user gave is not replaced.
+    let text = format!("time,a_c,y_um\n{}", body(1.0));
+    let e = read_csv(
+        &text,
+        "log.csv",
+        &Selection {
+            time: "clock".into(),
+            ..sel.clone()
+        },
+        ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--time-column = clock"), "{e}");
+    // A bad time cell names the column the log has.
+    let text = format!("time,a_c,y_um\n{}x,20,1\n", body(1.0));
+    let e = read_csv(&text, "log.csv", &sel, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("time = \"x\" is not a number"), "{e}");
 }
