@@ -98,14 +98,51 @@ pub fn flank_ratios(spec: &EqualiseSpec, cone1_rad: f64) -> Result<(f64, f64, f6
 
 const SCAN_STEPS: usize = 64;
 
+/// Bisects Δ on [a, b] (Δ(a) = fa, a sign change) to machine precision; `None` if the bracket
+/// holds a pole of K instead of a root (a singular K on the way, or |Δ| = |K_l − K_r| at the
+/// end above 1e-6).
+fn bisect_root(
+    delta: &impl Fn(f64) -> Result<f64>,
+    mut a: f64,
+    mut fa: f64,
+    mut b: f64,
+) -> Option<(f64, f64)> {
+    if fa == 0.0 {
+        return Some((a, a));
+    }
+    let mut fb = f64::NAN;
+    for _ in 0..200 {
+        if (b - a).abs() <= 4.0 * f64::EPSILON * (1.0 + a.abs().max(b.abs())) {
+            break;
+        }
+        let m = 0.5 * (a + b);
+        let fm = delta(m).ok()?;
+        if fm == 0.0 {
+            return Some((m, m));
+        }
+        if fa * fm < 0.0 {
+            b = m;
+            fb = fm;
+        } else {
+            a = m;
+            fa = fm;
+        }
+    }
+    // a root leaves |Δ| at rounding level; a pole leaves it large (growing as the bracket shrinks)
+    (fa.abs().min(fb.abs()) <= 1e-6).then_some((a, b))
+}
+
 /// The worm cone angle in the allowed range at which K_ZV1,l = K_ZV1,r.
 ///
 /// # Formula
 /// Root of Δ(ϑ1) = K_l(ϑ1) − K_r(ϑ1): Δ is sampled at 65 points of the range, the sign change
-/// nearest to ϑ1 = 0 is bracketed and bisected to machine precision.
+/// nearest to ϑ1 = 0 is bracketed and bisected to machine precision; a sign change across a
+/// pole of K (a flank's K through ±∞, which ended the search with "diagonal ratio (conical):
+/// … is singular") is passed over for the next one.
 /// # Domain
-/// Returns [`GrindError::NoRoot`] when Δ does not change sign in the range (no cone angle in
-/// it equalises the two flanks); a sample where a flank's K is singular is skipped.
+/// Returns [`GrindError::NoRoot`] when Δ does not change sign in the range, or only across
+/// poles (no cone angle in it equalises the two flanks); a sample where a flank's K is
+/// singular is skipped.
 /// # Source
 /// JP6903407B2, conical worms for different directions on the two flanks, conical worm on a conical
 /// workpiece [SEED]; docs/grinding.md "Derivation: equal diagonal ratio on both flanks",
@@ -135,7 +172,12 @@ pub fn equalise_worm_cone_angle(spec: &EqualiseSpec) -> Result<Equalised> {
         let t = lo + (hi - lo) * i as f64 / SCAN_STEPS as f64;
         *s = (t, delta(t).unwrap_or(f64::NAN));
     }
-    let mut best: Option<(f64, f64, f64, f64)> = None;
+    // brackets of a sign change, nearest to ϑ1 = 0 first; a sign change may be a pole of K
+    // (a flank's denominator through 0) instead of a root: its bisection meets a singular K
+    // or ends on a large |Δ|, and the next bracket is tried
+    // fixed storage: the search allocates nothing (tests/conical_no_alloc.rs)
+    let mut store = [(0.0, 0.0, 0.0, f64::MAX); SCAN_STEPS];
+    let mut count = 0;
     for pair in samples.windows(2) {
         let ((ta, da), (tb, db)) = (pair[0], pair[1]);
         if !(da.is_finite() && db.is_finite()) || da * db > 0.0 {
@@ -145,43 +187,28 @@ pub fn equalise_worm_cone_angle(spec: &EqualiseSpec) -> Result<Equalised> {
             .abs()
             .min(tb.abs())
             .min(if ta * tb <= 0.0 { 0.0 } else { f64::MAX });
-        if best.is_none_or(|(_, _, _, d)| dist < d) {
-            best = Some((ta, da, tb, dist));
-        }
+        store[count] = (ta, da, tb, dist);
+        count += 1;
     }
-    let Some((mut a, mut fa, mut b, _)) = best else {
-        let first = samples[0].1;
-        let last = samples[SCAN_STEPS].1;
-        return Err(GrindError::NoRoot {
-            what: "worm cone angle equalising K_ZV1 on both flanks",
-            field: "cone_range_rad",
-            min: lo,
-            max: hi,
-            at_min: first,
-            at_max: last,
-        });
+    let brackets = &mut store[..count];
+    brackets.sort_unstable_by(|x, y| x.3.total_cmp(&y.3));
+    let no_root = || GrindError::NoRoot {
+        what: "worm cone angle equalising K_ZV1 on both flanks",
+        field: "cone_range_rad",
+        min: lo,
+        max: hi,
+        at_min: samples[0].1,
+        at_max: samples[SCAN_STEPS].1,
     };
-    if fa == 0.0 {
-        b = a;
+    if brackets.is_empty() {
+        return Err(no_root());
     }
-    for _ in 0..200 {
-        if (b - a).abs() <= 4.0 * f64::EPSILON * (1.0 + a.abs().max(b.abs())) {
-            break;
-        }
-        let m = 0.5 * (a + b);
-        let fm = delta(m)?;
-        if fm == 0.0 {
-            a = m;
-            b = m;
-            break;
-        }
-        if fa * fm < 0.0 {
-            b = m;
-        } else {
-            a = m;
-            fa = fm;
-        }
-    }
+    let found = brackets
+        .iter()
+        .find_map(|&(a, fa, b, _)| bisect_root(&delta, a, fa, b));
+    let Some((a, b)) = found else {
+        return Err(no_root());
+    };
     let cone = 0.5 * (a + b);
     let (kl, kr, rl, rr) = flank_ratios(spec, cone)?;
     Ok(Equalised {

@@ -420,7 +420,7 @@ pub(super) fn equalise(a: EqualiseArgs) -> Result<()> {
         Err(GrindError::NoRoot { at_min, at_max, .. }) => anyhow::bail!(
             "no worm cone angle in [{}°, {}°] ([equalise] cone_min_deg/cone_max_deg) gives both \
              flanks the same diagonal ratio: K_l − K_r = {at_min:.6} at {}° and {at_max:.6} at \
-             {}° (no sign change); widen the range, or change the worm lines or the wanted \
+             {}° (no sign change, or only across a pole of K); widen the range, or change the worm lines or the wanted \
              directions",
             cfg.equalise.cone_min_deg,
             cfg.equalise.cone_max_deg,

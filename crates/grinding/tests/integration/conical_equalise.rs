@@ -191,3 +191,90 @@ fn t14_both_flanks_ground_with_common_k() {
         }
     }
 }
+
+/// The T14 search over random gears, worms, cones and wanted directions against a brute-force
+/// scan written here: 2001 samples of Δ(ϑ1) = K_l − K_r over the range; a sign change between
+/// neighbours with |Δ| < 0.05 on both sides is a root (a pole of K changes sign through ±∞ with
+/// large |Δ| either side). Whenever the scan finds a root, the search must return a cone angle
+/// with |K_l − K_r| ≤ 1e-6; whatever it returns satisfies that. The search bisected a sign
+/// change across a pole and stopped with "diagonal ratio (conical): rho2_rad = 0.3485 is
+/// singular" (z = 140, m_n = 13.07, β = 35.5°, ϑ2 = −4.3°, four-start left worm, ρ_l2 = 19.97°).
+#[test]
+fn equalise_passes_over_poles_of_k() {
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let strategy = (
+        (
+            20u32..250,
+            0.5..20.0f64,
+            15.0..28.0f64,
+            15.0..28.0f64,
+            -40.0..40.0f64,
+        ),
+        (-5.0..5.0f64, 1u32..5, 15.0..60.0f64, any::<bool>()),
+        (-80.0..80.0f64, -80.0..80.0f64, 10.0..30.0f64, 10.0..30.0f64),
+    );
+    let checked = std::cell::Cell::new((0, 0));
+    let mut runner = TestRunner::new_with_rng(
+        Config {
+            cases: 48,
+            failure_persistence: None,
+            ..Config::default()
+        },
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[17; 32]),
+    );
+    runner
+        .run(
+            &strategy,
+            |((z, m, ar, al, b), (cone2, starts, r1_m, left_hand), (r2r, r2l, w1r, w1l))| {
+                let (ar, al) = (ar.to_radians(), al.to_radians());
+                let Ok(gear) = InvoluteGear::asymmetric(z, m, ar, al, b.to_radians(), 0.0) else {
+                    return Ok(());
+                };
+                let hand = if left_hand { Hand::Left } else { Hand::Right };
+                let Ok(w) = InvoluteGear::worm(starts, m, ar, r1_m * m, hand) else {
+                    return Ok(());
+                };
+                let worm = InvoluteGear::asymmetric(starts, m, ar, al, w.beta_rad, 0.0).unwrap();
+                let Ok(bev) = BeveloidGear::new(gear, cone2.to_radians()) else {
+                    return Ok(());
+                };
+                let s = EqualiseSpec {
+                    worm,
+                    gear: bev,
+                    rho2_left_rad: r2l.to_radians(),
+                    rho2_right_rad: r2r.to_radians(),
+                    worm_lines: WormLines::Given {
+                        left_rad: -w1l.to_radians(),
+                        right_rad: w1r.to_radians(),
+                    },
+                    cone_range_rad: (-15f64.to_radians(), 15f64.to_radians()),
+                };
+                let n = 2000;
+                let d: Vec<Option<f64>> = (0..=n)
+                    .map(|i| {
+                        let t = (-15.0 + 30.0 * f64::from(i) / f64::from(n)).to_radians();
+                        flank_ratios(&s, t).ok().map(|(l, r, _, _)| l - r)
+                    })
+                    .collect();
+                let root_in_scan = d.windows(2).any(|p| match (p[0], p[1]) {
+                    (Some(a), Some(b)) => a * b <= 0.0 && a.abs() < 0.05 && b.abs() < 0.05,
+                    _ => false,
+                });
+                match equalise_worm_cone_angle(&s) {
+                    Ok(e) => {
+                        prop_assert!((e.k_left - e.k_right).abs() <= 1e-6, "{:?}", e);
+                        let (l, r, _, _) = flank_ratios(&s, e.cone1_rad).unwrap();
+                        prop_assert!((l - r).abs() <= 1e-6);
+                    }
+                    Err(err) => prop_assert!(!root_in_scan, "scan has a root, search: {}", err),
+                }
+                let (c, r) = checked.get();
+                checked.set((c + 1, r + usize::from(root_in_scan)));
+                Ok(())
+            },
+        )
+        .unwrap();
+    let (c, r) = checked.get();
+    assert!(c > 30 && r > 5, "{c} cases, {r} with a root");
+}
