@@ -77,10 +77,18 @@ pub fn train_mask(table: &Table, split: &Split) -> Result<Vec<bool>> {
     let mask: Vec<bool> = mask.iter().zip(&measured).map(|(&a, &b)| a && b).collect();
     let n = mask.iter().filter(|&&m| m).count();
     if n < 10 && sparse {
+        let one_at_a_time = if table.targets.len() > 1 {
+            format!(
+                " (the targets are measured on different rows: fit them one at a time, --target {} then --target {})",
+                table.target_names[0], table.target_names[1]
+            )
+        } else {
+            String::new()
+        };
         return Err(invalid(
             "training rows",
             format!("{n} with every target measured"),
-            "at least 10 training rows on which every target has a value",
+            &format!("at least 10 training rows on which every target has a value{one_at_a_time}"),
         ));
     }
     if n < 10 {

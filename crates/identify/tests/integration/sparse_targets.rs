@@ -195,3 +195,48 @@ fn a_time_split_scores_the_measured_test_rows_only() {
     .to_string();
     assert!(e.contains("every target measured"), "{e}");
 }
+
+/// Two targets probed on alternate rows share no measured row: refused naming both and the
+/// way on (one at a time); each alone fits its exact law.
+#[test]
+fn targets_measured_on_different_rows_are_fitted_one_at_a_time() {
+    let mut text = String::from("time_s,a_c,b_c,y_um,z_um\n");
+    for i in 0..120 {
+        let (a, b) = (
+            20.0 + (i as f64 / 9.0).sin(),
+            22.0 + (i as f64 / 13.0).cos(),
+        );
+        let (y, z) = (2.0 * a - b, a + 3.0 * b);
+        let (y, z) = if i % 2 == 0 {
+            (format!("{y}"), String::new())
+        } else {
+            (String::new(), format!("{z}"))
+        };
+        text += &format!("{},{a},{b},{y},{z}\n", i * 60);
+    }
+    let both = Selection {
+        targets: vec!["y_um".into(), "z_um".into()],
+        ..Selection::default()
+    };
+    let t = read_csv(&text, "log.csv", &both, ReadOptions::default()).unwrap();
+    let o = opts(&[Family::Static], &[]);
+    let e = identify(&t, &o).unwrap_err().to_string();
+    assert!(
+        e.contains("0 with every target measured")
+            && e.contains("fit them one at a time, --target y_um then --target z_um"),
+        "{e}"
+    );
+    for (name, law) in [("y_um", [0.0, 2.0, -1.0]), ("z_um", [0.0, 1.0, 3.0])] {
+        let one = Selection {
+            targets: vec![name.into()],
+            ..Selection::default()
+        };
+        let t = read_csv(&text, "log.csv", &one, ReadOptions::default()).unwrap();
+        let id = identify(&t, &o).unwrap();
+        let p = predict(&t, &id.targets[0].model).unwrap();
+        for i in 0..t.time_s.len() {
+            let want = law[0] + law[1] * t.inputs[0][i] + law[2] * t.inputs[1][i];
+            assert!((p[i] - want).abs() < 1e-9, "{name} row {i}");
+        }
+    }
+}
