@@ -246,7 +246,7 @@ pub fn check_far_values<'a>(
                 shown.join(", ")
             ),
             &format!(
-                "a measured value: these lie {:.0} spans of the column's other values ({lo} … {hi}) apart from them, as a sensor fault does (an open or shorted sensor, an overflow, a probe off its surface); {codes} (an empty input cell then follows --missing, an empty target cell is a row without a measurement), or fit them as written with --keep-far-values",
+                "a measured value: these lie {:.0} spans of the column's other values ({lo} … {hi}) apart from them, as a sensor fault does (an open or shorted sensor, an overflow, a probe off its surface); {codes} (an empty input cell then follows --missing, an empty target cell is a row without a measurement); if they are real readings (a short run at a speed or power the log reaches nowhere else), fit them as written with --keep-far-values",
                 far.ratio
             ),
         ));
