@@ -71,8 +71,14 @@ pub enum GrindError {
     /// No state of the search puts the worm thread on the gear point's normal.
     #[error(
         "no worm contact at gear point w = {w2_mm} mm, z = {z2_mm} mm: the analytic worm point \
-         w1 = {w1_mm} mm lies outside the worm thread (roll distance {w1_min_mm} ..= \
-         {w1_max_mm} mm between root and tip) or the worm meets another thread turn there"
+         w1 = {w1_mm} mm lies outside the worm thread (roll distance {w1_min_mm} … {hi} mm \
+         between root and tip{below}) or the worm meets another thread turn there",
+        hi = if w1_max_mm.is_finite() { w1_max_mm.to_string() } else { "∞".to_string() },
+        below = if *w1_mm < 0.0 {
+            "; w1 < 0 is inside the worm's base cylinder, where the thread has no involute flank"
+        } else {
+            ""
+        }
     )]
     NoWormContact {
         /// Gear roll distance.
@@ -141,5 +147,35 @@ pub(crate) fn check_range(
             value,
             expected,
         })
+    }
+}
+
+#[cfg(test)]
+mod no_contact_message_tests {
+    use super::GrindError;
+
+    /// A conical run has no worm radii (upper bound ∞) and its analytic worm point can fall
+    /// inside the worm's base cylinder (w1 < 0): the message said "roll distance 0 ..= inf mm".
+    #[test]
+    fn no_worm_contact_reads_without_inf() {
+        let e = GrindError::NoWormContact {
+            w2_mm: 78.4,
+            z2_mm: 16.7,
+            w1_mm: -2.5,
+            w1_min_mm: 0.0,
+            w1_max_mm: f64::INFINITY,
+        }
+        .to_string();
+        assert!(e.contains("roll distance 0 … ∞ mm"), "{e}");
+        assert!(e.contains("inside the worm's base cylinder") && !e.contains("inf "), "{e}");
+        let e = GrindError::NoWormContact {
+            w2_mm: 20.0,
+            z2_mm: 0.0,
+            w1_mm: 40.0,
+            w1_min_mm: 5.0,
+            w1_max_mm: 30.0,
+        }
+        .to_string();
+        assert!(e.contains("roll distance 5 … 30 mm") && !e.contains("base cylinder"), "{e}");
     }
 }
