@@ -13,7 +13,7 @@ pub enum GrindError {
     #[error(transparent)]
     Geometry(#[from] gearcomp_geometry::GeometryError),
     /// A parameter is outside its allowed range (or not finite).
-    #[error("{field} = {value} is out of range: expected {expected}")]
+    #[error("{field} = {v} is out of range: expected {expected}", v = short(*value))]
     OutOfRange {
         /// Name of the field, with its unit (e.g. `m_n_mm`).
         field: &'static str,
@@ -132,6 +132,15 @@ pub enum GrindError {
 }
 
 /// Checks that `value` is finite and inside `[min, max]`.
+/// A value as written, huge ones in exponent form (`--worm-c 1e300` printed 298 digits).
+fn short(x: f64) -> String {
+    if x.is_finite() && x.abs() >= 1e9 {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 pub(crate) fn check_range(
     field: &'static str,
     value: f64,
@@ -167,7 +176,10 @@ mod no_contact_message_tests {
         }
         .to_string();
         assert!(e.contains("roll distance 0 … ∞ mm"), "{e}");
-        assert!(e.contains("inside the worm's base cylinder") && !e.contains("inf "), "{e}");
+        assert!(
+            e.contains("inside the worm's base cylinder") && !e.contains("inf "),
+            "{e}"
+        );
         let e = GrindError::NoWormContact {
             w2_mm: 20.0,
             z2_mm: 0.0,
@@ -176,6 +188,24 @@ mod no_contact_message_tests {
             w1_max_mm: 30.0,
         }
         .to_string();
-        assert!(e.contains("roll distance 5 … 30 mm") && !e.contains("base cylinder"), "{e}");
+        assert!(
+            e.contains("roll distance 5 … 30 mm") && !e.contains("base cylinder"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn huge_values_in_exponent_form() {
+        let e = super::check_range("F_C coefficients", 1e297, -1e12, 1e12, "|c| ≤ 1e12")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "F_C coefficients = 1e297 is out of range: expected |c| ≤ 1e12"
+        );
+        let e = super::check_range("m_n_mm", 0.0, 1e-3, 1e3, "0.001 ..= 1000 mm")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "m_n_mm = 0 is out of range: expected 0.001 ..= 1000 mm");
     }
 }

@@ -85,7 +85,13 @@ impl Poly {
             });
         }
         for &v in &self.0 {
-            check_range(field, v, -1e12, 1e12, "finite coefficients")?;
+            check_range(
+                field,
+                v,
+                -1e12,
+                1e12,
+                "finite coefficients of magnitude ≤ 1e12 mm·mm⁻ᵏ (1e15 µm·mm⁻ᵏ at the CLI)",
+            )?;
         }
         Ok(())
     }
