@@ -30,12 +30,18 @@ pub fn parse_reading(payload: &[u8]) -> Result<f64, String> {
         serde_json::Value::Number(n) => n.as_f64(),
         serde_json::Value::Object(m) => match m.get("value") {
             Some(serde_json::Value::Number(n)) => n.as_f64(),
-            Some(other) => return Err(format!("\"value\" = {other}; expected a finite number")),
+            Some(other) => {
+                return Err(format!(
+                    "\"value\" = {}; expected a finite number",
+                    crate::error::shorten_message(&other.to_string())
+                ))
+            }
             None => return Err("no \"value\" key; expected {\"value\": number}".into()),
         },
         other => {
             return Err(format!(
-                "payload {other}; expected a number or {{\"value\": number}}"
+                "payload {}; expected a number or {{\"value\": number}}",
+                crate::error::shorten_message(&other.to_string())
             ))
         }
     };
@@ -130,6 +136,50 @@ fn shown(text: &str, n: usize) -> String {
         format!("{head}… ({} bytes)", text.len())
     } else {
         head
+    }
+}
+
+/// The messages refused on one topic (a channel's or an axis position's): one alarm from
+/// the first refusal until an accepted message clears it, its count every refusal since
+/// (so none is dropped silently: `/api/alarms` shows how many).
+#[derive(Debug, Clone, Default)]
+struct Refused {
+    /// The alarm reached the cycle.
+    raised: bool,
+    /// Messages refused since the last accepted one.
+    count: u64,
+}
+
+impl Refused {
+    /// One more message refused: the alarm raised (with `message`) if it is not yet, and
+    /// the count sent. A full queue counts the lost message in `input.queue_full`; the
+    /// next refusal raises the alarm with the whole count.
+    fn refused(&mut self, tx: &InputTx, key: String, message: impl FnOnce() -> String) {
+        self.count += 1;
+        if !self.raised {
+            self.raised = tx
+                .try_send(InputMsg::RaiseAlarm {
+                    key: key.clone(),
+                    message: message(),
+                })
+                .is_ok();
+        }
+        if self.raised && self.count > 1 {
+            let _ = tx.try_send(InputMsg::AlarmCount {
+                key,
+                count: self.count,
+            });
+        }
+    }
+
+    /// A message accepted: the alarm cleared, the count back to 0.
+    fn accepted(&mut self, tx: &InputTx, key: impl FnOnce() -> String) {
+        if self.raised && tx.try_send(InputMsg::ClearAlarm { key: key() }).is_ok() {
+            self.raised = false;
+        }
+        if !self.raised {
+            self.count = 0;
+        }
     }
 }
 
@@ -517,10 +567,10 @@ pub async fn run(p: MqttParts) {
 
     let state = std::sync::Arc::new(std::sync::Mutex::new(ConnState::default()));
     tokio::spawn(timers(std::sync::Arc::downgrade(&state), tx.clone()));
-    // Payload alarms raised per channel, so a flood of bad messages sends one edge, not
-    // one message per publish, to the cycle.
-    let mut payload_alarm = vec![false; channels.len()];
-    let mut position_alarm = vec![false; axes.len()];
+    // Payload alarms raised per channel, so a flood of bad messages is one alarm (one
+    // edge, one row) whose count is every message refused since it was raised.
+    let mut payload_alarm = vec![Refused::default(); channels.len()];
+    let mut position_alarm = vec![Refused::default(); axes.len()];
     let mut failures = 0u32;
     loop {
         match eventloop.poll().await {
@@ -551,11 +601,7 @@ pub async fn run(p: MqttParts) {
                         .and_then(|()| parse_reading(&p.payload))
                     {
                         Ok(position_mm) => {
-                            if position_alarm[ax]
-                                && tx.try_send(InputMsg::ClearAlarm { key }).is_ok()
-                            {
-                                position_alarm[ax] = false;
-                            }
+                            position_alarm[ax].accepted(&tx, || key);
                             send(
                                 &tx,
                                 InputMsg::Position {
@@ -574,17 +620,12 @@ pub async fn run(p: MqttParts) {
                                     position_mm: f64::NAN,
                                 },
                             );
-                            if !position_alarm[ax] {
-                                position_alarm[ax] = tx
-                                    .try_send(InputMsg::RaiseAlarm {
-                                        key,
-                                        message: format!(
-                                            "MQTT topic {}: {msg}; expected the axis position in mm; axes reading it are frozen",
-                                            shown(&p.topic, TOPIC_SHOWN_CHARS)
-                                        ),
-                                    })
-                                    .is_ok();
-                            }
+                            position_alarm[ax].refused(&tx, key, || {
+                                format!(
+                                    "MQTT topic {}: {msg}; expected the axis position in mm; axes reading it are frozen",
+                                    shown(&p.topic, TOPIC_SHOWN_CHARS)
+                                )
+                            });
                         }
                     }
                     continue;
@@ -619,15 +660,7 @@ pub async fn run(p: MqttParts) {
                     .and_then(|()| parse_reading(&p.payload));
                 match parsed {
                     Ok(raw) => {
-                        if payload_alarm[ch]
-                            && tx
-                                .try_send(InputMsg::ClearAlarm {
-                                    key: format!("mqtt.payload.{name}"),
-                                })
-                                .is_ok()
-                        {
-                            payload_alarm[ch] = false;
-                        }
+                        payload_alarm[ch].accepted(&tx, || format!("mqtt.payload.{name}"));
                         send(
                             &tx,
                             InputMsg::Sample {
@@ -638,24 +671,19 @@ pub async fn run(p: MqttParts) {
                         );
                     }
                     Err(msg) => {
-                        if payload_alarm[ch] {
-                            continue;
-                        }
-                        let got: String =
-                            String::from_utf8_lossy(&p.payload[..p.payload.len().min(320)])
-                                .chars()
-                                .take(80)
-                                .collect();
-                        let retained = if p.retain { " (retained)" } else { "" };
-                        payload_alarm[ch] = tx
-                            .try_send(InputMsg::RaiseAlarm {
-                                key: format!("mqtt.payload.{name}"),
-                                message: format!(
-                                    "MQTT topic {}{retained}: {msg} (got {got:?})",
-                                    p.topic
-                                ),
-                            })
-                            .is_ok();
+                        payload_alarm[ch].refused(&tx, format!("mqtt.payload.{name}"), || {
+                            let got: String =
+                                String::from_utf8_lossy(&p.payload[..p.payload.len().min(320)])
+                                    .chars()
+                                    .take(80)
+                                    .collect();
+                            let retained = if p.retain { " (retained)" } else { "" };
+                            format!(
+                                "MQTT topic {}{retained}: {msg} (got {got:?}); the channel \
+                                 holds its last reading (count: messages refused)",
+                                p.topic
+                            )
+                        });
                     }
                 }
             }
@@ -929,6 +957,19 @@ mod tests {
         assert!(parse_reading(b"not json").unwrap_err().contains("not JSON"));
         assert!(parse_reading(b"[1]").is_err());
         assert!(parse_reading(b"1e999").is_err());
+        // A refused value is shown by its start and length, not whole.
+        let long = format!(r#"{{"value": "{}"}}"#, "q".repeat(5000));
+        let e = parse_reading(long.as_bytes()).unwrap_err();
+        assert!(
+            e.contains(&format!("\"{}…\" (5000 characters)", "q".repeat(80)))
+                && e.chars().count() < 200,
+            "{e}"
+        );
+        let e = parse_reading(format!("[{}1]", "1,".repeat(3000)).as_bytes()).unwrap_err();
+        assert!(
+            e.contains("(6003 characters)") && e.chars().count() < 200,
+            "{e}"
+        );
     }
 
     /// The client certificate's keys: one without the other, an unreadable file or a key

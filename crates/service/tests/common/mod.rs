@@ -30,6 +30,14 @@ pub fn engine_ab(stale_s: f64) -> String {
     )
 }
 
+/// [`engine_ab`] with the offset moving at most `max_step_um` per cycle.
+pub fn engine_ab_rate_limited(stale_s: f64, max_step_um: f64) -> String {
+    engine_ab(stale_s).replace(
+        "max_offset_um = 100.0\n",
+        &format!("max_offset_um = 100.0\nmax_step_um = {max_step_um:?}\n"),
+    )
+}
+
 /// Starts the service from a configuration text written into `dir`.
 pub async fn start_with(dir: &std::path::Path, toml: &str) -> Running {
     let p = dir.join("machine.toml");

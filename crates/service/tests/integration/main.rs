@@ -20,6 +20,7 @@ mod modbus_output;
 mod modbus_pulses;
 mod modbus_silent;
 mod mqtt;
+mod mqtt_fuzz;
 mod mqtt_limits;
 mod mqtt_outputs;
 mod mqtt_reconnect;

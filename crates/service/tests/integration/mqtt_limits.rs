@@ -17,7 +17,7 @@ use rumqttc::{AsyncClient, Event, MqttOptions, Outgoing, QoS};
 
 /// A broker forwarding payloads up to 1 MiB (far above the service's limit), optionally
 /// requiring `user = password` logins.
-fn start_broker(port: u16, auth: Option<(&str, &str)>) {
+pub fn start_broker(port: u16, auth: Option<(&str, &str)>) {
     let auth = auth
         .map(|(u, p)| format!("[v4.1.connections.auth]\n{u} = \"{p}\"\n"))
         .unwrap_or_default();
@@ -53,7 +53,7 @@ dynamic_filters = true
 }
 
 /// A gateway client; its event loop runs in a task. `login` for a broker with auth.
-fn gateway(port: u16, id: &str, login: Option<(&str, &str)>) -> AsyncClient {
+pub fn gateway(port: u16, id: &str, login: Option<(&str, &str)>) -> AsyncClient {
     let mut opts = MqttOptions::new(id, "127.0.0.1", port);
     opts.set_keep_alive(Duration::from_secs(5));
     opts.set_max_packet_size(4 * 1024 * 1024, 4 * 1024 * 1024);
