@@ -161,6 +161,7 @@ pub(crate) fn check_range(
 
 #[cfg(test)]
 mod no_contact_message_tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::GrindError;
 
     /// A conical run has no worm radii (upper bound ∞) and its analytic worm point can fall
