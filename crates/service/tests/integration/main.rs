@@ -25,6 +25,7 @@ mod mqtt_limits;
 mod mqtt_outputs;
 mod mqtt_reconnect;
 mod opcua;
+mod opcua_fuzz;
 mod opcua_asyncua;
 mod opcua_pulses;
 mod opcua_secure;
