@@ -139,6 +139,39 @@ fn shown(text: &str, n: usize) -> String {
     }
 }
 
+/// A message under the channel or position prefix naming no configured channel or axis:
+/// counted in the one alarm [`UNKNOWN_TOPIC_KEY`] (raised with the first, its count sent by
+/// [`timers`]).
+fn unknown_topic(
+    state: &std::sync::Mutex<ConnState>,
+    tx: &InputTx,
+    topic: &str,
+    (what, plural): (&str, &str),
+    name: &str,
+    configured: &[String],
+) {
+    let mut s = lock(state);
+    s.unknown_count += 1;
+    s.unknown_last = Some(std::time::Instant::now());
+    if s.unknown_count == 1 {
+        drop(s);
+        let raised = tx.try_send(InputMsg::RaiseAlarm {
+            key: UNKNOWN_TOPIC_KEY.into(),
+            message: format!(
+                "MQTT topic {}: {what} {:?} is not configured ({plural}: {}); \
+                 further messages on unconfigured topics are counted in this alarm",
+                shown(topic, TOPIC_SHOWN_CHARS),
+                shown(name, 40),
+                configured.join(", ")
+            ),
+        });
+        if raised.is_err() {
+            // Queue full: raised with the next one.
+            lock(state).unknown_count = 0;
+        }
+    }
+}
+
 /// The messages refused on one topic (a channel's or an axis position's): one alarm from
 /// the first refusal until an accepted message clears it, its count every refusal since
 /// (so none is dropped silently: `/api/alarms` shows how many).
@@ -594,6 +627,8 @@ pub async fn run(p: MqttParts) {
                 let now = clock.now_s();
                 if let Some(axis) = p.topic.strip_prefix(&position_prefix) {
                     let Some(ax) = axes.iter().position(|a| a == axis) else {
+                        // Counted with the unknown channel topics (it was dropped silently).
+                        unknown_topic(&state, &tx, &p.topic, ("axis", "axes"), axis, &axes);
                         continue;
                     };
                     let key = format!("mqtt.position.{axis}");
@@ -634,26 +669,14 @@ pub async fn run(p: MqttParts) {
                     continue;
                 };
                 let Some(ch) = channels.iter().position(|c| c == name) else {
-                    let mut s = lock(&state);
-                    s.unknown_count += 1;
-                    s.unknown_last = Some(std::time::Instant::now());
-                    if s.unknown_count == 1 {
-                        drop(s);
-                        let raised = tx.try_send(InputMsg::RaiseAlarm {
-                            key: UNKNOWN_TOPIC_KEY.into(),
-                            message: format!(
-                                "MQTT topic {}: channel {:?} is not configured (channels: {}); \
-                                 further messages on unconfigured topics are counted in this alarm",
-                                shown(&p.topic, TOPIC_SHOWN_CHARS),
-                                shown(name, 40),
-                                channels.join(", ")
-                            ),
-                        });
-                        if raised.is_err() {
-                            // Queue full: raised with the next one.
-                            lock(&state).unknown_count = 0;
-                        }
-                    }
+                    unknown_topic(
+                        &state,
+                        &tx,
+                        &p.topic,
+                        ("channel", "channels"),
+                        name,
+                        &channels,
+                    );
                     continue;
                 };
                 let parsed = check_payload(p.payload.len(), cfg.max_payload_bytes)

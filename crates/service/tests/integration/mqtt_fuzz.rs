@@ -14,7 +14,9 @@
 //!   every refused one is counted: one `mqtt.payload.<channel>` alarm row per run of
 //!   refusals, and the active alarm's count equals the refusals since the channel's last
 //!   accepted message (every script ends with three refusals on each channel);
-//! - every alarm message stays short (< 500 characters).
+//! - every alarm message stays short (< 500 characters);
+//! - a message on the position topic of an axis the engine does not have is counted in
+//!   `mqtt.unknown_topic` (it was dropped without a trace).
 //!
 //! Defect found (session 11): while a channel's payload alarm was active, further refused
 //! messages were dropped without being counted (the alarm said 1 however many followed),
@@ -171,6 +173,21 @@ fn run_case(mut script: Vec<Msg>) -> Result<(), TestCaseError> {
                 .unwrap();
             tokio::time::sleep(Duration::from_millis(2)).await;
         }
+        // A position of an axis the engine does not have: counted as an unknown topic (it
+        // was dropped without a trace).
+        gw.publish("gearcomp/fz/position/Q", QoS::AtLeastOnce, false, "12.5")
+            .await
+            .unwrap();
+        api.wait_for("/api/alarms?active=true", &ro, 10.0, |v| {
+            v.as_array().unwrap().iter().any(|a| {
+                a["key"] == "mqtt.unknown_topic"
+                    && a["message"]
+                        .as_str()
+                        .unwrap()
+                        .contains("axis \"Q\" is not configured (axes: Z)")
+            })
+        })
+        .await;
         // Per channel: the refusals since its last accepted message, and the runs of
         // refusals (one alarm row each).
         let mut tail = [0u64; 2];
