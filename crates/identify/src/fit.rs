@@ -203,6 +203,10 @@ pub struct TargetModel {
     pub train_rmse: f64,
     /// RMSE on the test rows (None without a test set).
     pub test_rmse: Option<f64>,
+    /// This target's own training and test rows, when the targets of one fit are measured
+    /// on different rows and each group of them was identified on its own rows
+    /// ([`crate::identify`]); `None`: the identification's `train` and `test`.
+    pub own_rows: Option<(Vec<bool>, Vec<bool>)>,
 }
 
 /// The whole identification.

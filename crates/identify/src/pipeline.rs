@@ -309,6 +309,124 @@ fn better(a: &Option<Choice>, cv: f64, len: usize) -> bool {
 /// (docs/identification.md) [PROJECT CONVENTION].
 pub fn identify(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
     opts.check()?;
+    match measured_groups(table) {
+        Some(groups) => identify_groups(table, opts, &groups),
+        None => identify_one(table, opts),
+    }
+}
+
+/// The targets of `table` grouped by the rows they are measured on (the same rows with a
+/// value), each group in target order, the groups in order of their first target; `None`
+/// when every target is measured on the same rows (one group).
+pub fn measured_groups(table: &Table) -> Option<Vec<Vec<usize>>> {
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for j in 0..table.targets.len() {
+        let same = |k: usize| {
+            table.targets[j]
+                .iter()
+                .zip(&table.targets[k])
+                .all(|(a, b)| a.is_nan() == b.is_nan())
+        };
+        match groups.iter_mut().find(|g| same(g[0])) {
+            Some(g) => g.push(j),
+            None => groups.push(vec![j]),
+        }
+    }
+    (groups.len() > 1).then_some(groups)
+}
+
+/// The rows that train some target under `split`: [`train_mask`], or with targets measured
+/// on different rows ([`measured_groups`]) the union of each group's training rows, as
+/// [`identify`] trains them.
+///
+/// # Errors
+/// A bad split, or too few training rows for a group, as [`train_mask`] names them.
+pub fn train_rows_of_any_target(table: &Table, split: &Split) -> Result<Vec<bool>> {
+    let Some(groups) = measured_groups(table) else {
+        return train_mask(table, split);
+    };
+    let mut any = vec![false; table.time_s.len()];
+    for g in &groups {
+        for (a, b) in any
+            .iter_mut()
+            .zip(train_mask(&with_targets(table, g), split)?)
+        {
+            *a |= b;
+        }
+    }
+    Ok(any)
+}
+
+/// `table` with only the targets `group`.
+fn with_targets(table: &Table, group: &[usize]) -> Table {
+    Table {
+        target_names: group
+            .iter()
+            .map(|&j| table.target_names[j].clone())
+            .collect(),
+        targets: group.iter().map(|&j| table.targets[j].clone()).collect(),
+        ..table.clone()
+    }
+}
+
+/// Targets measured on different rows: each group of targets measured on the same rows
+/// ([`measured_groups`]) is identified on its own rows, and the models are joined in
+/// target order, each with its own training and test rows ([`TargetModel::own_rows`]);
+/// the identification's `train` and `test` are their unions, its correlation, classes,
+/// folds and method the first group's. When the groups drop different inputs (an input
+/// constant on one group's rows only), the targets are identified together on the rows
+/// where all are measured, as before.
+fn identify_groups(
+    table: &Table,
+    opts: &IdentifyOptions,
+    groups: &[Vec<usize>],
+) -> Result<Identification> {
+    let mut parts = Vec::with_capacity(groups.len());
+    for g in groups {
+        parts.push(identify_one(&with_targets(table, g), opts)?);
+    }
+    if parts
+        .windows(2)
+        .any(|w| w[0].input_names != w[1].input_names)
+    {
+        return identify_one(table, opts);
+    }
+    let n = table.time_s.len();
+    let mut slots: Vec<Option<TargetModel>> = vec![None; table.targets.len()];
+    let mut train = vec![false; n];
+    let mut test = vec![false; n];
+    let mut notes: Vec<String> = Vec::new();
+    let mut counts = Vec::new();
+    for (g, part) in groups.iter().zip(&mut parts) {
+        for (i, (&a, &b)) in part.train.iter().zip(&part.test).enumerate() {
+            train[i] |= a;
+            test[i] |= b;
+        }
+        for note in &part.notes {
+            if !notes.contains(note) {
+                notes.push(note.clone());
+            }
+        }
+        let rows = part.train.iter().filter(|&&m| m).count();
+        for (&j, mut m) in g.iter().zip(std::mem::take(&mut part.targets)) {
+            counts.push(format!("{} {rows}", table.target_names[j]));
+            m.own_rows = Some((part.train.clone(), part.test.clone()));
+            slots[j] = Some(m);
+        }
+    }
+    notes.push(format!(
+        "targets measured on different rows: each is identified, validated and tested on its own rows (training rows: {})",
+        counts.join(", ")
+    ));
+    let mut first = parts.swap_remove(0);
+    first.targets = slots.into_iter().flatten().collect();
+    first.train = train;
+    first.test = test;
+    first.notes = notes;
+    Ok(first)
+}
+
+fn identify_one(table: &Table, opts: &IdentifyOptions) -> Result<Identification> {
     let mut id = identify_models(table, opts)?;
     // Each target's envelope on its own core (the targets are independent).
     let envelopes = par_map(&id.targets, |m| {
@@ -815,11 +933,29 @@ fn finish(
         interval_um: Vec::new(),
         train_rmse: rmse_where(&e, rows.mask, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, rows.mask, false),
+        own_rows: None,
     })
 }
 
 /// Plain least squares on all inputs (the floor to beat): (train RMSE, test RMSE) per target.
 pub fn plain_least_squares(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
+    let Some(groups) = measured_groups(table) else {
+        return plain_least_squares_one(table, split);
+    };
+    // Each group of targets on its own rows, as `identify` does.
+    let mut out = vec![(f64::NAN, None); table.targets.len()];
+    for g in &groups {
+        for (&j, floor) in g
+            .iter()
+            .zip(plain_least_squares_one(&with_targets(table, g), split)?)
+        {
+            out[j] = floor;
+        }
+    }
+    Ok(out)
+}
+
+fn plain_least_squares_one(table: &Table, split: &Split) -> Result<Vec<(f64, Option<f64>)>> {
     let train = train_mask(table, split)?;
     let (table, _) = drop_degenerate_inputs(table, &train);
     let rows = TrainRows::new(&train);

@@ -121,7 +121,8 @@ impl Extrapolation {
 
     /// The counts of a target model of `id`.
     pub fn of_model(id: &Identification, m: &TargetModel) -> Self {
-        Self::of(&id.test, &m.outside, &m.interval_um)
+        let test = m.own_rows.as_ref().map_or(&id.test, |(_, test)| test);
+        Self::of(test, &m.outside, &m.interval_um)
     }
 }
 

@@ -14,7 +14,7 @@
 use crate::data::Table;
 use crate::error::{invalid, Result};
 use crate::fit::{IdentifyOptions, Split};
-use crate::pipeline::{train_mask, DYNAMIC_SEARCH_BUDGET};
+use crate::pipeline::{train_rows_of_any_target, DYNAMIC_SEARCH_BUDGET};
 
 /// The shortest time constant or delay of the search over this step is the longest step
 /// [`search_step_s`] chooses (a lag then sees at least this many bins per τ).
@@ -152,7 +152,10 @@ pub fn for_fit(
     opts: &IdentifyOptions,
     step_s: Option<f64>,
 ) -> Result<Option<(Table, String)>> {
-    let before = train_mask(table, split)?.iter().filter(|&&m| m).count();
+    let before = train_rows_of_any_target(table, split)?
+        .iter()
+        .filter(|&&m| m)
+        .count();
     let Some(step) = step_s.or_else(|| search_step_s(table, before, opts)) else {
         return Ok(None);
     };
@@ -161,7 +164,7 @@ pub fn for_fit(
         _ => None,
     };
     let r = table.resample(step, cut)?;
-    if train_mask(&r, split).is_err() {
+    if train_rows_of_any_target(&r, split).is_err() {
         return Err(invalid(
             "--resample-s",
             format!("{step} s"),

@@ -1889,6 +1889,7 @@ fn target_model(
         interval_um: Vec::new(),
         train_rmse: rmse_where(&e, train, true).unwrap_or(f64::NAN),
         test_rmse: rmse_where(&e, train, false),
+        own_rows: None,
     })
 }
 

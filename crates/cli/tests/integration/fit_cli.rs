@@ -626,6 +626,86 @@ fn fit_reads_a_logger_missing_code_only_when_named() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// Two probes on alternate rows (y on even rows, z on odd ones): each target is identified
+/// on its own rows, with the note saying so, and its figures equal the fit of the same log
+/// with that target alone; no NaN reaches the JSON, the model file or the report.
+#[test]
+fn fit_targets_measured_on_alternate_rows() {
+    let d = tmp("alternate");
+    let rows = plain_rows();
+    let both: String = rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let z = format!("{}", 5.0 - r[1].parse::<f64>().unwrap());
+            let (y, z) = if i % 2 == 0 {
+                (r[3].clone(), String::new())
+            } else {
+                (String::new(), z)
+            };
+            format!("{},{},{},{y},{z}\n", r[0], r[1], r[2])
+        })
+        .collect();
+    let text = format!("time_s,a_c,b_c,y_um,z_um\n{both}");
+    let p = d.join("both.csv");
+    std::fs::write(&p, &text).unwrap();
+    let (model, report) = (d.join("m.toml"), d.join("r.html"));
+    let out = bin()
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "z_um",
+            "--no-test",
+            "--json",
+            "--data",
+        ])
+        .arg(&p)
+        .arg("--out")
+        .arg(&model)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        got["notes"].as_array().unwrap().iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .contains("targets measured on different rows: each is identified")),
+        "{got}"
+    );
+    for (j, name) in ["y_um", "z_um"].iter().enumerate() {
+        let out = bin()
+            .args(["fit", "--target", name, "--no-test", "--json", "--data"])
+            .arg(&p)
+            .output()
+            .unwrap();
+        let alone: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
+            assert_eq!(
+                got["targets"][j][key], alone["targets"][0][key],
+                "{name} {key}"
+            );
+        }
+    }
+    for f in [&model, &report] {
+        let body = std::fs::read_to_string(f).unwrap();
+        assert!(
+            !body.contains("NaN") && !body.contains(" nan"),
+            "{}",
+            f.display()
+        );
+    }
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("NaN"));
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 /// A log whose only time axis is `time_ms` (epoch milliseconds, no `time_s`): taken as the
 /// time with a note, converted from ms; the fit is the fit of the same log in seconds.
 #[test]

@@ -196,47 +196,112 @@ fn a_time_split_scores_the_measured_test_rows_only() {
     assert!(e.contains("every target measured"), "{e}");
 }
 
-/// Two targets probed on alternate rows share no measured row: refused naming both and the
-/// way on (one at a time); each alone fits its exact law.
+/// Two targets probed on alternate rows (with a stretch where both are probed) share too
+/// few rows to fit together: each is identified, validated and tested on its own rows, and
+/// the joint identification equals each target identified alone (the reference: the same
+/// log with one target) in family, coefficients, validation, train and test error and rows;
+/// the floor too. When an input is constant on one target's rows only (so the two would
+/// read different inputs), they are fitted together on their common rows as before, and
+/// with none in common the refusal says to fit them one at a time.
 #[test]
-fn targets_measured_on_different_rows_are_fitted_one_at_a_time() {
-    let mut text = String::from("time_s,a_c,b_c,y_um,z_um\n");
-    for i in 0..120 {
-        let (a, b) = (
-            20.0 + (i as f64 / 9.0).sin(),
-            22.0 + (i as f64 / 13.0).cos(),
-        );
-        let (y, z) = (2.0 * a - b, a + 3.0 * b);
-        let (y, z) = if i % 2 == 0 {
-            (format!("{y}"), String::new())
-        } else {
-            (String::new(), format!("{z}"))
-        };
-        text += &format!("{},{a},{b},{y},{z}\n", i * 60);
-    }
-    let both = Selection {
-        targets: vec!["y_um".into(), "z_um".into()],
+fn targets_measured_on_different_rows_are_fitted_on_their_own_rows() {
+    let log = |c_on_even: bool| {
+        let mut text = String::from("time_s,a_c,b_c,c_c,y_um,z_um\n");
+        let mut lag = 22.0;
+        for i in 0..400 {
+            let (a, b) = (
+                20.0 + (i as f64 / 9.0).sin(),
+                22.0 + (i as f64 / 13.0).cos(),
+            );
+            lag += (1.0 - (-60.0f64 / 900.0).exp()) * (b - lag);
+            let both = (100..110).contains(&i);
+            let c = if c_on_even && (i % 2 == 0 || both) {
+                5.0
+            } else {
+                5.0 + (i as f64 / 7.0).sin()
+            };
+            let (y, z) = (2.0 * a - lag, a + 3.0 * b + 0.1 * (i as f64 / 5.0).sin());
+            let y = if i % 2 == 0 || both {
+                format!("{y}")
+            } else {
+                String::new()
+            };
+            let z = if i % 2 == 1 || both {
+                format!("{z}")
+            } else {
+                String::new()
+            };
+            text += &format!("{},{a},{b},{c},{y},{z}\n", i * 60);
+        }
+        text
+    };
+    let sel = |targets: &[&str]| Selection {
+        targets: targets.iter().map(|t| t.to_string()).collect(),
         ..Selection::default()
     };
-    let t = read_csv(&text, "log.csv", &both, ReadOptions::default()).unwrap();
-    let o = opts(&[Family::Static], &[]);
-    let e = identify(&t, &o).unwrap_err().to_string();
+    let o = IdentifyOptions {
+        split: Split::TimeBefore(300.0 * 60.0),
+        ..IdentifyOptions::default()
+    };
+    let text = log(false);
+    let t = read_csv(
+        &text,
+        "log.csv",
+        &sel(&["y_um", "z_um"]),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    let id = identify(&t, &o).unwrap();
     assert!(
-        e.contains("0 with every target measured")
-            && e.contains("fit them one at a time, --target y_um then --target z_um"),
-        "{e}"
+        id.notes
+            .iter()
+            .any(|n| n.contains("targets measured on different rows")),
+        "{:?}",
+        id.notes
     );
-    for (name, law) in [("y_um", [0.0, 2.0, -1.0]), ("z_um", [0.0, 1.0, 3.0])] {
-        let one = Selection {
-            targets: vec![name.into()],
-            ..Selection::default()
-        };
-        let t = read_csv(&text, "log.csv", &one, ReadOptions::default()).unwrap();
-        let id = identify(&t, &o).unwrap();
-        let p = predict(&t, &id.targets[0].model).unwrap();
-        for (i, pi) in p.iter().enumerate() {
-            let want = law[0] + law[1] * t.inputs[0][i] + law[2] * t.inputs[1][i];
-            assert!((pi - want).abs() < 1e-9, "{name} row {i}");
-        }
+    let floor = gearcomp_identify::pipeline::plain_least_squares(&t, &o.split).unwrap();
+    for (j, name) in ["y_um", "z_um"].iter().enumerate() {
+        let alone = read_csv(&text, "log.csv", &sel(&[name]), ReadOptions::default()).unwrap();
+        let want = identify(&alone, &o).unwrap();
+        let (got, want_m) = (&id.targets[j], &want.targets[0]);
+        assert_eq!(got.target, *name);
+        assert_eq!(got.family, want_m.family, "{name}");
+        assert_eq!(got.model, want_m.model, "{name}");
+        assert_eq!(got.cv_rmse, want_m.cv_rmse, "{name}");
+        assert_eq!(
+            (got.train_rmse, got.test_rmse),
+            (want_m.train_rmse, want_m.test_rmse),
+            "{name}"
+        );
+        assert!(got.test_rmse.is_some_and(f64::is_finite), "{name}");
+        assert_eq!(
+            got.own_rows,
+            Some((want.train.clone(), want.test.clone())),
+            "{name}"
+        );
+        let alone_floor =
+            gearcomp_identify::pipeline::plain_least_squares(&alone, &o.split).unwrap();
+        assert_eq!(floor[j], alone_floor[0], "{name}");
     }
+    // c_c constant on y's rows only: the two are fitted together on their 10 common
+    // rows, with the note saying so and how to use every measurement.
+    let text = log(true);
+    let t = read_csv(
+        &text,
+        "log.csv",
+        &sel(&["y_um", "z_um"]),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    let id = identify(&t, &o).unwrap();
+    assert_eq!(id.train.iter().filter(|&&m| m).count(), 10);
+    assert!(id.targets.iter().all(|m| m.own_rows.is_none()));
+    assert!(
+        id.notes
+            .iter()
+            .any(|n| n.contains("10 rows have every target")
+                && n.contains("fit the targets one at a time")),
+        "{:?}",
+        id.notes
+    );
 }
