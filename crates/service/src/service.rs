@@ -537,17 +537,19 @@ fn start_sources(
         InputSection::Simulator { .. } | InputSection::Replay(_) => {}
         #[cfg(feature = "mqtt")]
         InputSection::Mqtt(m) => {
-            tasks.push(tokio::spawn(crate::sources::mqtt::run(
-                crate::sources::mqtt::MqttParts {
-                    cfg: m.clone(),
-                    machine: cfg.machine.name.clone(),
-                    channels: channels.to_vec(),
-                    axes: axes.to_vec(),
-                    clock,
-                    tx: crate::sources::InputTx::new(in_tx.clone()),
-                    offsets: off_rx.clone(),
-                    alive: alive.clone(),
-                },
+            let tx = crate::sources::InputTx::new(in_tx.clone());
+            let adapter = crate::sources::mqtt::run(crate::sources::mqtt::MqttParts {
+                cfg: m.clone(),
+                machine: cfg.machine.name.clone(),
+                channels: channels.to_vec(),
+                axes: axes.to_vec(),
+                clock,
+                tx: tx.clone(),
+                offsets: off_rx.clone(),
+                alive: alive.clone(),
+            });
+            tasks.push(tokio::spawn(crate::sources::supervised(
+                "MQTT", tx, adapter,
             )));
         }
         #[cfg(feature = "modbus")]
@@ -577,7 +579,12 @@ fn start_sources(
                 offsets: off_rx.clone(),
                 alive: alive.clone(),
             })?;
-            tasks.push(tokio::spawn(adapter.run()));
+            let tx = crate::sources::InputTx::new(in_tx.clone());
+            tasks.push(tokio::spawn(crate::sources::supervised(
+                "OPC UA",
+                tx,
+                adapter.run(),
+            )));
         }
     }
     drop(off_rx);

@@ -137,11 +137,99 @@ impl InputTx {
     }
 }
 
+/// The alarm of an input adapter whose task ended on an internal error (a panic).
+pub const ADAPTER_STOPPED_KEY: &str = "input.adapter_stopped";
+
+/// The text of a panic's payload (`panic!` with a literal or a formatted message).
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "no message".into())
+}
+
+/// The alarm raised when the adapter task `what` (e.g. "MQTT", "Modbus module 0") ended on
+/// a panic: the input would otherwise just go silent (its channels stale, their axes
+/// frozen) with nothing saying why.
+pub fn adapter_panicked(tx: &InputTx, what: &str, payload: &(dyn std::any::Any + Send)) {
+    let _ = tx.try_send(InputMsg::RaiseAlarm {
+        key: ADAPTER_STOPPED_KEY.into(),
+        message: format!(
+            "the {what} input stopped on an internal error ({}); its readings no longer \
+             arrive, the channels go stale and the axes reading them freeze; restart the \
+             service",
+            crate::error::shorten_message(&panic_text(payload))
+        ),
+    });
+}
+
+/// Runs the adapter `fut` as a task of its own, and raises [`ADAPTER_STOPPED_KEY`] should
+/// it panic. Dropping (aborting) the returned future aborts the adapter too.
+pub async fn supervised(
+    what: &'static str,
+    tx: InputTx,
+    fut: impl std::future::Future<Output = ()> + Send + 'static,
+) {
+    struct AbortOnDrop(tokio::task::AbortHandle);
+    impl Drop for AbortOnDrop {
+        fn drop(&mut self) {
+            self.0.abort();
+        }
+    }
+    let task = tokio::spawn(fut);
+    let _guard = AbortOnDrop(task.abort_handle());
+    if let Err(e) = task.await {
+        if e.is_panic() {
+            adapter_panicked(&tx, what, e.into_panic().as_ref());
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
     use proptest::prelude::*;
+
+    /// An adapter that panics raises the alarm with the panic's message; one that ends
+    /// normally raises nothing; aborting the supervisor aborts the adapter.
+    #[tokio::test]
+    async fn a_panicking_adapter_is_alarmed() {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<InputMsg>(8);
+        let itx = InputTx::new(tx);
+        supervised("Test", itx.clone(), async {
+            let words: Vec<u16> = Vec::new();
+            assert_eq!(words.len(), 1, "1 word expected");
+        })
+        .await;
+        match rx.try_recv() {
+            Ok(InputMsg::RaiseAlarm { key, message }) => {
+                assert_eq!(key, ADAPTER_STOPPED_KEY);
+                assert!(
+                    message.starts_with("the Test input stopped on an internal error (")
+                        && message.contains("1 word expected"),
+                    "{message}"
+                );
+            }
+            other => panic!("expected the alarm, got {other:?}"),
+        }
+        supervised("Test", itx.clone(), async {}).await;
+        assert!(rx.try_recv().is_err());
+        let ran_on = Arc::new(AtomicBool::new(false));
+        let flag = ran_on.clone();
+        let sup = tokio::spawn(supervised("Test", itx, async move {
+            tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+            flag.store(true, Ordering::SeqCst);
+        }));
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        sup.abort();
+        tokio::time::sleep(std::time::Duration::from_millis(400)).await;
+        assert!(
+            !ran_on.load(Ordering::SeqCst),
+            "the adapter outlived its supervisor"
+        );
+    }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]

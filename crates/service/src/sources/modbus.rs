@@ -267,7 +267,14 @@ pub async fn run(p: ModbusParts) -> crate::error::Result<()> {
             p.offsets.clone(),
         ));
     }
-    while tasks.join_next().await.is_some() {}
+    // A module's task that panicked is alarmed (its input would just go silent).
+    while let Some(done) = tasks.join_next().await {
+        if let Err(e) = done {
+            if e.is_panic() {
+                super::adapter_panicked(&p.tx, "Modbus", e.into_panic().as_ref());
+            }
+        }
+    }
     Ok(())
 }
 
