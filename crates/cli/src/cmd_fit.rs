@@ -108,6 +108,29 @@ pub enum TimeUnitArg {
     H,
 }
 
+/// The order of day and month in slash dates (`--date-order`).
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum DateOrderArg {
+    /// From the dates: a number above 12 says which is the day; a date that reads either
+    /// way (03/01/2026) is refused.
+    Auto,
+    /// Day first: 25/11/2026 (most of Europe).
+    Dmy,
+    /// Month first: 11/25/2026 (the United States).
+    Mdy,
+}
+
+impl DateOrderArg {
+    fn order(self) -> Option<gearcomp_identify::dialect::DateOrder> {
+        use gearcomp_identify::dialect::DateOrder;
+        match self {
+            DateOrderArg::Auto => None,
+            DateOrderArg::Dmy => Some(DateOrder::DayFirst),
+            DateOrderArg::Mdy => Some(DateOrder::MonthFirst),
+        }
+    }
+}
+
 impl From<TimeUnitArg> for TimeUnitChoice {
     fn from(u: TimeUnitArg) -> Self {
         match u {
@@ -335,6 +358,9 @@ pub struct Args {
     /// refused. Time stamps (dates and times of day) have no unit.
     #[arg(long, value_enum, default_value = "auto")]
     pub time_unit: TimeUnitArg,
+    /// Order of day and month in slash-date time stamps (03/01/2026 08:00:00 [AM|PM]).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub date_order: DateOrderArg,
     /// Axis name of each target's model, in target order (default: the target's name).
     #[arg(long, num_args = 1..)]
     pub axis: Vec<String>,
@@ -403,6 +429,7 @@ fn read_options(args: &Args) -> anyhow::Result<ReadOptions> {
         missing_codes: gearcomp_identify::missing_code::MissingCodes::parse(&args.missing_code)?,
         runs_at_restarts: args.runs_at_restarts,
         keep_far_values: args.keep_far_values,
+        date_order: args.date_order.order(),
         ..ReadOptions::default()
     })
 }

@@ -81,6 +81,9 @@ pub struct ReadOptions {
     /// Values standing far apart from their column's others (a sensor fault:
     /// [`crate::missing_code::check_far_values`]) are fitted as written instead of refused.
     pub keep_far_values: bool,
+    /// The order of day and month in slash dates (`03/01/2024`); `None`: from the dates,
+    /// refusing one that reads either way ([`dialect::is_ambiguous_slash_date`]).
+    pub date_order: Option<dialect::DateOrder>,
 }
 
 impl Default for ReadOptions {
@@ -98,6 +101,7 @@ impl Default for ReadOptions {
             missing_codes: crate::missing_code::MissingCodes::default(),
             runs_at_restarts: false,
             keep_far_values: false,
+            date_order: None,
         }
     }
 }
@@ -2051,7 +2055,7 @@ impl Reader<'_> {
             _ => sel.time.as_str(),
         };
         let time = match (c.time_idx, self.opts.sample_interval_s) {
-            (Some(_), _) => time_cell(time_text.trim(), time_name, dc, st),
+            (Some(_), _) => time_cell(time_text.trim(), time_name, dc, self.opts.date_order, st),
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };
@@ -2169,6 +2173,7 @@ fn time_cell(
     s: &str,
     col: &str,
     decimal_comma: bool,
+    order: Option<dialect::DateOrder>,
     st: &mut RowState,
 ) -> std::result::Result<f64, String> {
     if st.stamps.is_none() && !s.is_empty() {
@@ -2188,7 +2193,12 @@ fn time_cell(
             CellError::Missing(m) | CellError::Bad(m) => m,
         });
     }
-    let Some(stamp) = dialect::parse_timestamp(s) else {
+    let Some(stamp) = dialect::parse_timestamp_in(s, order) else {
+        if order.is_none() && dialect::is_ambiguous_slash_date(s) {
+            return Err(format!(
+                "{col} = {s:?} reads as day/month or as month/day: name the order with --date-order dmy (25/11/2026) or mdy (11/25/2026)"
+            ));
+        }
         return Err(format!(
             "{col} = {s:?} is not a time stamp: expected {}",
             dialect::TIMESTAMP_FORMS

@@ -200,7 +200,32 @@ pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, Cell
 
 /// The accepted time-stamp forms, for messages.
 pub const TIMESTAMP_FORMS: &str =
-    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' ') or 01.03.2024 08:00:00";
+    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' '), 01.03.2024 08:00:00, or 01/03/2024 08:00[:00] [AM|PM] (day or month first: --date-order)";
+
+/// The order of day and month in a slash date (`03/01/2024`): spreadsheets and loggers
+/// write the day first in most of Europe and the month first in the United States.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DateOrder {
+    /// `25/11/2026`.
+    DayFirst,
+    /// `11/25/2026`.
+    MonthFirst,
+}
+
+/// The two numbers before the year of a slash date at the start of `s` (`03/01/2024 …`).
+fn slash_fields(s: &str) -> Option<(u32, u32)> {
+    let mut it = s.split('/');
+    let a: u32 = it.next()?.trim().parse().ok()?;
+    let b: u32 = it.next()?.trim().parse().ok()?;
+    let rest = it.next()?;
+    (rest.len() >= 4 && rest.as_bytes()[..4].iter().all(u8::is_ascii_digit)).then_some((a, b))
+}
+
+/// Whether `s` is a slash date whose day and month could be either way round (both
+/// numbers 1–12 and different): only `--date-order` can say which it is.
+pub fn is_ambiguous_slash_date(s: &str) -> bool {
+    matches!(slash_fields(s.trim()), Some((a, b)) if a != b && (1..=12).contains(&a) && (1..=12).contains(&b))
+}
 
 /// A parsed time stamp: nanoseconds since 1970-01-01 00:00 of UTC (with an offset) or of
 /// the wall clock (without one).
@@ -241,10 +266,18 @@ fn split_offset(s: &str) -> Option<(&str, Option<i64>)> {
     Some((body.trim_end(), Some(sign * (h * 3600 + m * 60))))
 }
 
-/// Parses a time stamp (see [`TIMESTAMP_FORMS`]); `None` when it is not one.
+/// Parses a time stamp (see [`TIMESTAMP_FORMS`]); `None` when it is not one, or when it is
+/// a slash date whose day and month could be either way round
+/// ([`is_ambiguous_slash_date`]; [`parse_timestamp_in`] with an order reads it).
 pub fn parse_timestamp(s: &str) -> Option<Stamp> {
+    parse_timestamp_in(s, None)
+}
+
+/// [`parse_timestamp`] with the order of a slash date's day and month given (`None`: from
+/// the date itself, when one of its numbers exceeds 12 or both are equal).
+pub fn parse_timestamp_in(s: &str, order: Option<DateOrder>) -> Option<Stamp> {
     let s = s.trim();
-    if s.len() < 16 || !s.as_bytes()[0].is_ascii_digit() {
+    if s.len() < 14 || !s.as_bytes()[0].is_ascii_digit() {
         return None;
     }
     let (body, offset) = split_offset(s)?;
@@ -258,8 +291,29 @@ pub fn parse_timestamp(s: &str) -> Option<Stamp> {
         "%Y-%m-%dT%H:%M",
         "%d.%m.%Y %H:%M",
     ];
+    const DAY_FIRST: [&str; 4] = [
+        "%d/%m/%Y %H:%M:%S%.f",
+        "%d/%m/%Y %H:%M",
+        "%d/%m/%Y %I:%M:%S%.f %p",
+        "%d/%m/%Y %I:%M %p",
+    ];
+    const MONTH_FIRST: [&str; 4] = [
+        "%m/%d/%Y %H:%M:%S%.f",
+        "%m/%d/%Y %H:%M",
+        "%m/%d/%Y %I:%M:%S%.f %p",
+        "%m/%d/%Y %I:%M %p",
+    ];
+    let slash = match (slash_fields(&body), order) {
+        (None, _) => &[][..],
+        (Some(_), Some(DateOrder::DayFirst)) => &DAY_FIRST[..],
+        (Some(_), Some(DateOrder::MonthFirst)) => &MONTH_FIRST[..],
+        (Some((a, b)), None) if a > 12 || a == b => &DAY_FIRST[..],
+        (Some((_, b)), None) if b > 12 => &MONTH_FIRST[..],
+        (Some(_), None) => return None,
+    };
     let naive = FORMS
         .iter()
+        .chain(slash)
         .find_map(|f| NaiveDateTime::parse_from_str(&body, f).ok())?;
     let nanos = naive.and_utc().timestamp_nanos_opt()?;
     let nanos = nanos.checked_sub(offset.unwrap_or(0).checked_mul(1_000_000_000)?)?;
@@ -272,7 +326,10 @@ pub fn parse_timestamp(s: &str) -> Option<Stamp> {
 /// Whether the cell looks like a time stamp rather than seconds: it is no number (in the
 /// file's decimal form) but parses as a time stamp.
 pub fn is_timestamp(s: &str, decimal_comma: bool) -> bool {
-    parse_number(s, "", decimal_comma).is_err() && parse_timestamp(s).is_some()
+    parse_number(s, "", decimal_comma).is_err()
+        && (parse_timestamp(s).is_some()
+            || (is_ambiguous_slash_date(s)
+                && parse_timestamp_in(s, Some(DateOrder::DayFirst)).is_some()))
 }
 
 #[cfg(test)]
@@ -320,6 +377,31 @@ mod tests {
         assert_eq!(at("2024-03-01T09:00:00+01:00"), s8);
         assert_eq!(at("2024-03-01T09:00:00+0100"), s8);
         assert_eq!(at("2024-03-01T03:30:00-04:30"), s8);
+        // Slash dates: 1 March 2024 day first, month first, with AM/PM; a day above 12
+        // decides by itself; either way round needs the order.
+        let (dmy, mdy) = (Some(DateOrder::DayFirst), Some(DateOrder::MonthFirst));
+        let slash = |s: &str, o| parse_timestamp_in(s, o).unwrap().nanos;
+        assert_eq!(slash("01/03/2024 08:00:00", dmy), s8);
+        assert_eq!(slash("03/01/2024 08:00:00", mdy), s8);
+        assert_eq!(slash("03/01/2024 08:00:00 AM", mdy), s8);
+        assert_eq!(
+            slash("3/1/2024 8:00 PM", mdy),
+            s8 + 12 * 3600 * 1_000_000_000
+        );
+        assert_eq!(
+            slash("01/03/2024 12:00:00 AM", dmy),
+            s8 - 8 * 3600 * 1_000_000_000
+        );
+        let day = 24 * 3600 * 1_000_000_000i64;
+        assert_eq!(slash("25/03/2024 08:00", None), s8 + 24 * day);
+        assert_eq!(slash("03/25/2024 08:00", None), s8 + 24 * day);
+        assert_eq!(slash("03/03/2024 08:00", None), s8 + 2 * day);
+        assert!(parse_timestamp("01/03/2024 08:00:00").is_none());
+        assert!(is_ambiguous_slash_date("01/03/2024 08:00:00"));
+        assert!(!is_ambiguous_slash_date("25/03/2024 08:00:00"));
+        assert!(!is_ambiguous_slash_date("2024-03-01 08:00:00"));
+        assert!(is_timestamp("01/03/2024 08:00:00", false));
+        assert!(parse_timestamp_in("25/03/2024 08:00", mdy).is_none());
         assert!(parse_timestamp("2024-03-01T08:00:00Z").unwrap().has_offset);
         assert!(!parse_timestamp("2024-03-01 08:00:00").unwrap().has_offset);
         for bad in [

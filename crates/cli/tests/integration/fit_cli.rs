@@ -42,6 +42,7 @@ fn fit_help_lists_every_option() {
         "--time-unit",
         "--missing-code",
         "--keep-far-values",
+        "--date-order",
         "--json",
         "--family",
         "--delay-s",

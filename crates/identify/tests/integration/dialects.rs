@@ -84,6 +84,10 @@ enum TimeForm {
     /// `T` and a random `±hh:mm` offset on every row (the same instants).
     MixedOffsets,
     DayFirst,
+    /// `01/03/2024 08:00:00.250` (day first; `--date-order dmy`).
+    SlashDayFirst,
+    /// `03/01/2024 08:00:00.250 AM` (month first, 12-hour clock; `--date-order mdy`).
+    SlashMonthFirst12h,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -175,6 +179,16 @@ fn time_text(d: &Dialect, t: f64, r: &mut Rng) -> String {
                 s
             }
         }
+        TimeForm::SlashDayFirst => {
+            let s = wall.format("%d/%m/%Y %H:%M:%S%.3f").to_string();
+            if d.decimal_comma {
+                let p = s.rfind('.').unwrap();
+                format!("{},{}", &s[..p], &s[p + 1..])
+            } else {
+                s
+            }
+        }
+        TimeForm::SlashMonthFirst12h => wall.format("%m/%d/%Y %I:%M:%S%.3f %p").to_string(),
         TimeForm::Seconds => unreachable!(),
     }
 }
@@ -654,4 +668,58 @@ fn date_and_time_columns_make_one_stamp() {
     .unwrap();
     assert_eq!(t.input_names, vec!["a_c"]);
     assert_eq!(t.time_s, vec![0.0, 90.0, 150.0]);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Slash-date stamps (day first 24 h; month first 12 h with AM/PM) in any dialect read
+    /// as the plain log with the order named (`--date-order`); without it, a log whose
+    /// dates all tell day from month by themselves reads the same, and any other is refused
+    /// naming `--date-order`; with the wrong order the log is refused or reads other times.
+    #[test]
+    fn slash_dates_read_as_the_plain_log_with_their_order(
+        d in dialect_strategy(),
+        seed in any::<u64>(),
+        rows in 5usize..60,
+        month_first in any::<bool>(),
+    ) {
+        use gearcomp_identify::dialect::{is_ambiguous_slash_date, DateOrder};
+        let d = Dialect {
+            time: if month_first { TimeForm::SlashMonthFirst12h } else { TimeForm::SlashDayFirst },
+            ..d
+        };
+        let (order, wrong) = if month_first {
+            (DateOrder::MonthFirst, DateOrder::DayFirst)
+        } else {
+            (DateOrder::DayFirst, DateOrder::MonthFirst)
+        };
+        let log = random_log(seed, rows, false);
+        let want = read(&plain(&log), ReadOptions::default()).unwrap();
+        let text = written(&log, &d, seed);
+        let with = |o: Option<DateOrder>| read(&text, ReadOptions { date_order: o, ..ReadOptions::default() });
+        let got = with(Some(order));
+        prop_assert_eq!(got.as_ref(), Ok(&want), "{:?}\n{}", d, text);
+        let ambiguous = text.lines().skip(1).any(|l| {
+            let cell = l.trim_start_matches('\u{feff}').split(d.delim).next().unwrap_or("");
+            is_ambiguous_slash_date(cell.trim_matches('"'))
+        });
+        match with(None) {
+            Ok(t) => prop_assert!(!ambiguous && t == want, "{}", text),
+            Err(e) => prop_assert!(ambiguous && e.contains("--date-order"), "{e}"),
+        }
+        if let Ok(t) = with(Some(wrong)) {
+            // Read the wrong way round, the times (from the first stamp) differ when the log
+            // spans two dates of which one has day ≠ month.
+            let dates: Vec<&str> = text
+                .lines()
+                .skip(1)
+                .filter_map(|l| l.split(d.delim).next())
+                .map(|c| c.trim_start_matches('\u{feff}').trim_matches('"').get(..10).unwrap_or(""))
+                .collect();
+            let spans = dates.iter().any(|x| *x != dates[0]);
+            let swaps = dates.iter().any(|x| x.get(..2) != x.get(3..5));
+            prop_assert!(t.time_s != want.time_s || !(spans && swaps), "{}", text);
+        }
+    }
 }
