@@ -474,6 +474,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     }
     let train = train_mask(table, &opts.split)?;
     let (reduced, mut notes) = drop_degenerate_inputs(table, &train);
+    notes.extend(constant_targets_note(table, &train));
     notes.extend(split_runs_note(table));
     notes.extend(table.measured_note());
     let table = &reduced;
@@ -698,6 +699,32 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         method,
         input_names: table.input_names.clone(),
         notes,
+    })
+}
+
+/// A note naming the targets whose measured training values are all equal (a stuck or
+/// disconnected probe, a displacement channel never connected): their model is that
+/// constant, which compensates nothing.
+fn constant_targets_note(table: &Table, train: &[bool]) -> Option<String> {
+    let stuck: Vec<String> = table
+        .target_names
+        .iter()
+        .zip(&table.targets)
+        .filter_map(|(name, y)| {
+            let mut v = y
+                .iter()
+                .zip(train)
+                .filter(|(v, &m)| m && v.is_finite())
+                .map(|(v, _)| *v);
+            let first = v.next()?;
+            v.all(|x| x == first).then(|| format!("{name} ({first})"))
+        })
+        .collect();
+    (!stuck.is_empty()).then(|| {
+        format!(
+            "target {} constant on every training row: a stuck or disconnected probe? its model is that constant and compensates nothing",
+            stuck.join(", ")
+        )
     })
 }
 

@@ -305,3 +305,39 @@ fn targets_measured_on_different_rows_are_fitted_on_their_own_rows() {
         id.notes
     );
 }
+
+/// A target whose every measured training value is the same (a stuck probe) gets a note
+/// naming it; a target that varies gets none.
+#[test]
+fn a_stuck_target_is_named() {
+    let mut text = String::from("time_s,a_c,b_c,y_um,z_um\n");
+    for i in 0..100 {
+        let (a, b) = (
+            20.0 + (i as f64 / 9.0).sin(),
+            22.0 + (i as f64 / 13.0).cos(),
+        );
+        let z = if i % 3 == 0 {
+            String::new()
+        } else {
+            "5".into()
+        };
+        text += &format!("{},{a},{b},{},{z}\n", i * 60, 2.0 * a - b);
+    }
+    let sel = Selection {
+        targets: vec!["y_um".into(), "z_um".into()],
+        ..Selection::default()
+    };
+    let t = read_csv(&text, "log.csv", &sel, ReadOptions::default()).unwrap();
+    let id = identify(&t, &opts(&[Family::Static], &[])).unwrap();
+    let stuck: Vec<&String> = id
+        .notes
+        .iter()
+        .filter(|n| n.contains("constant on every training row"))
+        .collect();
+    assert_eq!(stuck.len(), 1, "{:?}", id.notes);
+    assert!(
+        stuck[0].starts_with("target z_um (5) constant") && !stuck[0].contains("y_um"),
+        "{}",
+        stuck[0]
+    );
+}
