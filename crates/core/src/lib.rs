@@ -5,10 +5,12 @@
 //!   contract between identification and the runtime; change it only additively.
 //! * [`fsio`]: writing output files atomically, so a crash never leaves a half-written file.
 //! * [`textline`]: source line numbers of CSV records (right for CRLF files too).
+//! * [`shorten`]: long user values in messages, shown by their start and length.
 
 pub mod error;
 pub mod fsio;
 pub mod model;
+pub mod shorten;
 pub mod textline;
 
 pub use error::{CoreError, Result};

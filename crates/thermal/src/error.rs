@@ -31,7 +31,8 @@ pub enum ThermalError {
         known: String,
     },
     /// The TOML text could not be parsed into the configuration structure.
-    #[error("configuration is not valid: {0}")]
+    /// A long value in it (a 5000-character sensor kind) is shown by its start and length.
+    #[error("configuration is not valid: {}", gearcomp_core::shorten::shorten_message(&.0.to_string()))]
     Toml(#[from] toml::de::Error),
     /// A thermal model file could not be read or is invalid.
     #[error("thermal model: {0}")]

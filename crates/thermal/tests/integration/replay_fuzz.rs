@@ -192,3 +192,30 @@ fn a_channel_named_like_a_log_column_is_refused() {
         );
     }
 }
+
+/// 4. A long value in the configuration (a 5000-character sensor kind, channel name or
+///    key) came back whole, several times, in the TOML error (30 488 characters for a
+///    5000-character kind through `gearcomp replay`): the message now keeps the value's
+///    start and says its length, whatever the value's characters.
+#[test]
+fn a_long_configuration_value_is_shown_by_its_start_and_length() {
+    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]);
+    let mut runner = TestRunner::new_with_rng(Config::with_cases(24), rng);
+    let long = proptest::string::string_regex("[a-zA-Zµ0-9 _\"\\\\-]{300,3000}").unwrap();
+    runner
+        .run(&(long, 0usize..3), |(v, place)| {
+            let esc = v.replace('\\', "\\\\").replace('"', "\\\"");
+            let text = match place {
+                0 => format!(
+                    "[[channels]]\nname = \"A\"\nsensor = {{ kind = \"{esc}\" }}\nvalid_min = 0.0\nvalid_max = 1.0\nstale_timeout_s = 1.0\n"
+                ),
+                1 => format!("[[channels]]\nname = \"A\"\n{}\n", "k".repeat(v.len())),
+                _ => format!("[[axes]]\nname = \"X\"\napply = {{ kind = \"{esc}\" }}\n"),
+            };
+            let e = EngineConfig::from_toml_str(&text).unwrap_err().to_string();
+            prop_assert!(e.chars().count() < 1500, "{} characters", e.chars().count());
+            prop_assert!(e.contains("characters)"), "{e}");
+            Ok(())
+        })
+        .unwrap();
+}
