@@ -298,6 +298,26 @@ fn plain_text(rows: &[Vec<String>]) -> String {
     format!("time_s,a_c,b_c,y_um\n{body}")
 }
 
+/// The plain log with `input` written into a_c on rows 40, 41 and 90 and `target` into
+/// y_um on every `step`-th row from `first` (a logger's codes, texts or empty cells).
+fn marked_plain(input: &str, target: &str, first: usize, step: usize) -> String {
+    let mut r = plain_rows();
+    for i in [40, 41, 90] {
+        r[i][1] = input.to_string();
+    }
+    for i in (first..r.len()).step_by(step) {
+        r[i][3] = target.to_string();
+    }
+    plain_text(&r)
+}
+
+/// The first target's figures `keys` of two `fit --json` documents are equal.
+fn assert_same_fit(got: &serde_json::Value, want: &serde_json::Value, keys: &[&str]) {
+    for key in keys {
+        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
+    }
+}
+
 /// hh:mm:00 of `minutes` after midnight.
 fn clock(minutes: i64) -> String {
     format!("{:02}:{:02}:00", minutes / 60, minutes % 60)
@@ -600,17 +620,7 @@ fn fit_converts_a_time_column_in_minutes_to_seconds() {
 #[test]
 fn fit_reads_a_logger_missing_code_only_when_named() {
     let d = tmp("missing_code");
-    let rows = plain_rows();
-    let coded = |code_in: &str, code_tg: &str| -> String {
-        let mut r = rows.clone();
-        for i in [40, 41, 90] {
-            r[i][1] = code_in.to_string();
-        }
-        for i in (5..r.len()).step_by(9) {
-            r[i][3] = code_tg.to_string();
-        }
-        plain_text(&r)
-    };
+    let coded = |code_in: &str, code_tg: &str| marked_plain(code_in, code_tg, 5, 9);
     let e = fit_json(&d, "coded.csv", &coded("-9999", "32767"), &[]).unwrap_err();
     assert!(
         e.contains("a_c = -9999 on 3 row(s)") && e.contains("--missing-code -9999"),
@@ -621,9 +631,11 @@ fn fit_reads_a_logger_missing_code_only_when_named() {
     let mut with_codes = args.to_vec();
     with_codes.extend(["--missing-code", "-9999", "32767"]);
     let got = fit_json(&d, "coded.csv", &coded("-9999", "32767"), &with_codes).unwrap();
-    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
-        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
-    }
+    assert_same_fit(
+        &got,
+        &want,
+        &["family", "intercept", "validation_rmse_um", "train_rmse_um"],
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }
 
@@ -739,9 +751,11 @@ fn fit_takes_a_lone_time_axis_with_a_note() {
         "{stdout}"
     );
     let got = fit_json(&d, "ms.csv", &format!("time_ms,a_c,b_c,y_um\n{body}"), &[]).unwrap();
-    for key in ["family", "validation_rmse_um", "train_rmse_um"] {
-        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
-    }
+    assert_same_fit(
+        &got,
+        &want,
+        &["family", "validation_rmse_um", "train_rmse_um"],
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }
 
@@ -751,17 +765,7 @@ fn fit_takes_a_lone_time_axis_with_a_note() {
 #[test]
 fn fit_reads_text_marks_named_with_missing_code() {
     let d = tmp("text_marks");
-    let rows = plain_rows();
-    let marked = |input: &str, target: &str| -> String {
-        let mut r = rows.clone();
-        for i in [40, 41, 90] {
-            r[i][1] = input.to_string();
-        }
-        for i in (7..r.len()).step_by(11) {
-            r[i][3] = target.to_string();
-        }
-        plain_text(&r)
-    };
+    let marked = |input: &str, target: &str| marked_plain(input, target, 7, 11);
     let e = fit_json(&d, "marked.csv", &marked("#N/A", "OVF"), &[]).unwrap_err();
     assert!(
         e.contains(r#"y_um = "OVF" is not a number (a logger's mark for a missing sample? --missing-code="OVF" reads it"#),
@@ -777,9 +781,11 @@ fn fit_reads_text_marks_named_with_missing_code() {
         "-9999",
     ];
     let got = fit_json(&d, "marked.csv", &marked("#N/A", "OVF"), &args).unwrap();
-    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
-        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
-    }
+    assert_same_fit(
+        &got,
+        &want,
+        &["family", "intercept", "validation_rmse_um", "train_rmse_um"],
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }
 
@@ -816,9 +822,11 @@ fn fit_refuses_far_values_unless_named_or_kept() {
         &["--missing", "split", "--missing-code", "850"],
     )
     .unwrap();
-    for key in ["family", "intercept", "validation_rmse_um", "train_rmse_um"] {
-        assert_eq!(named["targets"][0][key], want["targets"][0][key], "{key}");
-    }
+    assert_same_fit(
+        &named,
+        &want,
+        &["family", "intercept", "validation_rmse_um", "train_rmse_um"],
+    );
     let kept = fit_json(&d, "far.csv", &with("850"), &["--keep-far-values"]).unwrap();
     let rmse = |v: &serde_json::Value| v["targets"][0]["train_rmse_um"].as_f64().unwrap();
     assert!(
@@ -876,9 +884,11 @@ fn fit_reads_time_restarts_as_runs() {
         ],
     );
     assert!(got["targets"][0]["test_rmse_um"].is_f64(), "{got}");
-    for key in ["family", "intercept", "validation_rmse_um", "test_rmse_um"] {
-        assert_eq!(got["targets"][0][key], want["targets"][0][key], "{key}");
-    }
+    assert_same_fit(
+        &got,
+        &want,
+        &["family", "intercept", "validation_rmse_um", "test_rmse_um"],
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }
 

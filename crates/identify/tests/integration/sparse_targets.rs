@@ -243,22 +243,21 @@ fn targets_measured_on_different_rows_are_fitted_on_their_own_rows() {
         split: Split::TimeBefore(300.0 * 60.0),
         ..IdentifyOptions::default()
     };
+    // Both targets of a log read and identified, with the note that says how.
+    let both = |text: &str, note: &str| {
+        let t = read_csv(
+            text,
+            "log.csv",
+            &sel(&["y_um", "z_um"]),
+            ReadOptions::default(),
+        )
+        .unwrap();
+        let id = identify(&t, &o).unwrap();
+        assert!(id.notes.iter().any(|n| n.contains(note)), "{:?}", id.notes);
+        (t, id)
+    };
     let text = log(false);
-    let t = read_csv(
-        &text,
-        "log.csv",
-        &sel(&["y_um", "z_um"]),
-        ReadOptions::default(),
-    )
-    .unwrap();
-    let id = identify(&t, &o).unwrap();
-    assert!(
-        id.notes
-            .iter()
-            .any(|n| n.contains("targets measured on different rows")),
-        "{:?}",
-        id.notes
-    );
+    let (t, id) = both(&text, "targets measured on different rows");
     let floor = gearcomp_identify::pipeline::plain_least_squares(&t, &o.split).unwrap();
     for (j, name) in ["y_um", "z_um"].iter().enumerate() {
         let alone = read_csv(&text, "log.csv", &sel(&[name]), ReadOptions::default()).unwrap();
@@ -285,25 +284,13 @@ fn targets_measured_on_different_rows_are_fitted_on_their_own_rows() {
     }
     // c_c constant on y's rows only: the two are fitted together on their 10 common
     // rows, with the note saying so and how to use every measurement.
-    let text = log(true);
-    let t = read_csv(
-        &text,
-        "log.csv",
-        &sel(&["y_um", "z_um"]),
-        ReadOptions::default(),
-    )
-    .unwrap();
-    let id = identify(&t, &o).unwrap();
+    let (_, id) = both(&log(true), "10 rows have every target");
     assert_eq!(id.train.iter().filter(|&&m| m).count(), 10);
     assert!(id.targets.iter().all(|m| m.own_rows.is_none()));
-    assert!(
-        id.notes
-            .iter()
-            .any(|n| n.contains("10 rows have every target")
-                && n.contains("fit the targets one at a time")),
-        "{:?}",
-        id.notes
-    );
+    assert!(id
+        .notes
+        .iter()
+        .any(|n| n.contains("fit the targets one at a time")));
 }
 
 /// A target whose every measured training value is the same (a stuck probe) gets a note

@@ -368,3 +368,58 @@ pub fn opcua_input_head(
          channels = [{{ channel = \"A\", node = \"ns={ns};s=Temp.A\" }}, {{ channel = \"B\", node = \"ns={ns};s=Temp.B\" }}]\n"
     )
 }
+
+/// The offsets stored for engine axis 0 in the SQLite record `db`, in order.
+pub fn stored_offsets(db: &std::path::Path) -> Vec<f64> {
+    let conn = gearcomp_service::storage::open_read(db).unwrap();
+    let mut st = conn
+        .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
+        .unwrap();
+    st.query_map([], |r| r.get(0))
+        .unwrap()
+        .map(|r| r.unwrap())
+        .collect()
+}
+
+/// The first stored offset (from a start at 0 µm) that moved by more than `max_step_um`
+/// from the one before it: (row, offset, offset before), `None` when every step is within
+/// the rate limit.
+pub fn step_beyond(offsets: &[f64], max_step_um: f64) -> Option<(usize, f64, f64)> {
+    let mut prev = 0.0;
+    for (k, &y) in offsets.iter().enumerate() {
+        if (y - prev).abs() > max_step_um + 1e-9 {
+            return Some((k, y, prev));
+        }
+        prev = y;
+    }
+    None
+}
+
+/// Runs `case` over `strat`: `fixed` cases from `seed`, then `fresh` ones from a new seed
+/// (no persisted failures, short shrinking: each case runs a service).
+pub fn fixed_then_fresh<S: proptest::strategy::Strategy>(
+    strat: &S,
+    seed: u64,
+    fixed: u32,
+    fresh: u32,
+    case: impl Fn(S::Value) -> Result<(), proptest::test_runner::TestCaseError>,
+) {
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+    let base = Config {
+        failure_persistence: None,
+        max_shrink_iters: 16,
+        ..Config::default()
+    };
+    let fixed = Config {
+        cases: fixed,
+        rng_seed: RngSeed::Fixed(seed),
+        ..base.clone()
+    };
+    let fresh = Config {
+        cases: fresh,
+        ..base
+    };
+    for cfg in [fixed, fresh] {
+        TestRunner::new(cfg).run(strat, &case).unwrap();
+    }
+}

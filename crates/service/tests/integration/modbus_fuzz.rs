@@ -23,9 +23,8 @@ use std::future;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::common::{free_port, start_with, Api};
+use crate::common::{fixed_then_fresh, free_port, start_with, step_beyond, stored_offsets, Api};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestRunner};
 use tokio_modbus::prelude::*;
 use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
 
@@ -166,24 +165,12 @@ fn run_case(script: Vec<Answer>) -> Result<(), TestCaseError> {
         let given = module.given.lock().unwrap().clone();
         prop_assert_eq!(given.len(), script.len());
         let conn = gearcomp_service::storage::open_read(&db).unwrap();
-        let offsets: Vec<f64> = conn
-            .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
-            .unwrap()
-            .query_map([], |r| r.get(0))
-            .unwrap()
-            .map(|r| r.unwrap())
-            .collect();
-        let mut prev = 0.0;
-        for (k, y) in offsets.iter().enumerate() {
-            prop_assert!(
-                (y - prev).abs() <= 0.5 + 1e-9,
-                "offset row {}: {} after {} (a step beyond the rate limit)",
-                k,
-                y,
-                prev
-            );
-            prev = *y;
-        }
+        let step = step_beyond(&stored_offsets(&db), 0.5);
+        prop_assert!(
+            step.is_none(),
+            "offset (row, value, before) {:?}: a step beyond the rate limit",
+            step
+        );
         for (addr, ch) in [(0u16, 0i64), (1, 1)] {
             let bad = given
                 .iter()
@@ -227,18 +214,5 @@ fn run_case(script: Vec<Answer>) -> Result<(), TestCaseError> {
 #[test]
 fn hostile_register_answers_never_kill_the_input_nor_step_the_offset() {
     let strat = proptest::collection::vec(answer(), 10..60);
-    let fixed = Config {
-        cases: 2,
-        rng_seed: RngSeed::Fixed(0x5e11_0003),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases: 2,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    for cfg in [fixed, fresh] {
-        TestRunner::new(cfg).run(&strat, run_case).unwrap();
-    }
+    fixed_then_fresh(&strat, 0x5e11_0003, 2, 2, run_case);
 }

@@ -27,10 +27,12 @@
 
 use std::time::{Duration, Instant};
 
-use crate::common::{engine_ab_rate_limited, free_port, start_with, Api};
+use crate::common::{
+    engine_ab_rate_limited, fixed_then_fresh, free_port, start_with, step_beyond, stored_offsets,
+    Api,
+};
 use crate::mqtt_limits::{gateway, start_broker};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestRunner};
 use rumqttc::QoS;
 
 /// One message of the script: its channel (0 = A, 1 = B), its payload, and whether the
@@ -264,24 +266,8 @@ fn run_case(mut script: Vec<Msg>) -> Result<(), TestCaseError> {
             let key = format!("mqtt.payload.{}", ["A", "B"][ch]);
             prop_assert_eq!(alarm_rows(&conn, &key), runs[ch], "{} alarm rows", key);
         }
-        let offsets: Vec<f64> = conn
-            .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
-            .unwrap()
-            .query_map([], |r| r.get(0))
-            .unwrap()
-            .map(|r| r.unwrap())
-            .collect();
-        let mut prev = 0.0;
-        for (k, y) in offsets.iter().enumerate() {
-            prop_assert!(
-                (y - prev).abs() <= 0.5 + 1e-9,
-                "offset row {}: {} after {} (a step beyond the rate limit)",
-                k,
-                y,
-                prev
-            );
-            prev = *y;
-        }
+        let step = step_beyond(&stored_offsets(&db), 0.5);
+        prop_assert!(step.is_none(), "offset (row, value, before) {:?}: a step beyond the rate limit", step);
         Ok(())
     })
 }
@@ -289,20 +275,5 @@ fn run_case(mut script: Vec<Msg>) -> Result<(), TestCaseError> {
 #[test]
 fn hostile_payloads_never_kill_the_input_nor_step_the_offset_and_are_counted() {
     let strat = proptest::collection::vec(msg(), 10..80);
-    let fixed = Config {
-        cases: 2,
-        rng_seed: RngSeed::Fixed(0x5e11_0004),
-        failure_persistence: None,
-        max_shrink_iters: 16,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases: 2,
-        failure_persistence: None,
-        max_shrink_iters: 16,
-        ..Config::default()
-    };
-    for cfg in [fixed, fresh] {
-        TestRunner::new(cfg).run(&strat, run_case).unwrap();
-    }
+    fixed_then_fresh(&strat, 0x5e11_0004, 2, 2, run_case);
 }

@@ -19,12 +19,11 @@
 use std::time::{Duration, Instant};
 
 use crate::common::{
-    add_variable, engine_ab_rate_limited, free_port, opcua_input_head, start_with, Api,
-    OpcUaStandIn,
+    add_variable, engine_ab_rate_limited, fixed_then_fresh, free_port, opcua_input_head,
+    start_with, step_beyond, stored_offsets, Api, OpcUaStandIn,
 };
 use opcua::types::{DataTypeId, DataValue, DateTime, NodeId, StatusCode, Variant};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed, TestRunner};
 
 /// One scripted value of a temperature node: the variant, a Bad status instead of Good,
 /// and whether the service can take it as a reading the engine accepts.
@@ -178,25 +177,12 @@ fn run_case(script: Vec<Step>) -> Result<(), TestCaseError> {
                 prop_assert!(alarmed, "bad values on {} without an alarm: {}", name, all);
             }
         }
-        let conn = gearcomp_service::storage::open_read(&db).unwrap();
-        let offsets: Vec<f64> = conn
-            .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
-            .unwrap()
-            .query_map([], |r| r.get(0))
-            .unwrap()
-            .map(|r| r.unwrap())
-            .collect();
-        let mut prev = 0.0;
-        for (k, y) in offsets.iter().enumerate() {
-            prop_assert!(
-                (y - prev).abs() <= 0.5 + 1e-9,
-                "offset row {}: {} after {} (a step beyond the rate limit)",
-                k,
-                y,
-                prev
-            );
-            prev = *y;
-        }
+        let step = step_beyond(&stored_offsets(&db), 0.5);
+        prop_assert!(
+            step.is_none(),
+            "offset (row, value, before) {:?}: a step beyond the rate limit",
+            step
+        );
         Ok(())
     })
 }
@@ -204,20 +190,5 @@ fn run_case(script: Vec<Step>) -> Result<(), TestCaseError> {
 #[test]
 fn hostile_node_values_never_kill_the_input_nor_step_the_offset() {
     let strat = proptest::collection::vec(step(), 8..30);
-    let fixed = Config {
-        cases: 2,
-        rng_seed: RngSeed::Fixed(0x5e11_0005),
-        failure_persistence: None,
-        max_shrink_iters: 16,
-        ..Config::default()
-    };
-    let fresh = Config {
-        cases: 1,
-        failure_persistence: None,
-        max_shrink_iters: 16,
-        ..Config::default()
-    };
-    for cfg in [fixed, fresh] {
-        TestRunner::new(cfg).run(&strat, run_case).unwrap();
-    }
+    fixed_then_fresh(&strat, 0x5e11_0005, 2, 1, run_case);
 }

@@ -3,7 +3,7 @@
 //! offset equals the law worked by hand at that row's position.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use crate::common::{position_law_um, replay_to_end, POSITION_ENGINE};
+use crate::common::{position_law_um, replay_to_end, stored_offsets, POSITION_ENGINE};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn replayed_positions_reach_the_position_law() {
@@ -25,15 +25,7 @@ async fn replayed_positions_reach_the_position_law() {
     let (run, _) = replay_to_end(dir.path(), "100", 30.0).await;
     let db = run.db.clone();
     run.stop().await.unwrap();
-    let conn = rusqlite::Connection::open(&db).unwrap();
-    let mut st = conn
-        .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
-        .unwrap();
-    let ys: Vec<f64> = st
-        .query_map([], |r| r.get(0))
-        .unwrap()
-        .map(|r| r.unwrap())
-        .collect();
+    let ys = stored_offsets(&db);
     let want: Vec<f64> = [140.0, 140.0, 60.0, 237.5, -50.0]
         .iter()
         .map(|p| position_law_um(24.0, *p))

@@ -12,7 +12,7 @@
 //! increase, so no ignored row can replace a held reading (the flaw d9573fb fixed in
 //! `gearcomp replay`).
 
-use crate::common::replay_to_end;
+use crate::common::{replay_to_end, stored_offsets};
 use gearcomp_thermal::{Engine, EngineConfig};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
@@ -132,17 +132,6 @@ fn expected_offsets(c: &Case) -> Vec<f64> {
         out.push(applied);
     }
     out
-}
-
-fn stored_offsets(db: &std::path::Path) -> Vec<f64> {
-    let conn = rusqlite::Connection::open(db).unwrap();
-    let mut st = conn
-        .prepare("SELECT offset_um FROM offsets WHERE axis = 0 ORDER BY id")
-        .unwrap();
-    st.query_map([], |r| r.get(0))
-        .unwrap()
-        .map(|r| r.unwrap())
-        .collect()
 }
 
 fn run_case(c: &Case) -> Result<(), TestCaseError> {
