@@ -31,9 +31,11 @@ pub enum ThermalError {
         known: String,
     },
     /// The TOML text could not be parsed into the configuration structure.
-    /// A long value in it (a 5000-character sensor kind) is shown by its start and length.
-    #[error("configuration is not valid: {}", gearcomp_core::shorten::shorten_message(&.0.to_string()))]
-    Toml(#[from] toml::de::Error),
+    /// The parser's message, a long value in it (a 5000-character sensor kind) shown by
+    /// its start and length ([`gearcomp_core::shorten`]); not kept as a source, whose
+    /// message would print the value whole again.
+    #[error("configuration is not valid: {0}")]
+    Toml(String),
     /// A thermal model file could not be read or is invalid.
     #[error("thermal model: {0}")]
     Model(#[from] gearcomp_core::CoreError),
@@ -68,5 +70,11 @@ pub(crate) fn check_range(field: &str, v: f64, lo: f64, hi: f64, expected: &str)
         Ok(())
     } else {
         Err(invalid(field, v, expected))
+    }
+}
+
+impl From<toml::de::Error> for ThermalError {
+    fn from(e: toml::de::Error) -> Self {
+        ThermalError::Toml(gearcomp_core::shorten::shorten_message(&e.to_string()))
     }
 }

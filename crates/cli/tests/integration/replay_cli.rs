@@ -151,6 +151,35 @@ fn replay_config_errors_name_field_value_and_range() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A 5000-character sensor kind: the whole printed error (with its causes) shows the value
+/// by its start and length, in a few hundred characters (it printed 30 491 characters: the
+/// TOML error repeats the value, and its source printed it again).
+#[test]
+fn replay_shortens_a_long_configuration_value() {
+    let dir = tmp("longval");
+    let kind = "q".repeat(5000);
+    let cfg = format!(
+        "[[channels]]\nname = \"A\"\nsensor = {{ kind = \"{kind}\" }}\nvalid_min = 0.0\nvalid_max = 1.0\nstale_timeout_s = 1.0\n"
+    );
+    std::fs::write(dir.join("cfg.toml"), cfg).unwrap();
+    std::fs::write(dir.join("log.csv"), "time_s,A\n0,1\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .current_dir(&dir)
+        .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.chars().count() < 1500
+            && stderr.contains("(5000 characters)")
+            && stderr.contains("celsius"),
+        "{} characters: {stderr}",
+        stderr.chars().count()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Issue 12 item 4 through the command: a model file with a training envelope (t3_c and
 /// t5_c ranges over FL_THERMAL's first 24 h, computed here from the CSV) replayed over the
 /// whole log: `gearcomp replay` writes the warning, naming the channel, its value and the
