@@ -75,7 +75,10 @@ fn main() -> ExitCode {
             if is_broken_pipe(&e) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("gearcomp: error: {e:#}");
+            // A long value the user wrote (a 5000-character TOML value or CSV cell) is shown
+            // by its start and length, in every command's message.
+            let message = gearcomp_core::shorten::shorten_values(&format!("{e:#}"));
+            eprintln!("gearcomp: error: {message}");
             ExitCode::from(2)
         }
     }

@@ -33,11 +33,20 @@ pub fn shown(value: &str) -> String {
 /// (`"qqq…" (5000 characters)`); a line still longer than 400 characters (the source line
 /// and the `^^^` marker of a TOML parse error, an unquoted value) is cut the same way.
 pub fn shorten_message(text: &str) -> String {
-    let lines: Vec<String> = text.split('\n').map(shorten_line).collect();
+    let lines: Vec<String> = text.split('\n').map(|l| shorten_line(l, true)).collect();
     lines.join("\n")
 }
 
-fn shorten_line(line: &str) -> String {
+/// [`shorten_message`] without the cut of long lines: every quoted value, every bare word
+/// longer than a path and every `^^^` marker under a shortened value is shortened, but a
+/// message line that is long for its own words (a list of columns, a remedy) stays whole.
+/// For any error a command prints.
+pub fn shorten_values(text: &str) -> String {
+    let lines: Vec<String> = text.split('\n').map(|l| shorten_line(l, false)).collect();
+    lines.join("\n")
+}
+
+fn shorten_line(line: &str, cut_long_lines: bool) -> String {
     let chars: Vec<char> = line.chars().collect();
     let mut out = String::with_capacity(line.len().min(2 * SHOWN_LINE_CHARS));
     let mut i = 0;
@@ -61,7 +70,10 @@ fn shorten_line(line: &str) -> String {
                 ends.push(j.min(chars.len()));
             }
             if j < chars.len() {
-                if ends.len() > SHOWN_CHARS {
+                // A value shortened already (its start and `…`, as a library's message
+                // gave it) is left as it is: shortening twice keeps the first length.
+                let done = ends.len() == SHOWN_CHARS + 1 && chars[j - 1] == '…';
+                if ends.len() > SHOWN_CHARS && !done {
                     out.push(q);
                     out.extend(&chars[i + 1..ends[SHOWN_CHARS - 1]]);
                     out.push('…');
@@ -93,8 +105,10 @@ fn shorten_line(line: &str) -> String {
         out = out
             .split(' ')
             .map(|w| {
-                if w.chars().count() > SHOWN_BARE_CHARS {
-                    shown(w)
+                // A list's comma or a sentence's stop after the value stays after it.
+                let core = w.trim_end_matches([',', ';', ':', '.', ')']);
+                if core.chars().count() > SHOWN_BARE_CHARS {
+                    format!("{}{}", shown(core), &w[core.len()..])
                 } else {
                     w.to_string()
                 }
@@ -103,9 +117,33 @@ fn shorten_line(line: &str) -> String {
             .join(" ");
     }
     let n = out.chars().count();
-    if n <= SHOWN_LINE_CHARS {
+    if n <= SHOWN_LINE_CHARS || !cut_long_lines {
         return out;
     }
     let head: String = out.chars().take(SHOWN_LINE_CHARS).collect();
     format!("{head}… ({n} characters)")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Shortening twice (a library's message, then the command's) gives the first result;
+    /// a list's comma after a long bare value stays after it.
+    #[test]
+    fn shortening_is_idempotent_and_keeps_punctuation() {
+        let q = "q".repeat(5000);
+        for text in [
+            format!("unknown variant `{q}`, expected one of `a`, `b`"),
+            format!("invalid x = \"{q}\": expected y"),
+            format!("columns are a, {q}, b"),
+        ] {
+            let once = shorten_message(&text);
+            assert_eq!(shorten_values(&once), once);
+            assert_eq!(shorten_message(&once), once);
+            assert!(once.contains("(5000 characters)"), "{once}");
+        }
+        let listed = shorten_values(&format!("columns are a, {q}, b"));
+        assert!(listed.ends_with("… (5000 characters), b"), "{listed}");
+    }
 }
