@@ -18,6 +18,20 @@ fn channels(names: &[String]) -> String {
         .collect()
 }
 
+/// `gearcomp replay` of the configuration `cfg` (written to `dir`) on a one-row log:
+/// asserts the exit code of a refused input (2) and returns what it printed on stderr.
+fn refused_config(dir: &std::path::Path, cfg: &str) -> String {
+    std::fs::write(dir.join("cfg.toml"), cfg).unwrap();
+    std::fs::write(dir.join("log.csv"), "time_s,A\n0,1\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .current_dir(dir)
+        .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 /// The FL_THERMAL log (11 115 rows, 16 temperatures) through Cz = −1.2·t3 + 30 +
 /// 0.8·(t5 − t9) with no averaging, dead band or rate limit: every row's offset must equal
 /// the law evaluated independently here from the CSV text.
@@ -135,15 +149,7 @@ fn replay_config_errors_name_field_value_and_range() {
     let dir = tmp("cfgerr");
     let cfg = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\nvalid_min = 50.0\nvalid_max = 10.0\nstale_timeout_s = 1.0\n\
                [[axes]]\nname = \"Z\"\napply = { kind = \"command\" }\nmax_offset_um = 10.0\n[[axes.terms]]\nkind = \"linear\"\nchannel = \"A\"\nkd_um_per_c = 1.0\n";
-    std::fs::write(dir.join("cfg.toml"), cfg).unwrap();
-    std::fs::write(dir.join("log.csv"), "time_s,A\n0,1\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .current_dir(&dir)
-        .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stderr = refused_config(&dir, &cfg);
     assert!(
         stderr.contains("channels[0].valid_max = 10") && stderr.contains("> valid_min = 50"),
         "{stderr}"
@@ -161,15 +167,7 @@ fn replay_shortens_a_long_configuration_value() {
     let cfg = format!(
         "[[channels]]\nname = \"A\"\nsensor = {{ kind = \"{kind}\" }}\nvalid_min = 0.0\nvalid_max = 1.0\nstale_timeout_s = 1.0\n"
     );
-    std::fs::write(dir.join("cfg.toml"), cfg).unwrap();
-    std::fs::write(dir.join("log.csv"), "time_s,A\n0,1\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
-        .current_dir(&dir)
-        .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stderr = refused_config(&dir, &cfg);
     assert!(
         stderr.chars().count() < 1500
             && stderr.contains("(5000 characters)")
