@@ -149,7 +149,7 @@ fn replay_config_errors_name_field_value_and_range() {
     let dir = tmp("cfgerr");
     let cfg = "[[channels]]\nname = \"A\"\nsensor = { kind = \"celsius\" }\nvalid_min = 50.0\nvalid_max = 10.0\nstale_timeout_s = 1.0\n\
                [[axes]]\nname = \"Z\"\napply = { kind = \"command\" }\nmax_offset_um = 10.0\n[[axes.terms]]\nkind = \"linear\"\nchannel = \"A\"\nkd_um_per_c = 1.0\n";
-    let stderr = refused_config(&dir, &cfg);
+    let stderr = refused_config(&dir, cfg);
     assert!(
         stderr.contains("channels[0].valid_max = 10") && stderr.contains("> valid_min = 50"),
         "{stderr}"
