@@ -1421,10 +1421,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             t.lines.get(i).copied().unwrap_or(0),
         )
     };
-    crate::missing_code::check_logger_codes(columns.clone(), &line_of)?;
-    if !opts.keep_far_values {
-        crate::missing_code::check_far_values(columns, &line_of)?;
-    }
+    crate::missing_code::check_columns(columns, &line_of, opts.keep_far_values)?;
     let time_note = match (opts.time_unit, &time_column) {
         (Some(choice), Some((column, cell))) => {
             to_seconds(&mut t, choice, column, cell.as_deref(), time_stamps)?
