@@ -111,8 +111,8 @@ pub enum TimeUnitArg {
 /// The order of day and month in slash dates (`--date-order`).
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub enum DateOrderArg {
-    /// From the dates: a number above 12 says which is the day; a date that reads either
-    /// way (03/01/2026) is refused.
+    /// From each file's dates: its first date with a number above 12 says which is the day
+    /// for every row; a file whose dates all read either way (03/01/2026) is refused.
     Auto,
     /// Day first: 25/11/2026 (most of Europe).
     Dmy,

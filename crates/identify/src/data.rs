@@ -194,6 +194,14 @@ pub enum DataIssue {
         /// The column taken.
         column: String,
     },
+    /// The order of a file's slash dates, read from its first date that reads only one way
+    /// (no `--date-order` given).
+    DateOrder {
+        /// 1-based line number of that date.
+        line: u64,
+        /// The date and the order.
+        reason: String,
+    },
     /// Lines that are not data: title lines above the header, a units row under it
     /// ([`crate::preamble`]).
     Skipped {
@@ -213,7 +221,9 @@ impl std::fmt::Display for DataIssue {
                 "line {line}: time gap of {:.0} s ({from_s} s → {to_s} s): the run is split, filters restart",
                 to_s - from_s
             ),
-            DataIssue::Skipped { line, reason } => write!(f, "line {line}: {reason}"),
+            DataIssue::Skipped { line, reason } | DataIssue::DateOrder { line, reason } => {
+                write!(f, "line {line}: {reason}")
+            }
             DataIssue::TimeColumn { column } => write!(
                 f,
                 "time column: {column:?} (the log has no {DEFAULT_TIME_COLUMN} column and this one reads as a time axis; name another with --time-column)"
@@ -314,6 +324,7 @@ impl Table {
                 DataIssue::BadRow { line, .. } | DataIssue::Missing { line, .. } => Some(*line),
                 DataIssue::Gap { .. }
                 | DataIssue::Skipped { .. }
+                | DataIssue::DateOrder { .. }
                 | DataIssue::Held { .. }
                 | DataIssue::Unit { .. }
                 | DataIssue::TimeUnit { .. }
@@ -510,6 +521,9 @@ struct RowState {
     t0: Option<i64>,
     /// The file's time stamps carry a UTC offset (decided at the first one).
     has_offset: Option<bool>,
+    /// The order of the file's slash dates: `--date-order`, else what its dates that read
+    /// only one way say ([`dialect::date_order_of`]).
+    date_order: Option<dialect::DateOrder>,
     /// A row was left out for a missing cell: the next kept row starts a segment.
     split_pending: bool,
     /// Under [`MissingCells::Hold`]: each input's value on the last kept row of the run.
@@ -981,6 +995,8 @@ struct Reader<'a> {
     named_runs: bool,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
+    /// The order of a file's slash dates, found from its dates: (file, line, note).
+    date_notes: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
     forced: Vec<usize>,
     /// Run name of each file (its stem when not given): the sheets of one workbook.
@@ -1014,6 +1030,7 @@ impl<'a> Reader<'a> {
             drops: Drops::default(),
             named_runs: false,
             skipped: Vec::new(),
+            date_notes: Vec::new(),
             forced: Vec::new(),
             file_runs,
             source,
@@ -1363,6 +1380,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         drops,
         named_runs,
         skipped,
+        date_notes,
         forced,
         ..
     } = r;
@@ -1469,6 +1487,14 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
                 cells,
             },
         )
+    }));
+    issues.extend(date_notes.into_iter().map(|(fi, line, reason)| {
+        let reason = if many {
+            format!("{}: {reason}", names[fi])
+        } else {
+            reason
+        };
+        (fi, line, DataIssue::DateOrder { line, reason })
     }));
     issues.extend(skipped.into_iter().map(|(fi, line, reason)| {
         let reason = if many {
@@ -1808,15 +1834,21 @@ impl Reader<'_> {
             stem,
             dialect,
         };
-        let mut st = RowState {
-            last_line: 1,
-            ..RowState::default()
-        };
         // Quote-free text (the usual sensor log) is split directly: the same records as the
         // csv crate's, several times faster on large logs; anything else goes through it.
         let start = match self.opts.no_header {
             true => 0,
             false => usize::try_from(rdr.position().byte()).unwrap_or(usize::MAX),
+        };
+        // The time column as the log names it (the selection's name for DATE+TIME).
+        let time_name = match (c.time_idx, c.time2_idx) {
+            (Some(ti), None) => header.get(ti).map_or(sel.time.as_str(), |h| h.as_str()),
+            _ => sel.time.as_str(),
+        };
+        let mut st = RowState {
+            last_line: 1,
+            date_order: self.date_order(fi, (text, start), delimiter, c.time_idx, time_name)?,
+            ..RowState::default()
         };
         // A clean single-run log (every row complete, finite, time increasing) is parsed
         // on every core at once; any irregular line sends the file down the row-by-row path
@@ -1899,6 +1931,59 @@ impl Reader<'_> {
     }
 
     /// One record (`rec`: its trimmed fields) at source line `line` of file `fi`.
+    /// The order of file `fi`'s slash dates: `--date-order`, else the one its dates that read
+    /// only one way give (with a note naming the first), else none (an ambiguous date is then
+    /// refused naming `--date-order`). Dates that read only day first beside dates that read
+    /// only month first are refused: one file, one order.
+    fn date_order(
+        &mut self,
+        fi: usize,
+        (text, start): (&str, usize),
+        delimiter: u8,
+        time_idx: Option<usize>,
+        column: &str,
+    ) -> Result<Option<dialect::DateOrder>> {
+        let (Some(ti), None) = (time_idx, self.opts.date_order) else {
+            return Ok(self.opts.date_order);
+        };
+        let body = text.get(start..).unwrap_or("");
+        let first_line = text
+            .get(..start)
+            .map_or(0, |h| h.matches('\n').count() as u64)
+            + 1;
+        // Only a log whose first time cell is a slash date is scanned.
+        let mut cells = body
+            .lines()
+            .zip(first_line..)
+            .filter_map(|(l, line)| l.split(char::from(delimiter)).nth(ti).map(|c| (line, c)));
+        let first = cells.by_ref().find(|(_, c)| !c.trim().is_empty());
+        if !first.is_some_and(|(_, c)| dialect::is_slash_date(c.trim().trim_matches('"'))) {
+            return Ok(None);
+        }
+        match dialect::date_order_of(first.into_iter().chain(cells)) {
+            dialect::DatesSay::Nothing => Ok(None),
+            dialect::DatesSay::Order(order, line, cell) => {
+                let (read, other) = match order {
+                    dialect::DateOrder::DayFirst => ("day first (dd/mm/yyyy)", "mdy"),
+                    dialect::DateOrder::MonthFirst => ("month first (mm/dd/yyyy)", "dmy"),
+                };
+                self.date_notes.push((
+                    fi,
+                    line,
+                    format!(
+                        "{column} = {cell:?} reads only {read}: every slash date of the file is read so (--date-order {other} would refuse it)"
+                    ),
+                ));
+                Ok(Some(order))
+            }
+            dialect::DatesSay::Both((dl, dc), (ml, mc)) => Err(invalid(
+                column,
+                format!("{dc:?} at line {dl} and {mc:?} at line {ml}"),
+                "slash dates in one order: the first reads only day first, the second only month first; correct the log (one logger, one order)",
+            )),
+        }
+    }
+
     fn row(&mut self, fi: usize, line: u64, rec: &[&str], c: &Cols, st: &mut RowState) {
         let sel = self.sel;
         if rec.iter().all(|f| f.is_empty()) {
@@ -2052,7 +2137,10 @@ impl Reader<'_> {
             _ => sel.time.as_str(),
         };
         let time = match (c.time_idx, self.opts.sample_interval_s) {
-            (Some(_), _) => time_cell(time_text.trim(), time_name, dc, self.opts.date_order, st),
+            (Some(_), _) => {
+                let order = st.date_order;
+                time_cell(time_text.trim(), time_name, dc, order, st)
+            }
             (None, Some(dt)) => Ok(this_ordinal as f64 * dt),
             (None, None) => Err("no time".to_string()),
         };

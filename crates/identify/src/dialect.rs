@@ -200,7 +200,7 @@ pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, Cell
 
 /// The accepted time-stamp forms, for messages.
 pub const TIMESTAMP_FORMS: &str =
-    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' '), 01.03.2024 08:00:00, or 01/03/2024 08:00[:00] [AM|PM] (day or month first: --date-order)";
+    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' '), 2024/03/01 08:00[:00], 01.03.2024 08:00:00, or 01/03/2024 08:00[:00] [AM|PM] (day or month first: --date-order)";
 
 /// The order of day and month in a slash date (`03/01/2024`): spreadsheets and loggers
 /// write the day first in most of Europe and the month first in the United States.
@@ -219,6 +219,61 @@ fn slash_fields(s: &str) -> Option<(u32, u32)> {
     let b: u32 = it.next()?.trim().parse().ok()?;
     let rest = it.next()?;
     (rest.len() >= 4 && rest.as_bytes()[..4].iter().all(u8::is_ascii_digit)).then_some((a, b))
+}
+
+/// Whether `s` starts with a slash date with the year last (`25/11/2026 …`).
+pub fn is_slash_date(s: &str) -> bool {
+    slash_fields(s).is_some()
+}
+
+/// What a file's slash dates say of their order ([`date_order_of`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DatesSay {
+    /// No date of the file reads only one way (or the cells are no slash dates).
+    Nothing,
+    /// Every date that reads only one way reads so: the first of them (line, cell).
+    Order(DateOrder, u64, String),
+    /// Dates that read only day first and dates that read only month first: the first of
+    /// each (line, cell).
+    Both((u64, String), (u64, String)),
+}
+
+/// The order of a file's slash dates from the ones that read only one way (a first number
+/// over 12: day first; a second one over 12: month first), over every cell (line, text) of
+/// its date column. A log that starts on the 1st–12th of a month is ambiguous on its first
+/// rows only: its later dates name the order, and every date of the file is read so.
+pub fn date_order_of<'a>(cells: impl Iterator<Item = (u64, &'a str)>) -> DatesSay {
+    let mut dmy: Option<(u64, String)> = None;
+    let mut mdy: Option<(u64, String)> = None;
+    for (line, cell) in cells {
+        let c = cell.trim().trim_matches('"').trim();
+        let Some((a, b)) = slash_fields(c) else {
+            continue;
+        };
+        let month = 1..=12;
+        let (d, m) = (
+            a > 12 && month.contains(&b) && dmy.is_none(),
+            b > 12 && month.contains(&a) && mdy.is_none(),
+        );
+        // The date itself (a DATE column, or the date of a stamp) must be a real one.
+        let date = c.split_whitespace().next().unwrap_or("");
+        let real = |f: &str| chrono::NaiveDate::parse_from_str(date, f).is_ok();
+        if d && real("%d/%m/%Y") {
+            dmy = Some((line, c.to_string()));
+        }
+        if m && real("%m/%d/%Y") {
+            mdy = Some((line, c.to_string()));
+        }
+        if dmy.is_some() && mdy.is_some() {
+            break;
+        }
+    }
+    match (dmy, mdy) {
+        (Some(d), Some(m)) => DatesSay::Both(d, m),
+        (Some((l, c)), None) => DatesSay::Order(DateOrder::DayFirst, l, c),
+        (None, Some((l, c))) => DatesSay::Order(DateOrder::MonthFirst, l, c),
+        (None, None) => DatesSay::Nothing,
+    }
 }
 
 /// Whether `s` is a slash date whose day and month could be either way round (both
@@ -283,13 +338,17 @@ pub fn parse_timestamp_in(s: &str, order: Option<DateOrder>) -> Option<Stamp> {
     let (body, offset) = split_offset(s)?;
     // Day-first stamps may write fractional seconds with a comma.
     let body = body.replacen(',', ".", 1);
-    const FORMS: [&str; 6] = [
+    // Year first with slashes (`2024/03/01 08:00:00`) is what Japanese and Chinese data
+    // loggers write: never ambiguous.
+    const FORMS: [&str; 8] = [
         "%Y-%m-%d %H:%M:%S%.f",
         "%Y-%m-%dT%H:%M:%S%.f",
         "%d.%m.%Y %H:%M:%S%.f",
+        "%Y/%m/%d %H:%M:%S%.f",
         "%Y-%m-%d %H:%M",
         "%Y-%m-%dT%H:%M",
         "%d.%m.%Y %H:%M",
+        "%Y/%m/%d %H:%M",
     ];
     const DAY_FIRST: [&str; 4] = [
         "%d/%m/%Y %H:%M:%S%.f",

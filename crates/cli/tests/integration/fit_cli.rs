@@ -343,6 +343,42 @@ fn fit_reads_a_german_export_as_the_plain_log() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// A UK log that starts on 12 March (every date of its first 120 rows reads either way) and
+/// runs past midnight: its dates from the 13th name the order of the whole file, with a note
+/// on that line, and it fits the plain log's model. Its first 120 rows alone are refused
+/// naming `--date-order`.
+#[test]
+fn fit_takes_a_files_date_order_from_its_later_dates() {
+    let d = tmp("uk-dates");
+    let plain = fit_json(&d, "plain.csv", &run_csv(0, true), &[]).unwrap();
+    let mut text = String::from("time_s,a_c,b_c,y_um\n");
+    for r in plain_rows() {
+        let minutes = 22 * 60 + r[0].parse::<f64>().unwrap() as i64 / 60;
+        let day = 12 + minutes / (24 * 60);
+        let mut cells = vec![format!("{day}/03/2024 {}", clock(minutes % (24 * 60)))];
+        cells.extend(r[1..].iter().cloned());
+        text += &cells.join(",");
+        text += "\n";
+    }
+    let uk = fit_json(&d, "uk.csv", &text, &[]).unwrap();
+    assert_same_fit(
+        &uk,
+        &plain,
+        &["family", "terms", "train_rmse_um", "validation_rmse_um"],
+    );
+    let notes = &uk["data_issues"];
+    assert!(
+        notes.as_array().unwrap().iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .starts_with("line 122: time_s = \"13/03/2024 00:00:00\" reads only day first")),
+        "{notes}"
+    );
+    let first: String = text.lines().take(121).map(|l| format!("{l}\n")).collect();
+    let e = fit_json(&d, "uk_first.csv", &first, &[]).unwrap_err();
+    assert!(e.contains("--date-order dmy"), "{e}");
+}
+
 /// ISO 8601 stamps with alternating offsets (Z and +01:00 for the same instants) give the
 /// plain log's model; wall time going back without an offset is refused naming the line.
 #[test]

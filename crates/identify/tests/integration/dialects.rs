@@ -320,7 +320,7 @@ proptest! {
         let (bad_cell, expect): (String, String) = match kind {
             0 => {
                 let garbage = ["2024-13-01 08:00:00", "2024-02-30 10:00:00", "31.02.2024 08:00:00",
-                    "08:00:00", "2024-03-01 08:00:00+25:00", "soon", "2024/03/01 08:00:00", "1.5.3"];
+                    "08:00:00", "2024-03-01 08:00:00+25:00", "soon", "2024/13/01 08:00:00", "1.5.3"];
                 let g = garbage[(pick % garbage.len() as u64) as usize];
                 let expect = if d.time == TimeForm::Seconds {
                     format!("time_s = \"{g}\" is not a number")
@@ -704,9 +704,24 @@ proptest! {
             let cell = l.trim_start_matches('\u{feff}').split(d.delim).next().unwrap_or("");
             is_ambiguous_slash_date(cell.trim_matches('"'))
         });
+        // A date that reads only one way (day or month over 12) names the order of the whole
+        // file; without one, an ambiguous date is refused.
+        let decides = text.lines().skip(1).any(|l| {
+            let cell = l.trim_start_matches('\u{feff}').split(d.delim).next().unwrap_or("");
+            let mut f = cell.trim_matches('"').split('/').map(|x| x.trim().parse::<u32>());
+            match (f.next(), f.next()) {
+                (Some(Ok(a)), Some(Ok(b))) => (a > 12 && b <= 12) || (b > 12 && a <= 12),
+                _ => false,
+            }
+        });
         match with(None) {
-            Ok(t) => prop_assert!(!ambiguous && t == want, "{}", text),
-            Err(e) => prop_assert!(ambiguous && e.contains("--date-order"), "{e}"),
+            Ok(mut t) => {
+                let notes = t.issues.len();
+                t.issues.retain(|i| !matches!(i, gearcomp_identify::data::DataIssue::DateOrder { .. }));
+                prop_assert_eq!(notes - t.issues.len(), usize::from(decides));
+                prop_assert!((decides || !ambiguous) && t == want, "{}", text)
+            }
+            Err(e) => prop_assert!(ambiguous && !decides && e.contains("--date-order"), "{e}"),
         }
         if let Ok(t) = with(Some(wrong)) {
             // Read the wrong way round, the times (from the first stamp) differ when the log
@@ -722,4 +737,97 @@ proptest! {
             prop_assert!(t.time_s != want.time_s || !(spans && swaps), "{}", text);
         }
     }
+}
+
+/// A log that starts on the 1st–12th of a month has ambiguous slash dates on its first rows
+/// only: its first date with a day (or month) over 12 names the order of every row, with a
+/// note on that line. The times are those of the same log written in ISO 8601; Japanese
+/// loggers' year-first slash dates read as ISO too. Dates that read only day first beside
+/// dates that read only month first are refused naming both lines.
+#[test]
+fn a_file_names_its_date_order_by_its_later_dates() {
+    let s = Selection {
+        time: "stamp".into(),
+        inputs: vec!["a_c".into()],
+        targets: vec!["d_um".into()],
+        run: None,
+    };
+    // Every 7 h from 2026-03-10 06:00 to 2026-03-15 (day 13 first at line 12).
+    let stamps: Vec<(u32, u32, u32)> = (0..20u32)
+        .map(|k| {
+            let h = 6 + 7 * k;
+            (3, 10 + h / 24, h % 24)
+        })
+        .collect();
+    let log = |f: &dyn Fn(u32, u32, u32) -> String| -> String {
+        let mut text = "stamp,a_c,d_um\n".to_string();
+        for (k, &(m, d, h)) in stamps.iter().enumerate() {
+            text += &format!("{},{},{}\n", f(m, d, h), 20 + k, k % 3);
+        }
+        text
+    };
+    let iso = log(&|m, d, h| format!("2026-{m:02}-{d:02} {h:02}:00:00"));
+    let want = read_csv(&iso, "log.csv", &s, ReadOptions::default()).unwrap();
+    assert_eq!(want.time_s[1], 7.0 * 3600.0);
+    let dmy = log(&|m, d, h| format!("{d:02}/{m:02}/2026 {h:02}:00"));
+    let mdy = log(&|m, d, h| {
+        let (h12, p) = match h {
+            0 => (12, "AM"),
+            1..=11 => (h, "AM"),
+            12 => (12, "PM"),
+            _ => (h - 12, "PM"),
+        };
+        format!("{m}/{d}/2026 {h12}:00:00 {p}")
+    });
+    let ymd = log(&|m, d, h| format!("2026/{m:02}/{d:02} {h:02}:00:00"));
+    for (text, note) in [
+        (
+            &dmy,
+            Some("line 12: stamp = \"13/03/2026 04:00\" reads only day first"),
+        ),
+        (
+            &mdy,
+            Some("line 12: stamp = \"3/13/2026 4:00:00 AM\" reads only month first"),
+        ),
+        (&ymd, None),
+    ] {
+        let mut t = read_csv(text, "log.csv", &s, ReadOptions::default()).unwrap();
+        assert_eq!(t.time_s, want.time_s, "{text}");
+        let notes: Vec<String> = t.issues.iter().map(|i| i.to_string()).collect();
+        match note {
+            Some(n) => assert!(notes.len() == 1 && notes[0].starts_with(n), "{notes:?}"),
+            None => assert!(notes.is_empty(), "{notes:?}"),
+        }
+        t.issues.clear();
+        assert_eq!(t, want);
+    }
+    // Only the first rows (10–12 March): ambiguous, refused naming --date-order.
+    let short: String = dmy.lines().take(8).map(|l| format!("{l}\n")).collect();
+    let e = read_csv(&short, "log.csv", &s, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--date-order dmy"), "{e}");
+    // One month-first date among day-first ones.
+    let mixed = dmy.replacen("14/03/2026 08:00", "03/14/2026 08:00", 1);
+    assert_ne!(mixed, dmy);
+    let e = read_csv(&mixed, "log.csv", &s, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("\"13/03/2026 04:00\" at line 12")
+            && e.contains("\"03/14/2026 08:00\" at line 16"),
+        "{e}"
+    );
+    // The order named by the user is taken as given, without a note.
+    let t = read_csv(
+        &dmy,
+        "log.csv",
+        &s,
+        ReadOptions {
+            date_order: Some(gearcomp_identify::dialect::DateOrder::DayFirst),
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(t, want);
 }
