@@ -517,6 +517,8 @@ struct RowState {
     prev_t: Option<f64>,
     /// The time column holds time stamps (decided at its first non-empty cell).
     stamps: Option<bool>,
+    /// Those stamps are clock or elapsed times `h:mm:ss` ([`dialect::parse_clock`]).
+    clock: bool,
     /// Instant of the run's first time stamp in ns.
     t0: Option<i64>,
     /// The file's time stamps carry a UTC offset (decided at the first one).
@@ -985,6 +987,8 @@ struct Reader<'a> {
     time_column: Option<(String, Option<String>)>,
     /// A time stamp was read in the time column.
     time_stamps: bool,
+    /// Those stamps are clock or elapsed times (`h:mm:ss`).
+    time_clock: bool,
     /// The time column taken for a missing [`DEFAULT_TIME_COLUMN`] (the first file's).
     time_taken: Option<String>,
     /// Rows whose time does not increase, for the hint of the bad-rows error (a restart, a
@@ -1026,6 +1030,7 @@ impl<'a> Reader<'a> {
             target_unit_cells: Vec::new(),
             time_column: None,
             time_stamps: false,
+            time_clock: false,
             time_taken: None,
             drops: Drops::default(),
             named_runs: false,
@@ -1315,7 +1320,7 @@ struct Drops {
 fn time_drop_hint(
     drops: Drops,
     rows: usize,
-    stamps: bool,
+    (stamps, clock): (bool, bool),
     where_: &dyn Fn(usize, u64) -> String,
 ) -> String {
     let (n, Some((fi, line, prev, time))) = (drops.count, drops.first) else {
@@ -1324,6 +1329,12 @@ fn time_drop_hint(
     if rows >= 3 && n * 10 >= (rows - 1) * 9 {
         return format!(
             "; the time falls on {n} of {rows} rows: the log seems to run newest first (sort it oldest first)"
+        );
+    }
+    if clock && time < prev {
+        return format!(
+            "; the clock time falls at {}: a time of day past midnight, or an elapsed time that restarts? Give the date with the time (a date column and a time column: --time-column DATE+TIME; or stamps 2024-03-01 00:00:30), or name the runs (--run-column, --runs-at-restarts)",
+            where_(fi, line)
         );
     }
     if stamps && (3000.0..=3600.0).contains(&(prev - time)) {
@@ -1376,6 +1387,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         target_unit_cells,
         time_column,
         time_stamps,
+        time_clock,
         time_taken,
         drops,
         named_runs,
@@ -1418,7 +1430,12 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
                 } else {
                     bad[0].2.clone()
                 },
-                time_drop_hint(drops, t.time_s.len() + bad.len(), time_stamps, &where_)
+                time_drop_hint(
+                    drops,
+                    t.time_s.len() + bad.len(),
+                    (time_stamps, time_clock),
+                    &where_
+                )
             ),
         });
     }
@@ -2209,6 +2226,7 @@ impl Reader<'_> {
             self.forced.push(self.t.time_s.len());
         }
         self.time_stamps |= st.stamps == Some(true);
+        self.time_clock |= st.clock;
         self.t.time_s.push(time);
         for (c, v) in self.t.inputs.iter_mut().zip(&vals) {
             c.push(*v);
@@ -2263,6 +2281,19 @@ fn time_cell(
 ) -> std::result::Result<f64, String> {
     if st.stamps.is_none() && !s.is_empty() {
         st.stamps = Some(dialect::is_timestamp(s, decimal_comma));
+        st.clock = dialect::parse_timestamp(s).is_none()
+            && dialect::parse_clock(s, decimal_comma).is_some();
+    }
+    if st.stamps == Some(true) && st.clock {
+        // Seconds since the run's first clock time, as for stamps (no unit, no date).
+        let Some(secs) = dialect::parse_clock(s, decimal_comma) else {
+            return Err(format!(
+                "{col} = {s:?} is not a clock time h:mm:ss[.250] (the file's first time cell is one)"
+            ));
+        };
+        let nanos = (secs * 1e9).round() as i64;
+        let t0 = *st.t0.get_or_insert(nanos);
+        return Ok(nanos.saturating_sub(t0) as f64 / 1e9);
     }
     if st.stamps != Some(true) {
         return dialect::parse_number(s, col, decimal_comma).map_err(|e| match e {

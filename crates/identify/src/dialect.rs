@@ -200,7 +200,7 @@ pub fn parse_number(s: &str, col: &str, decimal_comma: bool) -> Result<f64, Cell
 
 /// The accepted time-stamp forms, for messages.
 pub const TIMESTAMP_FORMS: &str =
-    "seconds, or a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' '), 2024/03/01 08:00[:00], 01.03.2024 08:00:00, or 01/03/2024 08:00[:00] [AM|PM] (day or month first: --date-order)";
+    "seconds, a time stamp 2024-03-01 08:00:00[.250][Z|+01:00] (ISO 8601, 'T' or ' '), 2024/03/01 08:00[:00], 01.03.2024 08:00:00, or 01/03/2024 08:00[:00] [AM|PM] (day or month first: --date-order), or a clock or elapsed time h:mm:ss[.250]";
 
 /// The order of day and month in a slash date (`03/01/2024`): spreadsheets and loggers
 /// write the day first in most of Europe and the month first in the United States.
@@ -382,11 +382,46 @@ pub fn parse_timestamp_in(s: &str, order: Option<DateOrder>) -> Option<Stamp> {
     })
 }
 
+/// A clock or elapsed time `h:mm:ss[.fff]` (hours of any count up to 9 999 999, minutes and
+/// seconds below 60; a decimal comma when the file writes one): seconds since 0:00:00.
+/// Loggers write the time of day alone, or the time since the start of the test (`46:00:00`).
+pub fn parse_clock(s: &str, decimal_comma: bool) -> Option<f64> {
+    let mut f = s.trim().split(':');
+    let (h, m, sec) = (f.next()?, f.next()?, f.next()?);
+    if f.next().is_some() {
+        return None;
+    }
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    if !(digits(h) && h.len() <= 7 && m.len() == 2 && digits(m)) {
+        return None;
+    }
+    let sep = if decimal_comma { ',' } else { '.' };
+    let (whole, frac) = match sec.split_once(sep) {
+        Some((w, f)) if digits(f) => (w, f),
+        Some(_) => return None,
+        None => (sec, ""),
+    };
+    if !(whole.len() == 2 && digits(whole)) {
+        return None;
+    }
+    let (h, m, whole): (f64, f64, f64) = (h.parse().ok()?, m.parse().ok()?, whole.parse().ok()?);
+    if m >= 60.0 || whole >= 60.0 {
+        return None;
+    }
+    let frac: f64 = if frac.is_empty() {
+        0.0
+    } else {
+        format!("0.{frac}").parse().ok()?
+    };
+    Some(h * 3600.0 + m * 60.0 + whole + frac)
+}
+
 /// Whether the cell looks like a time stamp rather than seconds: it is no number (in the
-/// file's decimal form) but parses as a time stamp.
+/// file's decimal form) but parses as a time stamp or a clock time ([`parse_clock`]).
 pub fn is_timestamp(s: &str, decimal_comma: bool) -> bool {
     parse_number(s, "", decimal_comma).is_err()
         && (parse_timestamp(s).is_some()
+            || parse_clock(s, decimal_comma).is_some()
             || (is_ambiguous_slash_date(s)
                 && parse_timestamp_in(s, Some(DateOrder::DayFirst)).is_some()))
 }
@@ -395,6 +430,42 @@ pub fn is_timestamp(s: &str, decimal_comma: bool) -> bool {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// Clock and elapsed times against hand-computed seconds; anything else is not one.
+    #[test]
+    fn clock_times_are_seconds_since_midnight_or_start() {
+        let cases = [
+            ("0:00:00", false, 0.0),
+            ("08:00:00", false, 28_800.0),
+            ("23:59:59.5", false, 86_399.5),
+            ("46:00:30", false, 165_630.0),
+            ("1234567:00:00", false, 4_444_441_200.0),
+            ("0:01:02,25", true, 62.25),
+            (" 12:30:00 ", false, 45_000.0),
+        ];
+        for (s, dc, want) in cases {
+            assert_eq!(parse_clock(s, dc), Some(want), "{s}");
+            assert!(is_timestamp(s, dc), "{s}");
+        }
+        for bad in [
+            "12:30",
+            "1:2:3",
+            "00:60:00",
+            "00:00:60",
+            "a:00:00",
+            "1:00:00:00",
+            "-1:00:00",
+            "12345678:00:00",
+            "0:00:00.",
+            "0:00:00.5x",
+            "0:00:00,5",
+            "",
+            "08:00 AM",
+        ] {
+            assert_eq!(parse_clock(bad, false), None, "{bad}");
+        }
+        assert_eq!(parse_clock("0:00:00.5", true), None);
+    }
 
     #[test]
     fn delimiters_and_decimal_commas_are_detected() {

@@ -88,6 +88,8 @@ enum TimeForm {
     SlashDayFirst,
     /// `03/01/2024 08:00:00.250 AM` (month first, 12-hour clock; `--date-order mdy`).
     SlashMonthFirst12h,
+    /// Elapsed time since the start `h:mm:ss.250` (hours beyond 24 too).
+    Elapsed,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -117,6 +119,7 @@ fn dialect_strategy() -> impl Strategy<Value = Dialect> {
             Just(TimeForm::Zulu),
             Just(TimeForm::MixedOffsets),
             Just(TimeForm::DayFirst),
+            Just(TimeForm::Elapsed),
         ],
         // 2001 … 2037, any second.
         978_307_200i64..2_100_000_000,
@@ -146,6 +149,11 @@ fn time_text(d: &Dialect, t: f64, r: &mut Rng) -> String {
         return num(t);
     }
     let ms = (t * 1000.0).round() as i64;
+    if d.time == TimeForm::Elapsed {
+        let (h, m, sec, f) = (ms / 3_600_000, ms / 60_000 % 60, ms / 1000 % 60, ms % 1000);
+        let point = if d.decimal_comma { ',' } else { '.' };
+        return format!("{h}:{m:02}:{sec:02}{point}{f:03}");
+    }
     // Wall-clock offset of this row in minutes (instants stay the same).
     let off_min: i64 = match d.time {
         TimeForm::MixedOffsets => (r.next() % 105) as i64 * 15 - 720,
@@ -189,7 +197,7 @@ fn time_text(d: &Dialect, t: f64, r: &mut Rng) -> String {
             }
         }
         TimeForm::SlashMonthFirst12h => wall.format("%m/%d/%Y %I:%M:%S%.3f %p").to_string(),
-        TimeForm::Seconds => unreachable!(),
+        TimeForm::Seconds | TimeForm::Elapsed => unreachable!(),
     }
 }
 
@@ -322,10 +330,12 @@ proptest! {
                 let garbage = ["2024-13-01 08:00:00", "2024-02-30 10:00:00", "31.02.2024 08:00:00",
                     "08:00:00", "2024-03-01 08:00:00+25:00", "soon", "2024/13/01 08:00:00", "1.5.3"];
                 let g = garbage[(pick % garbage.len() as u64) as usize];
-                let expect = if d.time == TimeForm::Seconds {
-                    format!("time_s = \"{g}\" is not a number")
-                } else {
-                    format!("time_s = \"{g}\" is not a time stamp")
+                // In an elapsed-time log 08:00:00 is a time: a minute of 60 is not.
+                let g = if d.time == TimeForm::Elapsed && g == "08:00:00" { "08:60:00" } else { g };
+                let expect = match d.time {
+                    TimeForm::Seconds => format!("time_s = \"{g}\" is not a number"),
+                    TimeForm::Elapsed => format!("time_s = \"{g}\" is not a clock time"),
+                    _ => format!("time_s = \"{g}\" is not a time stamp"),
                 };
                 (format!("{g}{sep}{}{sep}n{sep}{}{sep}{}", num(log.a[r]), num(log.b[r]), num(log.d[r])), expect)
             }
@@ -830,4 +840,28 @@ fn a_file_names_its_date_order_by_its_later_dates() {
     )
     .unwrap();
     assert_eq!(t, want);
+}
+
+/// A time of day alone that passes midnight falls from 23:59 to 00:00: refused with the way
+/// on (a date with the time, or runs), never read as a jump back.
+#[test]
+fn a_clock_time_past_midnight_is_refused_with_the_way_on() {
+    let mut text = "time_s,a_c,d_um\n".to_string();
+    for k in 0..10u32 {
+        let m = 23 * 60 + 55 + k;
+        text += &format!("{:02}:{:02}:00,{},{}\n", (m / 60) % 24, m % 60, 20 + k, k);
+    }
+    let e = read(&text, ReadOptions::default()).unwrap_err();
+    assert!(
+        e.contains("5 bad row(s) at line(s) 7, 8, 9, 10, 11")
+            && e.contains("the clock time falls at line 7: a time of day past midnight")
+            && e.contains("--time-column DATE+TIME"),
+        "{e}"
+    );
+    let t = read(
+        &text[..text.find("00:00:00").unwrap()],
+        ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(t.time_s, vec![0.0, 60.0, 120.0, 180.0, 240.0]);
 }
