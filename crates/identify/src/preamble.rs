@@ -11,7 +11,12 @@
 //! cell of it is text that is not a number (an empty cell is not a unit: such a line is
 //! data with missing cells, reported as such). When no line names every column, the first
 //! line naming the time column is taken for the header (when the first line does not), so
-//! that the reader's error names the column that header lacks.
+//! that the reader's error names the column that header lacks; without one either, the
+//! first line whose shape is a header's (names over data of the same width, perhaps with a
+//! units row between: a data logger's `No.,Date&Time,ms,CH1,…`), so that the error lists
+//! the log's own columns rather than a title line's words. The default time column
+//! (`time_s`, not in the log) stands for the log's one column that reads as a time axis, as
+//! the reader takes it.
 
 use globset::Glob;
 
@@ -86,9 +91,19 @@ pub struct Wanted<'a> {
 /// missing from it.
 fn selected(header: &[String], w: &Wanted) -> Option<Vec<usize>> {
     if let Some(time) = w.time.filter(|t| !header.iter().any(|h| h == t)) {
-        let (d, t) = time.split_once('+')?;
-        if !(header.iter().any(|h| h == d) && header.iter().any(|h| h == t)) {
-            return None;
+        // The default time column stands for the one column that reads as a time axis, as
+        // the reader takes it.
+        let lone_time = time == crate::data::DEFAULT_TIME_COLUMN
+            && header
+                .iter()
+                .filter(|h| crate::time_unit::looks_like_time(h))
+                .count()
+                == 1;
+        if !lone_time {
+            let (d, t) = time.split_once('+')?;
+            if !(header.iter().any(|h| h == d) && header.iter().any(|h| h == t)) {
+                return None;
+            }
         }
     }
     if let Some(run) = w.run {
@@ -112,6 +127,30 @@ fn selected(header: &[String], w: &Wanted) -> Option<Vec<usize>> {
 fn is_number(cell: &str, delimiter: u8) -> bool {
     let c = cell.trim();
     c.parse::<f64>().is_ok() || (delimiter != b',' && c.replace(',', ".").parse::<f64>().is_ok())
+}
+
+/// Whether line `k` is a header by its shape alone: at least two fields, every one a
+/// non-empty name that is no number, over data of the same width (the next non-blank line,
+/// or the one after a units row: the same width, no numbers, and an empty cell or every
+/// cell a short word such as `°C` or `[s]`), at least half of whose fields are numbers. Its
+/// columns: every field (a units row under it is then found from all of them).
+fn shape_header(lines: &[&str], k: usize, forced: Option<u8>) -> Option<(u8, Vec<usize>)> {
+    let d = line_delimiter(lines[k], forced);
+    let names = fields(lines[k], d);
+    if names.len() < 2 || names.iter().any(|f| f.is_empty() || is_number(f, d)) {
+        return None;
+    }
+    let mut next = (k + 1..lines.len()).filter(|&j| !lines[j].trim().is_empty());
+    let width = |j: usize| fields(lines[j], d);
+    let numbers = |f: &[String]| f.iter().filter(|c| is_number(c, d)).count();
+    let mut row = width(next.next()?);
+    let unit_like =
+        |f: &[String]| f.iter().any(|c| c.is_empty()) || f.iter().all(|c| c.chars().count() <= 8);
+    if row.len() == names.len() && numbers(&row) == 0 && unit_like(&row) {
+        row = width(next.next()?);
+    }
+    (row.len() == names.len() && 2 * numbers(&row) >= row.len())
+        .then(|| (d, (0..names.len()).collect()))
 }
 
 fn shown(line: &str) -> String {
@@ -149,6 +188,9 @@ pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamb
         f.iter().any(|h| h == full || h == time).then_some(())?;
         Some((d, Vec::new()))
     };
+    // Without a line naming the columns, the header is the first line of names over the
+    // data (`shape_header`), when the first line is not one: the reader's error then lists
+    // the log's own columns, not the words of a title line.
     let (head, (d, cols)) = match header_at(first) {
         Some(h) => (first, h),
         None => search()
@@ -156,6 +198,12 @@ pub fn find(text: &str, wanted: &Wanted, delimiter: Option<u8>) -> Option<Preamb
             .or_else(|| {
                 time_header(first).is_none().then_some(())?;
                 search().find_map(|k| time_header(k).map(|h| (k, h)))
+            })
+            .or_else(|| {
+                shape_header(&lines, first, delimiter)
+                    .is_none()
+                    .then_some(())?;
+                search().find_map(|k| shape_header(&lines, k, delimiter).map(|h| (k, h)))
             })?,
     };
     let mut skipped: Vec<(u64, String)> = Vec::new();

@@ -76,7 +76,8 @@ impl TimeUnit {
 
 /// Whether a column name reads as a time axis (for the hint when the time column given is
 /// missing): `time`, `Zeit`, `t`, `timestamp`, `datetime`, `date_time`, `elapsed`, `stamp`,
-/// `Uhrzeit`, `Zeitstempel`, any case, with or without a unit (`time_min`, `Zeit [s]`).
+/// `Uhrzeit`, `Zeitstempel`, `Date&Time` (Graphtec), `Date Time`, `Date/Time`, any case, with
+/// or without a unit (`time_min`, `Zeit [s]`).
 pub fn looks_like_time(name: &str) -> bool {
     let base = name.split(['[', '(']).next().unwrap_or(name).trim();
     let base = match base.rsplit_once(['_', '-', '.', ' ']) {
@@ -97,6 +98,10 @@ pub fn looks_like_time(name: &str) -> bool {
             | "zeitstempel"
             | "elapsed time"
             | "time stamp"
+            | "date&time"
+            | "date time"
+            | "date/time"
+            | "date-time"
     )
 }
 

@@ -117,6 +117,17 @@ proptest! {
         let want = read_csv(&plain, "log.csv", &sel(), opts).unwrap();
         let got = read_csv(&text, "log.csv", &sel(), opts).unwrap();
         prop_assert!(same_values(&got, &want));
+        // The time column not named: the log's one column that reads as a time axis (Zeit)
+        // is taken, behind the same title lines and units row.
+        let lone = Selection { time: "time_s".into(), ..sel() };
+        let got_lone = read_csv(&text, "log.csv", &lone, opts).unwrap();
+        prop_assert!(same_values(&got_lone, &want));
+        prop_assert_eq!(&got_lone.lines, &got.lines);
+        // Columns the log lacks: the error lists the log's own columns (the header found by
+        // its shape over the data), never a title line's words.
+        let absent = Selection { targets: vec!["*_um".into()], ..sel() };
+        let e = read_csv(&text, "log.csv", &absent, opts).unwrap_err().to_string();
+        prop_assert!(e.contains("available columns are Zeit, T1, T2, Weg"), "{}", e);
         // The file reader (chunked, for clean logs) gives the same table or leaves the file
         // to the text reader.
         let path = std::env::temp_dir().join(format!(
@@ -314,4 +325,62 @@ mod target_units {
         let t = read_csv(text, "log.csv", &sel("z"), given).unwrap();
         assert_eq!(t.targets[0], [1000.0, 2000.0, 3000.0]);
     }
+}
+
+/// A Graphtec-style export (GL-series CSV): title lines, `No.,Date&Time,ms,CH1,…`, a units
+/// row with empty cells, year-first slash stamps and signed values. With only its inputs
+/// and target named, it reads as the same log written plainly (the time from `Date&Time`,
+/// the one column that reads as a time axis); without them, the error lists its columns.
+#[test]
+fn a_graphtec_export_reads_with_its_channels_named() {
+    let mut plain = "time_s,CH1,CH2,CH3\n".to_string();
+    let mut text = "Model,GL240\nTitle,\nTrigger Time,\"2026/03/10 23:59:00\"\n\nNo.,Date&Time,ms,CH1,CH2,CH3\n,,,degC,degC,um\n".to_string();
+    for k in 0..30u32 {
+        let s = 23 * 3600 + 59 * 60 + 30 * k;
+        let (day, hms) = (10 + s / 86_400, s % 86_400);
+        let (a, b, y) = (
+            20.0 + f64::from(k) * 0.25,
+            22.5 - f64::from(k) * 0.5,
+            f64::from(k) - 3.5,
+        );
+        plain += &format!("{},{a},{b},{y}\n", 30 * k);
+        text += &format!(
+            "{},2026/03/{day:02} {:02}:{:02}:{:02},0,{a:+.2},{b:+.2},{y:+.3}\n",
+            k + 1,
+            hms / 3600,
+            hms / 60 % 60,
+            hms % 60
+        );
+    }
+    let channels = Selection {
+        time: "time_s".into(),
+        inputs: vec!["CH1".into(), "CH2".into()],
+        targets: vec!["CH3".into()],
+        run: None,
+    };
+    let opts = ReadOptions::default();
+    let want = read_csv(&plain, "plain.csv", &channels, opts).unwrap();
+    let got = read_csv(&text, "gl240.csv", &channels, opts).unwrap();
+    assert!(
+        same_values(&got, &want),
+        "{:?}\n{:?}",
+        got.time_s,
+        want.time_s
+    );
+    assert_eq!(got.lines, (7..37).collect::<Vec<u64>>());
+    let e = read_csv(
+        &text,
+        "gl240.csv",
+        &Selection {
+            time: "time_s".into(),
+            ..sel()
+        },
+        opts,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("available columns are No., Date&Time, ms, CH1, CH2, CH3"),
+        "{e}"
+    );
 }
