@@ -454,33 +454,19 @@ fn load(
     if let Some(read) = read_streamed(paths, sel, opts) {
         return read;
     }
-    let files: Vec<(String, String)> = if paths.is_empty() {
-        vec![(
-            gearcomp_datasets::fl_thermal_csv()
-                .context("decompress the embedded FL_THERMAL data")?,
-            "FL_THERMAL (embedded)".to_string(),
-        )]
-    } else {
-        paths
-            .iter()
-            .map(|p| {
-                Ok((
-                    std::fs::read_to_string(p).with_context(|| format!("read {}", p.display()))?,
-                    p.display().to_string(),
-                ))
-            })
-            .collect::<anyhow::Result<_>>()?
-    };
-    let refs: Vec<(&str, &str)> = files
+    if paths.is_empty() {
+        let text = gearcomp_datasets::fl_thermal_csv()
+            .context("decompress the embedded FL_THERMAL data")?;
+        let name = "FL_THERMAL (embedded)";
+        return Ok((read_runs(&[(&text, name)], sel, opts)?, name.to_string()));
+    }
+    let name = paths
         .iter()
-        .map(|(t, n)| (t.as_str(), n.as_str()))
-        .collect();
-    let name = files
-        .iter()
-        .map(|f| f.1.as_str())
+        .map(|p| p.display().to_string())
         .collect::<Vec<_>>()
         .join(", ");
-    Ok((read_runs(&refs, sel, opts)?, name))
+    let table = gearcomp_identify::encoding::read_log_files(paths, sel, opts)?;
+    Ok((table, name))
 }
 
 /// One plain log, or the embedded FL_THERMAL (its gzip members inflated as they are

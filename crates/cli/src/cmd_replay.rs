@@ -25,16 +25,27 @@ pub struct Args {
     pub strict: bool,
 }
 
+/// The log's text, decoded when it is not UTF-8 (with a note on stderr).
+fn read_log(path: &std::path::Path) -> anyhow::Result<String> {
+    let log = gearcomp_identify::encoding::read_log_text(path)
+        .with_context(|| format!("reading {}", path.display()))?;
+    if let Some(enc) = log.encoding {
+        eprintln!(
+            "gearcomp replay: {}: not UTF-8, read as {enc}",
+            path.display()
+        );
+    }
+    Ok(log.text)
+}
+
 /// Runs `gearcomp replay`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = EngineConfig::load(&args.config)
         .with_context(|| format!("configuration {}", args.config.display()))?;
     let mut engine =
         Engine::new(&cfg).with_context(|| format!("configuration {}", args.config.display()))?;
-    let text = std::fs::read_to_string(&args.data)
-        .with_context(|| format!("reading {}", args.data.display()))?;
-    let replay =
-        replay_csv(&mut engine, &text).with_context(|| format!("log {}", args.data.display()))?;
+    let replay = replay_csv(&mut engine, &read_log(&args.data)?)
+        .with_context(|| format!("log {}", args.data.display()))?;
     for b in &replay.bad_rows {
         eprintln!(
             "gearcomp replay: {}:{}: {}",

@@ -28,10 +28,7 @@ pub struct Selection {
     pub run: Option<String>,
 }
 
-/// The time column a selection names by default. When a log has no column of this name
-/// and exactly one column reads as a time axis (`time`, `Zeit [s]`, `time_ms`:
-/// [`crate::time_unit::looks_like_time`]), that column is the time, with a note.
-pub const DEFAULT_TIME_COLUMN: &str = "time_s";
+pub use crate::time_unit::DEFAULT_TIME_COLUMN;
 
 impl Default for Selection {
     /// `time_s`, every `*_c` column (°C by the naming convention) as input, no target.
@@ -194,6 +191,13 @@ pub enum DataIssue {
         /// The column taken.
         column: String,
     },
+    /// A log file that is not UTF-8, decoded as `encoding` ([`crate::encoding`]).
+    Encoding {
+        /// The file.
+        file: String,
+        /// What it was read as (`UTF-16LE`, `windows-1252`, …).
+        encoding: &'static str,
+    },
     /// The order of a file's slash dates, read from its first date that reads only one way
     /// (no `--date-order` given).
     DateOrder {
@@ -220,6 +224,10 @@ impl std::fmt::Display for DataIssue {
                 f,
                 "line {line}: time gap of {:.0} s ({from_s} s → {to_s} s): the run is split, filters restart",
                 to_s - from_s
+            ),
+            DataIssue::Encoding { file, encoding } => write!(
+                f,
+                "{file}: not UTF-8, read as {encoding} (its °, µ and umlauts as that encoding writes them)"
             ),
             DataIssue::Skipped { line, reason } | DataIssue::DateOrder { line, reason } => {
                 write!(f, "line {line}: {reason}")
@@ -325,6 +333,7 @@ impl Table {
                 DataIssue::Gap { .. }
                 | DataIssue::Skipped { .. }
                 | DataIssue::DateOrder { .. }
+                | DataIssue::Encoding { .. }
                 | DataIssue::Held { .. }
                 | DataIssue::Unit { .. }
                 | DataIssue::TimeUnit { .. }

@@ -31,6 +31,7 @@ pub mod cluster;
 pub mod data;
 pub mod dendrogram;
 pub mod dialect;
+pub mod encoding;
 pub mod envelope;
 pub mod error;
 pub mod fit;

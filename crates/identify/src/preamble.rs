@@ -93,7 +93,7 @@ fn selected(header: &[String], w: &Wanted) -> Option<Vec<usize>> {
     if let Some(time) = w.time.filter(|t| !header.iter().any(|h| h == t)) {
         // The default time column stands for the one column that reads as a time axis, as
         // the reader takes it.
-        let lone_time = time == crate::data::DEFAULT_TIME_COLUMN
+        let lone_time = time == crate::time_unit::DEFAULT_TIME_COLUMN
             && header
                 .iter()
                 .filter(|h| crate::time_unit::looks_like_time(h))

@@ -363,20 +363,7 @@ pub fn read_paths(
                 "workbooks (.xlsx .xlsm .xlsb .xls .ods); CSV logs have no sheets",
             ));
         }
-        let texts: Vec<(String, String)> = paths
-            .iter()
-            .map(|p| {
-                Ok((
-                    std::fs::read_to_string(p).map_err(|e| io_error(p, e))?,
-                    p.display().to_string(),
-                ))
-            })
-            .collect::<Result<_>>()?;
-        let refs: Vec<(&str, &str)> = texts
-            .iter()
-            .map(|(t, n)| (t.as_str(), n.as_str()))
-            .collect();
-        return data::read_runs(&refs, sel, opts);
+        return crate::encoding::read_log_files(paths, sel, opts);
     }
     if books < paths.len() {
         return Err(invalid(

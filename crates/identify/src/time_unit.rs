@@ -74,6 +74,11 @@ impl TimeUnit {
     }
 }
 
+/// The time column a selection names by default. When a log has no column of this name
+/// and exactly one column reads as a time axis (`time`, `Zeit [s]`, `time_ms`:
+/// [`crate::time_unit::looks_like_time`]), that column is the time, with a note.
+pub const DEFAULT_TIME_COLUMN: &str = "time_s";
+
 /// Whether a column name reads as a time axis (for the hint when the time column given is
 /// missing): `time`, `Zeit`, `t`, `timestamp`, `datetime`, `date_time`, `elapsed`, `stamp`,
 /// `Uhrzeit`, `Zeitstempel`, `Date&Time` (Graphtec), `Date Time`, `Date/Time`, any case, with

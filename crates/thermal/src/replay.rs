@@ -125,6 +125,8 @@ fn parse_flag(text: &str) -> Option<bool> {
 
 /// Runs `engine` over the CSV `text`.
 pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
+    // A byte-order mark (Excel's UTF-8 CSV) is no part of the first column's name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut rdr = csv::ReaderBuilder::new()
         .flexible(true)
         .trim(csv::Trim::All)

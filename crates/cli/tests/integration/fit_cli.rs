@@ -379,6 +379,54 @@ fn fit_takes_a_files_date_order_from_its_later_dates() {
     assert!(e.contains("--date-order dmy"), "{e}");
 }
 
+/// Logs that are not UTF-8 (a Windows-1252 export with `°C` as the byte 0xB0; Excel's
+/// "Unicode text", UTF-16 LE with its byte-order mark) fit the model of the same log in
+/// UTF-8, with a note naming the encoding. They were refused ("stream did not contain valid
+/// UTF-8").
+#[test]
+fn fit_reads_windows_1252_and_utf16_logs() {
+    let d = tmp("encodings");
+    let utf8 = run_csv(0, true).replacen("a_c,b_c", "a [°C],b [°C]", 1);
+    let args = ["--inputs", "a [°C]", "b [°C]"];
+    let want = fit_json(&d, "utf8.csv", &utf8, &args).unwrap();
+    let cp1252: Vec<u8> = utf8
+        .chars()
+        .map(|c| if c == '°' { 0xB0 } else { c as u8 })
+        .collect();
+    let utf16: Vec<u8> = [0xFF, 0xFE]
+        .into_iter()
+        .chain(utf8.encode_utf16().flat_map(u16::to_le_bytes))
+        .collect();
+    for (name, bytes, enc) in [
+        ("cp1252.csv", cp1252, "windows-1252"),
+        ("utf16.txt", utf16, "UTF-16LE"),
+    ] {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let got = fit_json_of(
+            &p,
+            &[
+                "--target",
+                "y_um",
+                "--no-test",
+                "--inputs",
+                "a [°C]",
+                "b [°C]",
+            ],
+        );
+        assert_same_fit(
+            &got,
+            &want,
+            &["family", "terms", "train_rmse_um", "validation_rmse_um"],
+        );
+        let notes = got["data_issues"].to_string();
+        assert!(
+            notes.contains(&format!("not UTF-8, read as {enc}")),
+            "{notes}"
+        );
+    }
+}
+
 /// ISO 8601 stamps with alternating offsets (Z and +01:00 for the same instants) give the
 /// plain log's model; wall time going back without an offset is refused naming the line.
 #[test]

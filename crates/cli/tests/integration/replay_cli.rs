@@ -132,6 +132,37 @@ fn replay_reports_bad_rows_with_line_numbers() {
         rows[2]
     );
     assert!(rows[3].starts_with("6,4,-18.7500,"), "{}", rows[3]);
+    // The same log with Excel's byte-order mark, in UTF-16 (Excel's "Unicode text") and in
+    // Windows-1252: the same offsets, the same lines.
+    let bom = [&[0xEF, 0xBB, 0xBF][..], log.as_bytes()].concat();
+    let utf16: Vec<u8> = [0xFF, 0xFE]
+        .into_iter()
+        .chain(log.encode_utf16().flat_map(u16::to_le_bytes))
+        .collect();
+    let cp1252 = log
+        .replace("abc", "ab\u{b0}")
+        .chars()
+        .map(|c| c as u8)
+        .collect::<Vec<u8>>();
+    for (bytes, note) in [
+        (bom, None),
+        (utf16, Some("UTF-16LE")),
+        (cp1252, Some("windows-1252")),
+    ] {
+        std::fs::write(dir.join("log.csv"), &bytes).unwrap();
+        let o2 = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+            .current_dir(&dir)
+            .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
+            .output()
+            .unwrap();
+        assert_eq!(String::from_utf8_lossy(&o2.stdout), stdout);
+        let err = String::from_utf8_lossy(&o2.stderr);
+        assert_eq!(
+            note.map(|n| err.contains(&format!("log.csv: not UTF-8, read as {n}"))),
+            note.map(|_| true),
+            "{err}"
+        );
+    }
     // --strict turns the report into a failure.
     let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
         .current_dir(&dir)
