@@ -2015,6 +2015,12 @@ impl Reader<'_> {
         if rec.iter().all(|f| f.is_empty()) {
             return;
         }
+        // A delimiter after the last field (some loggers end every data line with one, not
+        // the header) adds empty fields that hold nothing: they are no part of the row.
+        let mut rec = rec;
+        while rec.len() > c.header.len() && rec.last().is_some_and(|f| f.is_empty()) {
+            rec = &rec[..rec.len() - 1];
+        }
         if rec.len() != c.header.len() {
             let d = c.dialect;
             let other = [b',', b';', b'\t']

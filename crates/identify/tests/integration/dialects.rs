@@ -865,3 +865,35 @@ fn a_clock_time_past_midnight_is_refused_with_the_way_on() {
     .unwrap();
     assert_eq!(t.time_s, vec![0.0, 60.0, 120.0, 180.0, 240.0]);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Data lines that end with one or more delimiters (the header without) read as the
+    /// plain log; an extra field that holds something is still a bad row naming its line.
+    #[test]
+    fn trailing_delimiters_on_data_lines_are_no_fields(
+        seed in any::<u64>(),
+        rows in 5usize..60,
+        delim in prop_oneof![Just(','), Just(';'), Just('\t')],
+        pick in any::<u64>(),
+    ) {
+        let log = random_log(seed, rows, false);
+        let want = read(&plain(&log), ReadOptions::default()).unwrap();
+        let mut r = Rng::new(seed ^ 0xA5A5);
+        let mut text = plain(&log).replace(',', &delim.to_string());
+        let lines: Vec<String> = text.lines().map(String::from).collect();
+        text = lines[0].clone() + "\n";
+        for l in &lines[1..] {
+            let extra = 1 + (r.next() % 3) as usize;
+            text += &format!("{l}{}\n", delim.to_string().repeat(extra));
+        }
+        let opts = ReadOptions { delimiter: Some(delim as u8), ..ReadOptions::default() };
+        prop_assert_eq!(read(&text, opts), Ok(want));
+        let k = 1 + (pick % (rows as u64 - 1)) as usize;
+        let mut bad: Vec<String> = text.lines().map(String::from).collect();
+        bad[k] = format!("{}x", bad[k]);
+        let e = read(&(bad.join("\n") + "\n"), opts).unwrap_err();
+        prop_assert!(e.contains(&format!("line(s) {}:", k + 1)) && e.contains("fields, header has 5"), "{}", e);
+    }
+}
