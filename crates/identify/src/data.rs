@@ -517,6 +517,24 @@ struct Cols<'a> {
     dialect: Dialect,
 }
 
+/// The column indices `idx` (named `names`) reordered to follow `wanted`, when `names` are
+/// the names of `wanted` in any order, each once; None otherwise.
+fn same_names_in_order(idx: &[usize], names: &[String], wanted: &[String]) -> Option<Vec<usize>> {
+    if names.len() != wanted.len() {
+        return None;
+    }
+    wanted
+        .iter()
+        .map(|w| {
+            let at: Vec<usize> = (0..names.len()).filter(|&k| names[k] == *w).collect();
+            match at[..] {
+                [k] => Some(idx[k]),
+                _ => None,
+            }
+        })
+        .collect()
+}
+
 /// Per-file reading state carried from row to row.
 #[derive(Default)]
 struct RowState {
@@ -1769,11 +1787,11 @@ impl Reader<'_> {
                 e => e,
             }
         };
-        let target_idx = resolve(&sel.targets, &header, &excl)
+        let mut target_idx = resolve(&sel.targets, &header, &excl)
             .map_err(with_hint)
             .map_err(option("target columns with --target, default *_um"))?;
         excl.extend(target_idx.iter().copied());
-        let input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)
+        let mut input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)
             .map_err(with_hint)
             .map_err(option("temperature columns with --inputs, default *_c"))?
             .into_iter()
@@ -1823,7 +1841,15 @@ impl Reader<'_> {
             self.t.target_names = tg_names;
             self.t.inputs = vec![Vec::new(); input_idx.len()];
             self.t.targets = vec![Vec::new(); target_idx.len()];
-        } else if in_names != self.t.input_names || tg_names != self.t.target_names {
+        } else if let (Some(i), Some(t)) = (
+            same_names_in_order(&input_idx, &in_names, &self.t.input_names),
+            same_names_in_order(&target_idx, &tg_names, &self.t.target_names),
+        ) {
+            // The same columns in another order (another export set-up of the same
+            // machine): each read into the first file's column of its name.
+            input_idx = i;
+            target_idx = t;
+        } else {
             return Err(invalid(
                 &format!("columns of {name}"),
                 format!(

@@ -331,3 +331,106 @@ fn nothing_validated_is_named_with_what_to_change() {
         "{e}"
     );
 }
+
+/// One file per run, exported with the columns in another order (and an extra column) in
+/// some files: each file's columns are read by name into the first file's order, the same
+/// table as the files written alike. A file lacking a column, or holding another, is still
+/// refused naming both files' columns.
+#[test]
+fn files_with_their_columns_in_another_order_read_by_name() {
+    let cols = ["time_s", "a_c", "b_c", "c_c", "y_um", "z_um"];
+    // Rows: time, three temperatures, two targets; file k's values differ.
+    let rows = |k: usize| -> Vec<[f64; 6]> {
+        (0..20)
+            .map(|i| {
+                let t = 60.0 * i as f64;
+                let (a, b, c) = (
+                    20.0 + k as f64 + 0.1 * i as f64,
+                    22.0 - 0.05 * i as f64,
+                    19.0 + (i % 3) as f64,
+                );
+                [t, a, b, c, 1.5 * a - b, c - 0.5 * a]
+            })
+            .collect()
+    };
+    let write = |k: usize, order: &[usize], extra: bool| -> String {
+        let mut head: Vec<&str> = order.iter().map(|&j| cols[j]).collect();
+        if extra {
+            head.insert(1, "note");
+        }
+        let mut s = head.join(",") + "\n";
+        for r in rows(k) {
+            let mut cells: Vec<String> = order.iter().map(|&j| r[j].to_string()).collect();
+            if extra {
+                cells.insert(1, "x".into());
+            }
+            s += &(cells.join(",") + "\n");
+        }
+        s
+    };
+    let sel = Selection {
+        targets: vec!["*_um".into()],
+        ..Selection::default()
+    };
+    let same = [0, 1, 2, 3, 4, 5];
+    let alike: Vec<String> = (0..3).map(|k| write(k, &same, false)).collect();
+    let names = ["r0.csv", "r1.csv", "r2.csv"];
+    let files =
+        |texts: &[String]| -> Vec<(String, &str)> { texts.iter().cloned().zip(names).collect() };
+    let read = |texts: &[String]| {
+        let f = files(texts);
+        let refs: Vec<(&str, &str)> = f.iter().map(|(t, n)| (t.as_str(), *n)).collect();
+        read_runs(&refs, &sel, ReadOptions::default())
+    };
+    let want = read(&alike).unwrap();
+    // Every permutation of the five value columns for the second and third file (the
+    // time column moved too in some).
+    let mut perms = vec![vec![1usize, 2, 3, 4, 5]];
+    for _ in 0..4 {
+        let next: Vec<Vec<usize>> = perms
+            .iter()
+            .flat_map(|p| {
+                (0..p.len()).map(move |i| {
+                    let mut q = p.clone();
+                    q.swap(0, i);
+                    q.rotate_left(1);
+                    q
+                })
+            })
+            .collect();
+        perms = next;
+        perms.sort();
+        perms.dedup();
+    }
+    for (n, p) in perms.iter().enumerate() {
+        let mut order = p.clone();
+        order.insert(n % 6, 0);
+        let texts = vec![
+            alike[0].clone(),
+            write(1, &order, n % 2 == 0),
+            write(2, &order.iter().rev().copied().collect::<Vec<_>>(), false),
+        ];
+        let got = read(&texts).unwrap();
+        assert_eq!(got.input_names, want.input_names);
+        assert_eq!(got.target_names, want.target_names);
+        assert_eq!(
+            (&got.time_s, &got.inputs, &got.targets),
+            (&want.time_s, &want.inputs, &want.targets),
+            "{order:?}"
+        );
+    }
+    // A file without c_c: refused, both files' columns named.
+    let e = read(&[
+        alike[0].clone(),
+        write(1, &[0, 1, 2, 4, 5], false),
+        alike[2].clone(),
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("columns of r1.csv")
+            && e.contains("inputs a_c b_c / targets y_um z_um")
+            && e.contains("the columns of r0.csv: inputs a_c b_c c_c"),
+        "{e}"
+    );
+}
