@@ -191,6 +191,13 @@ pub enum DataIssue {
         /// The column taken.
         column: String,
     },
+    /// A run whose rows came back after another run's: each run's rows were taken together.
+    RunsTogether {
+        /// 1-based line of the first row that came back.
+        line: u64,
+        /// The run and the blocks.
+        reason: String,
+    },
     /// A log file that is not UTF-8, decoded as `encoding` ([`crate::encoding`]).
     Encoding {
         /// The file.
@@ -229,7 +236,9 @@ impl std::fmt::Display for DataIssue {
                 f,
                 "{file}: not UTF-8, read as {encoding} (its °, µ and umlauts as that encoding writes them)"
             ),
-            DataIssue::Skipped { line, reason } | DataIssue::DateOrder { line, reason } => {
+            DataIssue::Skipped { line, reason }
+            | DataIssue::DateOrder { line, reason }
+            | DataIssue::RunsTogether { line, reason } => {
                 write!(f, "line {line}: {reason}")
             }
             DataIssue::TimeColumn { column } => write!(
@@ -333,6 +342,7 @@ impl Table {
                 DataIssue::Gap { .. }
                 | DataIssue::Skipped { .. }
                 | DataIssue::DateOrder { .. }
+                | DataIssue::RunsTogether { .. }
                 | DataIssue::Encoding { .. }
                 | DataIssue::Held { .. }
                 | DataIssue::Unit { .. }
@@ -560,6 +570,49 @@ struct RowState {
     /// Under [`ReadOptions::runs_at_restarts`]: how often the time restarted in this run
     /// (of the run column, or of the file).
     restarts: usize,
+    /// The state of each run left for another's rows, taken up again when its rows come
+    /// back (two machines logged row by row in one file).
+    parked: Vec<(String, RunState)>,
+}
+
+/// The part of [`RowState`] that belongs to one run.
+#[derive(Default)]
+struct RunState {
+    ordinal: u64,
+    prev_t: Option<f64>,
+    t0: Option<i64>,
+    split_pending: bool,
+    held: Vec<Option<f64>>,
+    restarts: usize,
+}
+
+impl RowState {
+    /// Leaves the current run (its state parked) for `run`, whose parked state is taken up
+    /// again when its rows came before, or which starts afresh.
+    fn switch_run(&mut self, run: &str) {
+        let leaving = RunState {
+            ordinal: self.ordinal,
+            prev_t: self.prev_t,
+            t0: self.t0,
+            split_pending: self.split_pending,
+            held: std::mem::take(&mut self.held),
+            restarts: self.restarts,
+        };
+        if let Some(cur) = self.cur_run.take() {
+            self.parked.push((cur, leaving));
+        }
+        let back = match self.parked.iter().position(|(r, _)| r == run) {
+            Some(k) => self.parked.swap_remove(k).1,
+            None => RunState::default(),
+        };
+        self.cur_run = Some(run.to_string());
+        self.ordinal = back.ordinal;
+        self.prev_t = back.prev_t;
+        self.t0 = back.t0;
+        self.split_pending = back.split_pending;
+        self.held = back.held;
+        self.restarts = back.restarts;
+    }
 }
 
 /// The records of quote-free CSV text from byte `start` (just after the header): each line
@@ -1327,6 +1380,55 @@ fn to_micrometres(
     Ok(())
 }
 
+/// Puts each run's rows together (runs in the order they first appear, each run's rows in
+/// their order), when a run's rows come back after another run's; `forced` (rows that start
+/// a segment) follows its rows. Returns the first row that came back (its file, line and
+/// run) and the count of blocks before, or None when every run's rows were together.
+fn regroup_runs(t: &mut Table, forced: &mut [usize]) -> Option<(usize, u64, usize, usize)> {
+    let runs = t.runs.as_ref()?;
+    let mut rank: Vec<Option<usize>> = vec![None; t.run_names.len()];
+    let (mut blocks, mut next, mut first) = (0usize, 0usize, None);
+    for (i, &r) in runs.iter().enumerate() {
+        if i > 0 && runs[i - 1] == r {
+            continue;
+        }
+        blocks += 1;
+        match rank.get_mut(r) {
+            Some(Some(_)) => {
+                first.get_or_insert(i);
+            }
+            Some(slot) => {
+                *slot = Some(next);
+                next += 1;
+            }
+            None => return None,
+        }
+    }
+    let i = first?;
+    let key = |r: usize| rank.get(r).copied().flatten().unwrap_or(usize::MAX);
+    let mut order: Vec<usize> = (0..runs.len()).collect();
+    order.sort_by_key(|&k| key(runs[k]));
+    let pick = |v: &[f64]| order.iter().map(|&k| v[k]).collect::<Vec<f64>>();
+    let came_back = (t.file_of_row[i], t.lines[i], runs[i], blocks);
+    t.time_s = pick(&t.time_s);
+    for c in t.inputs.iter_mut().chain(t.targets.iter_mut()) {
+        *c = pick(c);
+    }
+    t.runs = Some(order.iter().map(|&k| runs[k]).collect());
+    t.lines = order.iter().map(|&k| t.lines[k]).collect();
+    t.file_of_row = order.iter().map(|&k| t.file_of_row[k]).collect();
+    let mut new_at = vec![0usize; order.len()];
+    for (to, &from) in order.iter().enumerate() {
+        new_at[from] = to;
+    }
+    for f in forced.iter_mut() {
+        if let Some(&to) = new_at.get(*f) {
+            *f = to;
+        }
+    }
+    Some(came_back)
+}
+
 /// Rows whose time does not increase (within a run).
 #[derive(Debug, Default)]
 struct Drops {
@@ -1548,6 +1650,21 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         };
         (fi, line, DataIssue::Skipped { line, reason })
     }));
+    // A run whose rows come back after another run's: each run's rows taken together.
+    let mut forced = forced;
+    if let Some((fi, line, run, blocks)) = regroup_runs(&mut t, &mut forced) {
+        let reason = format!(
+            "run {} comes back after another run's rows ({blocks} blocks of {} runs, as when two machines are logged row by row): each run's rows are taken together, in their order, so every filter, lag and delay runs through its run",
+            t.run_names.get(run).map_or("?", String::as_str),
+            t.run_names.len()
+        );
+        let reason = if many {
+            format!("{}: {reason}", names[fi])
+        } else {
+            reason
+        };
+        issues.push((fi, line, DataIssue::RunsTogether { line, reason }));
+    }
     // Segments: a new run starts one; a gap (step > gap_factor × the median step within
     // runs) inside a run starts another.
     let n = t.time_s.len();
@@ -2093,12 +2210,7 @@ impl Reader<'_> {
             None => String::new(),
         };
         if st.cur_run.as_deref() != Some(run.as_str()) {
-            st.cur_run = Some(run.clone());
-            st.ordinal = 0;
-            st.prev_t = None;
-            st.t0 = None;
-            st.held.clear();
-            st.restarts = 0;
+            st.switch_run(&run);
         }
         // A numeric time below the last one starts the next run (`runs_at_restarts`), before
         // any cell is read, so that no held value crosses into it.

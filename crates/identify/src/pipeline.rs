@@ -1030,10 +1030,10 @@ fn residuals_of(fit: &regress::LinearFit, columns: &[Vec<f64>], y: &[f64]) -> Ve
     y.iter().zip(&s).map(|(&y, &s)| y - (b0 + s)).collect()
 }
 
-/// A note when a run's rows are not together in the log (a run column whose value comes
-/// back after another run's rows, e.g. two machines logged alternately): every block of a
-/// run is a segment, so each filter, lag and delay restarts at each block (issue 12 shapes:
-/// two runs alternating row by row gave 600 segments of one row, and nothing said so).
+/// A note when a run's rows are not together in a table (a run whose rows come back after
+/// another run's): every block of a run is a segment, so each filter, lag and delay
+/// restarts at each block. The CSV reader takes each run's rows together (with its own
+/// note), so this concerns tables built otherwise.
 fn split_runs_note(table: &Table) -> Option<String> {
     let runs = table.runs.as_ref()?;
     let mut seen = vec![false; table.run_names.len()];

@@ -434,3 +434,108 @@ fn files_with_their_columns_in_another_order_read_by_name() {
         "{e}"
     );
 }
+
+/// Runs logged row by row in one file (two or three machines, a random interleaving that
+/// keeps each run's rows in their order): each run's rows are taken together, so the table
+/// (times, values, runs, segments) and the lag model's predictions are those of the same
+/// log with each run's rows together; every row keeps its line; a note names the first row
+/// that came back. Under time stamps each run counts from its own first stamp; under
+/// `--missing split` a row left out still splits its own run.
+#[test]
+fn runs_logged_row_by_row_are_taken_together() {
+    use gearcomp_identify::data::{DataIssue, MissingCells};
+    for seed in [1u64, 2, 3, 4, 5, std::process::id() as u64] {
+        let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let n_runs = 2 + (seed % 2) as usize;
+        let runs: Vec<Vec<(f64, f64, f64, f64)>> =
+            (0..n_runs).map(|k| run_rows(k, 40 + 7 * k, 30.0)).collect();
+        let stamps = seed % 3 == 0;
+        let hole = (seed % 2 == 1).then_some((1usize, 17usize));
+        let cell = |k: usize, i: usize| -> String {
+            let (t, a, b, y) = runs[k][i];
+            let time = if stamps {
+                // Run k from its own day; each run's times count from its first stamp.
+                let s = t as i64;
+                format!("2024-03-{:02} 08:{:02}:{:02}", 1 + k, s / 60, s % 60)
+            } else {
+                t.to_string()
+            };
+            let a = if hole == Some((k, i)) {
+                String::new()
+            } else {
+                a.to_string()
+            };
+            format!("{},{time},{a},{b},{y}\n", ["m1", "m2", "m3"][k])
+        };
+        // The interleaving: at each row a random run with rows left.
+        let mut at = vec![0usize; n_runs];
+        let mut mixed = String::from("run,time_s,a_c,b_c,y_um\n");
+        let mut mixed_lines: Vec<Vec<u64>> = vec![Vec::new(); n_runs];
+        let mut line = 1u64;
+        while at.iter().zip(&runs).any(|(&i, r)| i < r.len()) {
+            let left: Vec<usize> = (0..n_runs).filter(|&k| at[k] < runs[k].len()).collect();
+            let k = left[(next() % left.len() as u64) as usize];
+            mixed += &cell(k, at[k]);
+            line += 1;
+            mixed_lines[k].push(line);
+            at[k] += 1;
+        }
+        // The runs in the order they first appear, each run's rows together.
+        let mut first: Vec<usize> = (0..n_runs).collect();
+        first.sort_by_key(|&k| mixed_lines[k][0]);
+        let together: String = std::iter::once("run,time_s,a_c,b_c,y_um\n".to_string())
+            .chain(
+                first
+                    .iter()
+                    .flat_map(|&k| (0..runs[k].len()).map(move |i| (k, i)))
+                    .map(|(k, i)| cell(k, i)),
+            )
+            .collect();
+        let opts = ReadOptions {
+            missing: MissingCells::Split,
+            ..ReadOptions::default()
+        };
+        let want = read_csv(&together, "log.csv", &sel(Some("run")), opts).unwrap();
+        let got = read_csv(&mixed, "log.csv", &sel(Some("run")), opts).unwrap();
+        assert_eq!(got.time_s, want.time_s, "seed {seed}");
+        assert_eq!(
+            (&got.inputs, &got.targets),
+            (&want.inputs, &want.targets),
+            "seed {seed}"
+        );
+        assert_eq!((&got.runs, &got.run_names), (&want.runs, &want.run_names));
+        assert_eq!(got.segments, want.segments, "seed {seed}");
+        // Each row keeps its line in the file (the hole's row is left out).
+        let lines: Vec<u64> = first
+            .iter()
+            .flat_map(|&k| {
+                let skip = hole.filter(|h| h.0 == k).map(|h| h.1);
+                mixed_lines[k]
+                    .iter()
+                    .enumerate()
+                    .filter(move |(i, _)| Some(*i) != skip)
+                    .map(|(_, &l)| l)
+            })
+            .collect();
+        assert_eq!(got.lines, lines, "seed {seed}");
+        let note = got
+            .issues
+            .iter()
+            .find(|i| matches!(i, DataIssue::RunsTogether { .. }))
+            .map(ToString::to_string)
+            .unwrap_or_default();
+        assert!(
+            note.contains("comes back after another run's rows"),
+            "{:?}",
+            got.issues
+        );
+        let m = lag_model();
+        assert_eq!(predict(&got, &m).unwrap(), predict(&want, &m).unwrap());
+    }
+}

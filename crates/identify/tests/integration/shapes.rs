@@ -481,7 +481,7 @@ fn greedy_paths_that_differ_keep_the_exact_pair() {
 }
 
 #[test]
-fn runs_written_apart_are_noted_with_the_line_they_come_back() {
+fn runs_written_apart_are_taken_together_with_a_note_on_the_line_they_come_back() {
     // 20 rows of run0, 40 of run1, then run0 again: it comes back at line 1 + 20 + 40 + 1 = 62.
     let case = generate(61, &[40, 40], 3, 2, 1.0, false, 1, false);
     let mut lines: Vec<String> = case.csv.lines().map(str::to_string).collect();
@@ -496,30 +496,44 @@ fn runs_written_apart_are_noted_with_the_line_they_come_back() {
         .collect::<Vec<_>>()
         .join("\n");
     let table = read_csv(&text, "apart", &selection(true), ReadOptions::default()).unwrap();
-    let opts = IdentifyOptions {
-        split: Split::None,
-        ..IdentifyOptions::default()
-    };
-    let id = identify(&table, &opts).unwrap();
-    let note = id.notes.iter().find(|n| n.contains("runs not together"));
-    let note = note.unwrap_or_else(|| panic!("{:?}", id.notes));
+    let note = table
+        .issues
+        .iter()
+        .map(ToString::to_string)
+        .find(|n| n.contains("comes back after another run's rows"));
+    let note = note.unwrap_or_else(|| panic!("{:?}", table.issues));
     assert!(
-        note.contains("run run0 comes back at line 62") && note.contains("3 blocks for 2 runs"),
+        note.contains("line 62: run run0 comes back") && note.contains("3 blocks of 2 runs"),
         "{note}"
     );
-    // The same rows with each run together: no note.
+    // Each run's rows are taken together: the table of the same rows written together,
+    // which has no such note.
     let together = std::iter::once(head)
         .chain(a.iter().cloned())
         .chain(b.iter().cloned())
         .collect::<Vec<_>>()
         .join("\n");
-    let table = read_csv(
+    let want = read_csv(
         &together,
         "together",
         &selection(true),
         ReadOptions::default(),
     )
     .unwrap();
+    assert_eq!(
+        (
+            &table.time_s,
+            &table.inputs,
+            &table.targets,
+            &table.segments
+        ),
+        (&want.time_s, &want.inputs, &want.targets, &want.segments)
+    );
+    assert!(want.issues.is_empty(), "{:?}", want.issues);
+    let opts = IdentifyOptions {
+        split: Split::None,
+        ..IdentifyOptions::default()
+    };
     let id = identify(&table, &opts).unwrap();
     assert!(
         !id.notes.iter().any(|n| n.contains("runs not together")),
