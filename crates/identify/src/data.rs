@@ -1460,6 +1460,12 @@ fn time_drop_hint(
             "; the time falls on {n} of {rows} rows: the log seems to run newest first (sort it oldest first)"
         );
     }
+    if time == prev {
+        return format!(
+            "; the time repeats at {}: time stamps written to the second (or coarser) while the logger samples faster? Write the stamps with their fraction (08:00:00.500), or keep the first row of each time with --skip-bad-rows",
+            where_(fi, line)
+        );
+    }
     if clock && time < prev {
         return format!(
             "; the clock time falls at {}: a time of day past midnight, or an elapsed time that restarts? Give the date with the time (a date column and a time column: --time-column DATE+TIME; or stamps 2024-03-01 00:00:30), or name the runs (--run-column, --runs-at-restarts)",

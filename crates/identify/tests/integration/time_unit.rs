@@ -258,8 +258,9 @@ fn columns_named_otherwise_are_refused_naming_the_option() {
 
 /// A time that falls is a bad row, as before; the refusal now says what the falls suggest:
 /// a log written newest first (the time falls on nine rows in ten or more), or a time that
-/// restarts (several runs in one file without a run column, named by its line); one row out
-/// of order suggests neither.
+/// restarts (several runs in one file without a run column, named by its line), a local
+/// clock set back an hour, or stamps that repeat (written to the second, sampled faster);
+/// one row out of order suggests none of them.
 #[test]
 fn a_falling_time_is_explained() {
     let rows: Vec<String> = (0..60)
@@ -313,6 +314,20 @@ fn a_falling_time_is_explained() {
     assert!(
         e.contains("local time stamps fall by about an hour at line 14")
             && e.contains("daylight-saving"),
+        "{e}"
+    );
+    // Stamps to the second, sampled every 0.5 s: every second row repeats its time.
+    let halves: Vec<String> = (0..40)
+        .map(|i| format!("2024-03-01 08:00:{:02},{},{}", i / 2, 20 + i % 3, i % 4))
+        .collect();
+    let text = format!("stamp,a_c,z_um\n{}\n", halves.join("\n"));
+    let e = read_csv(&text, "log.csv", &dst, ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("20 bad row(s)")
+            && e.contains("the time repeats at line 3: time stamps written to the second")
+            && e.contains("--skip-bad-rows"),
         "{e}"
     );
     let mut swapped = rows.clone();
