@@ -1487,6 +1487,10 @@ fn time_drop_hint(
     String::new()
 }
 
+/// The least time (unit not named) read as Unix time in milliseconds: 1e11 (1973 in ms, the
+/// year 5138 in s).
+const EPOCH_MS_MIN: f64 = 1e11;
+
 /// Converts a numeric time column to seconds by its unit ([`crate::time_unit::resolve`];
 /// `cell`: its units-row cell; `stamps`: it held time stamps); the note when converted.
 fn to_seconds(
@@ -1496,7 +1500,22 @@ fn to_seconds(
     cell: Option<&str>,
     stamps: bool,
 ) -> Result<Option<DataIssue>> {
-    let (unit, from) = crate::time_unit::resolve(choice, column, cell, stamps)?;
+    let (mut unit, mut from) = crate::time_unit::resolve(choice, column, cell, stamps)?;
+    // Nothing names the unit: a time of 1e11 or more is no count of seconds (that is the
+    // year 5138 as Unix time, 3 000 years as a duration) but Unix time in milliseconds
+    // (1e11 ms is 1973), as loggers and databases write it.
+    let first = t.time_s.iter().copied().find(|v| v.is_finite());
+    if from == crate::time_unit::FROM_DEFAULT && first.is_some_and(|v| v.abs() >= EPOCH_MS_MIN) {
+        if first.is_some_and(|v| v.abs() >= EPOCH_MS_MIN * 1000.0) {
+            return Err(invalid(
+                &format!("time column {column}"),
+                first.unwrap_or_default(),
+                "seconds, or Unix time in milliseconds (below 1e14): a larger time is in µs or ns; convert it to seconds or milliseconds, or name the unit with --time-unit",
+            ));
+        }
+        unit = crate::time_unit::TimeUnit::Ms;
+        from = "its size: Unix time in milliseconds; as seconds it would lie past the year 5000";
+    }
     if unit == crate::time_unit::TimeUnit::S {
         return Ok(None);
     }

@@ -110,6 +110,9 @@ pub fn looks_like_time(name: &str) -> bool {
     )
 }
 
+/// Where [`resolve`] found the unit when nothing named it (seconds).
+pub const FROM_DEFAULT: &str = "the default";
+
 /// How the reader treats the unit of a numeric time column (`ReadOptions::time_unit`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TimeUnitChoice {
@@ -155,7 +158,7 @@ pub fn resolve(
                 )
             }),
             None => Ok(TimeUnit::in_column_name(column)
-                .map_or((TimeUnit::S, "the default"), |u| (u, "the column name"))),
+                .map_or((TimeUnit::S, FROM_DEFAULT), |u| (u, "the column name"))),
         },
     }
 }

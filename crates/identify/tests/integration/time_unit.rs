@@ -543,3 +543,59 @@ fn a_lone_time_axis_is_taken_with_a_note() {
         .to_string();
     assert!(e.contains("time = \"x\" is not a number"), "{e}");
 }
+
+/// Unix time in milliseconds in a column whose name and units row say nothing (`timestamp`)
+/// reads as seconds × 0.001, with a note: the same table as the log in Unix seconds (it was
+/// read as seconds: a 5 h log taken for 208 days). A name or `--time-unit` that says
+/// seconds is taken as said; µs or ns are refused naming `--time-unit`.
+#[test]
+fn unix_milliseconds_are_read_as_such_when_nothing_names_the_unit() {
+    let log = |name: &str, scale: f64| -> String {
+        let mut s = format!("{name},a_c,z_um\n");
+        for i in 0..50u32 {
+            let t = (1_732_500_000.0 + 30.0 * f64::from(i)) * scale;
+            s += &format!("{t},{},{}\n", 20 + i % 7, i % 5);
+        }
+        s
+    };
+    let read = |text: &str, time: &str, unit: TimeUnitChoice| {
+        let sel = Selection {
+            time: time.into(),
+            targets: vec!["z_um".into()],
+            ..Selection::default()
+        };
+        let opts = ReadOptions {
+            time_unit: Some(unit),
+            ..ReadOptions::default()
+        };
+        read_csv(text, "log.csv", &sel, opts).map_err(|e| e.to_string())
+    };
+    let auto = TimeUnitChoice::Auto;
+    let want = read(&log("stamp", 1.0), "stamp", auto).unwrap();
+    let got = read(&log("stamp", 1000.0), "stamp", auto).unwrap();
+    assert_eq!(got.time_s, want.time_s);
+    assert_eq!(got.segments, want.segments);
+    let notes: Vec<String> = got.issues.iter().map(ToString::to_string).collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("in ms (its size: Unix time in milliseconds")),
+        "{notes:?}"
+    );
+    // Seconds said by the name or by the option: taken as said.
+    let named = read(&log("time_s", 1000.0), "time_s", auto).unwrap();
+    assert_eq!(named.time_s[1] - named.time_s[0], 30_000.0);
+    let given = read(
+        &log("stamp", 1000.0),
+        "stamp",
+        TimeUnitChoice::Given(TimeUnit::S),
+    )
+    .unwrap();
+    assert_eq!(given.time_s[1] - given.time_s[0], 30_000.0);
+    // Microseconds: refused naming the option.
+    let e = read(&log("stamp", 1e6), "stamp", auto).unwrap_err();
+    assert!(
+        e.contains("time column stamp") && e.contains("--time-unit"),
+        "{e}"
+    );
+}
