@@ -1181,20 +1181,24 @@ pub fn identify_auto(
                 (&eng, &cols, &feats)
             };
             let p = out_of_fold(e, data, b, j, &val_rows)?;
-            debug_assert!({
-                let y = &table.targets[j];
-                let s: f64 = val_rows
-                    .iter()
-                    .flatten()
-                    .zip(&p)
-                    .map(|(&i, p)| (y[i] - p).powi(2))
-                    .sum();
-                let t: f64 = b.sse.iter().sum();
-                // The SSE from the R factor (‖R·v‖²) loses ≈ ε·‖y‖² to cancellation when the
-                // fit is nearly exact; compare on that scale too.
-                let yy: f64 = val_rows.iter().flatten().map(|&i| y[i] * y[i]).sum();
-                (s - t).abs() <= 1e-6 * (1.0 + t) + 1e-9 * yy
-            });
+            // The member's out-of-fold predictions must give the held-out SSE its figure was
+            // chosen by. The SSE from the R factor (‖R·v‖²) loses ≈ ε·‖y‖² to cancellation
+            // when the fit is nearly exact; compare on that scale too. A member fitted on
+            // nearly collinear columns (a delay longer than a short run is constant there)
+            // can miss it by far: its coefficients, and so its predictions, are not to be
+            // trusted, and no stack is built on them (the families keep their figures).
+            let y = &table.targets[j];
+            let s: f64 = val_rows
+                .iter()
+                .flatten()
+                .zip(&p)
+                .map(|(&i, p)| (y[i] - p).powi(2))
+                .sum();
+            let t: f64 = b.sse.iter().sum();
+            let yy: f64 = val_rows.iter().flatten().map(|&i| y[i] * y[i]).sum();
+            if (s - t).abs() > 1e-6 * (1.0 + t) + 1e-9 * yy {
+                return None;
+            }
             preds.push(p);
             groups.push(sensors_of_units(fs, &b.units));
         }
