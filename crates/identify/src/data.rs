@@ -76,7 +76,7 @@ pub struct ReadOptions {
     /// a bad row.
     pub runs_at_restarts: bool,
     /// Values standing far apart from their column's others (a sensor fault:
-    /// [`crate::missing_code::check_far_values`]) are fitted as written instead of refused.
+    /// [`crate::missing_code::check_columns`]) are fitted as written instead of refused.
     pub keep_far_values: bool,
     /// The order of day and month in slash dates (`03/01/2024`); `None`: from the dates,
     /// refusing one that reads either way ([`dialect::is_ambiguous_slash_date`]).

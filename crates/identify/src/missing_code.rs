@@ -3,7 +3,7 @@
 //! range, a channel not yet sampled). Read as a measurement, one such value among
 //! temperatures of 18–32 °C dominates every least-squares fit and the model is garbage,
 //! without a word. The reader refuses a log holding a common code far outside its column's
-//! other values ([`check_logger_codes`]), and `--missing-code` reads the codes named as
+//! other values ([`check_columns`]), and `--missing-code` reads the codes named as
 //! empty cells ([`MissingCodes`]), which the missing-cell rules then handle: an empty input
 //! cell follows `--missing`, an empty target cell is a row without a measurement.
 
@@ -122,24 +122,10 @@ impl MissingCodes {
     }
 }
 
-/// Refuses the columns (name and values as written, before any unit conversion: a table's
-/// inputs and targets) of which one holds one of [`LOGGER_CODES`] more than [`FAR_SPANS`]
-/// spans of the column's other finite values beyond them, naming the column, the code, its
-/// rows (`line_of(i)`: where row i is, for messages) and `--missing-code`.
-///
-/// # Errors
-/// The first such column and code.
-pub fn check_logger_codes<'a>(
-    columns: impl Iterator<Item = (&'a str, &'a [f64])>,
-    line_of: &dyn Fn(usize) -> String,
-) -> Result<()> {
-    let columns: Vec<(&str, &[f64])> = columns.collect();
-    let extents: Vec<Extent> = columns.iter().map(|(_, c)| Extent::of(c)).collect();
-    logger_codes(&columns, &extents, line_of)
-}
-
-/// Refuses logger codes ([`check_logger_codes`]) and, unless `keep_far_values`, far groups
-/// ([`check_far_values`]) in that order, with one pass over each column for both.
+/// Checks the columns (name and values as written, before any unit conversion: a table's
+/// inputs and targets; `line_of(i)`: where row i is, for messages): logger codes
+/// (`logger_codes`) and, unless `keep_far_values`, far groups (`far_values`), in that
+/// order, with one pass over each column for both.
 ///
 /// # Errors
 /// The first column holding a logger code, else the first holding a far group.
@@ -157,6 +143,9 @@ pub fn check_columns<'a>(
     far_values(&columns, &extents, line_of)
 }
 
+/// Refuses the columns of which one holds one of [`LOGGER_CODES`] more than [`FAR_SPANS`]
+/// spans of the column's other finite values beyond them, naming the column, the code, its
+/// rows and `--missing-code`.
 fn logger_codes(
     columns: &[(&str, &[f64])],
     extents: &[Extent],
@@ -241,15 +230,6 @@ pub const FAR_MIN_VALUES: usize = 20;
 ///
 /// # Errors
 /// The first such column.
-pub fn check_far_values<'a>(
-    columns: impl Iterator<Item = (&'a str, &'a [f64])>,
-    line_of: &dyn Fn(usize) -> String,
-) -> Result<()> {
-    let columns: Vec<(&str, &[f64])> = columns.collect();
-    let extents: Vec<Extent> = columns.iter().map(|(_, c)| Extent::of(c)).collect();
-    far_values(&columns, &extents, line_of)
-}
-
 fn far_values(
     columns: &[(&str, &[f64])],
     extents: &[Extent],
@@ -297,7 +277,7 @@ fn far_values(
     Ok(())
 }
 
-/// The far group of a column ([`check_far_values`]): values above `above` or below
+/// The far group of a column (`far_values`): values above `above` or below
 /// `below`, the others' range and the gap-to-span ratio.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FarGroup {
@@ -320,7 +300,7 @@ impl FarGroup {
     }
 }
 
-/// The far group of `col` ([`check_far_values`]), `None` when it has none.
+/// The far group of `col` (`far_values`), `None` when it has none.
 pub fn far_group(col: &[f64]) -> Option<FarGroup> {
     far_group_of(col, &Extent::of(col))
 }
@@ -334,7 +314,7 @@ fn far_group_of(col: &[f64], ext: &Extent) -> Option<FarGroup> {
     let (lo, hi) = (ext.lo, ext.hi);
     let mean = ext.mean();
     let sd = ext.sd();
-    // The pre-check of the method (`check_far_values`): sound for n ≥ 200 only.
+    // The pre-check of the method (`far_values`): sound for n ≥ 200 only.
     if n >= 200 && hi - mean <= 4.0 * sd && mean - lo <= 4.0 * sd {
         return None;
     }
