@@ -1169,36 +1169,39 @@ pub fn identify_auto(
                 .collect()
         })
         .collect();
+    // A model's out-of-fold predictions (from its fold coefficients), when they give the
+    // held-out SSE its figure was computed with (from the R factors). The SSE from the R
+    // factor (‖R·v‖²) loses ≈ ε·‖y‖² to cancellation when the fit is nearly exact; compare on
+    // that scale too. A model fitted on nearly collinear columns (a delay longer than a
+    // short run is constant there) can miss it by far: its coefficients, its predictions
+    // and its figure are then not to be trusted. `d`: the model lives in the differences'
+    // engine.
+    let reproduced = |b: &Best, d: bool, j: usize| -> Option<Vec<f64>> {
+        let (e, data) = if d {
+            (eng_d.as_ref()?, &dcols)
+        } else {
+            (&eng, &cols)
+        };
+        let p = out_of_fold(e, data, b, j, &val_rows)?;
+        let y = &table.targets[j];
+        let s: f64 = val_rows
+            .iter()
+            .flatten()
+            .zip(&p)
+            .map(|(&i, p)| (y[i] - p).powi(2))
+            .sum();
+        let t: f64 = b.sse.iter().sum();
+        let yy: f64 = val_rows.iter().flatten().map(|&i| y[i] * y[i]).sum();
+        ((s - t).abs() <= 1e-6 * (1.0 + t) + 1e-9 * yy).then_some(p)
+    };
     // The members' out-of-fold predictions and sensors; the stack's weights on every
     // validation row, its held-out SSE per fold and its sensors.
     let stack_members = |members: &[(Best, bool)], j: usize, cap: usize| {
         let mut preds = Vec::with_capacity(members.len());
         let mut groups = Vec::with_capacity(members.len());
         for (b, d) in members {
-            let (e, data, fs) = if *d {
-                (eng_d.as_ref()?, &dcols, &dfeats)
-            } else {
-                (&eng, &cols, &feats)
-            };
-            let p = out_of_fold(e, data, b, j, &val_rows)?;
-            // The member's out-of-fold predictions must give the held-out SSE its figure was
-            // chosen by. The SSE from the R factor (‖R·v‖²) loses ≈ ε·‖y‖² to cancellation
-            // when the fit is nearly exact; compare on that scale too. A member fitted on
-            // nearly collinear columns (a delay longer than a short run is constant there)
-            // can miss it by far: its coefficients, and so its predictions, are not to be
-            // trusted, and no stack is built on them (the families keep their figures).
-            let y = &table.targets[j];
-            let s: f64 = val_rows
-                .iter()
-                .flatten()
-                .zip(&p)
-                .map(|(&i, p)| (y[i] - p).powi(2))
-                .sum();
-            let t: f64 = b.sse.iter().sum();
-            let yy: f64 = val_rows.iter().flatten().map(|&i| y[i] * y[i]).sum();
-            if (s - t).abs() > 1e-6 * (1.0 + t) + 1e-9 * yy {
-                return None;
-            }
+            let fs = if *d { &dfeats } else { &feats };
+            let p = reproduced(b, *d, j)?;
             preds.push(p);
             groups.push(sensors_of_units(fs, &b.units));
         }
@@ -1313,7 +1316,21 @@ pub fn identify_auto(
                 b.cv = eng.pooled(&b.rank_sse());
                 b
             });
+            // A family whose figure its fold models do not reproduce is not ranked.
+            let (got, unreproduced) = match got {
+                Some(b) if reproduced(&b, fam == Family::Differences, j).is_none() => (None, true),
+                g => (g, false),
+            };
             match got {
+                None if unreproduced => comparison.push(FamilyScore {
+                    family: fam.name().into(),
+                    sensors: 0,
+                    cv_rmse: f64::NAN,
+                    fold_rmse: Vec::new(),
+                    detail: "not ranked: its fold models do not reproduce its validation figure (nearly collinear columns)".into(),
+                    eligible: false,
+                    kept: false,
+                }),
                 Some(b) => {
                     comparison.push(FamilyScore {
                         family: fam.name().into(),

@@ -541,3 +541,41 @@ fn runs_written_apart_are_taken_together_with_a_note_on_the_line_they_come_back(
         id.notes
     );
 }
+
+/// A family whose fold models do not reproduce its validation figure (found on a fresh
+/// seed: 10 sensors scaled by 1e6 in short runs, where the pure-delay family's delayed
+/// columns are nearly collinear and its out-of-fold predictions gave a held-out SSE 43 %
+/// off the one it was ranked by) is not ranked, and the stack is not built on it; the exact
+/// relation is still recovered by the family kept.
+#[test]
+fn a_family_whose_figure_is_not_reproduced_is_not_ranked() {
+    let case = random_case(15_145_421_780_295_469_074);
+    let table = read_csv(
+        &case.csv,
+        "shape",
+        &selection(case.runs),
+        ReadOptions::default(),
+    )
+    .unwrap();
+    let opts = IdentifyOptions {
+        split: Split::None,
+        ..IdentifyOptions::default()
+    };
+    let id = identify(&table, &opts).unwrap();
+    let rows: Vec<(String, String, bool)> = id
+        .targets
+        .iter()
+        .flat_map(|m| {
+            m.comparison
+                .iter()
+                .map(|c| (c.family.clone(), c.detail.clone(), c.kept))
+        })
+        .collect();
+    assert!(
+        rows.iter().any(|(_, d, kept)| d
+            .starts_with("not ranked: its fold models do not reproduce")
+            && !kept),
+        "{rows:#?}"
+    );
+    check(&case, Split::None, false).unwrap();
+}
