@@ -1383,7 +1383,8 @@ fn to_micrometres(
 /// Puts each run's rows together (runs in the order they first appear, each run's rows in
 /// their order), when a run's rows come back after another run's; `forced` (rows that start
 /// a segment) follows its rows. Returns the first row that came back (its file, line and
-/// run) and the count of blocks before, or None when every run's rows were together.
+/// run) and the count of blocks of rows in the log, or None when every run's rows were
+/// together.
 fn regroup_runs(t: &mut Table, forced: &mut [usize]) -> Option<(usize, u64, usize, usize)> {
     let runs = t.runs.as_ref()?;
     let mut rank: Vec<Option<usize>> = vec![None; t.run_names.len()];
