@@ -239,9 +239,13 @@ pub struct Args {
     #[arg(long)]
     pub sample_interval_s: Option<f64>,
     /// Target columns (names or glob patterns such as "ch*_um"), e.g. measured drift in µm.
+    /// When the default "*_um" matches none, the columns whose unit (in brackets or in the
+    /// units row) is µm or nm, with a note.
     #[arg(long, num_args = 1.., default_value = "*_um")]
     pub target: Vec<String>,
-    /// Input (temperature) columns: names or glob patterns. Default: every "*_c" column.
+    /// Input (temperature) columns: names or glob patterns. Default: every "*_c" column;
+    /// when it matches none, the columns whose unit (in brackets or in the units row) is °C
+    /// or K, with a note.
     #[arg(long, num_args = 1.., default_value = "*_c")]
     pub inputs: Vec<String>,
     /// Name of the time column: seconds (or another unit, see --time-unit), or time stamps

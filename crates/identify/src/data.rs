@@ -205,12 +205,13 @@ pub enum DataIssue {
         /// What it was read as (`UTF-16LE`, `windows-1252`, …).
         encoding: &'static str,
     },
-    /// The order of a file's slash dates, read from its first date that reads only one way
-    /// (no `--date-order` given).
-    DateOrder {
-        /// 1-based line number of that date.
+    /// How a file was read where the log did not say it outright: the order of its slash
+    /// dates from its first date that reads only one way (no `--date-order` given), inputs
+    /// or targets found by their unit (the default patterns matching nothing).
+    Note {
+        /// 1-based line number it concerns (of that date; 1 for the columns).
         line: u64,
-        /// The date and the order.
+        /// What was read, and how.
         reason: String,
     },
     /// Lines that are not data: title lines above the header, a units row under it
@@ -237,7 +238,7 @@ impl std::fmt::Display for DataIssue {
                 "{file}: not UTF-8, read as {encoding} (its °, µ and umlauts as that encoding writes them)"
             ),
             DataIssue::Skipped { line, reason }
-            | DataIssue::DateOrder { line, reason }
+            | DataIssue::Note { line, reason }
             | DataIssue::RunsTogether { line, reason } => {
                 write!(f, "line {line}: {reason}")
             }
@@ -341,7 +342,7 @@ impl Table {
                 DataIssue::BadRow { line, .. } | DataIssue::Missing { line, .. } => Some(*line),
                 DataIssue::Gap { .. }
                 | DataIssue::Skipped { .. }
-                | DataIssue::DateOrder { .. }
+                | DataIssue::Note { .. }
                 | DataIssue::RunsTogether { .. }
                 | DataIssue::Encoding { .. }
                 | DataIssue::Held { .. }
@@ -525,6 +526,20 @@ struct Cols<'a> {
     many: bool,
     stem: String,
     dialect: Dialect,
+}
+
+/// The columns not in `exclude` whose unit is of `kind`: in brackets in the name (`Spindel
+/// [°C]`, `Z (µm)`) or in the units row.
+fn unit_columns(
+    header: &[String],
+    units_row: &[String],
+    kind: crate::unit_words::Quantity,
+    exclude: &[usize],
+) -> Vec<usize> {
+    (0..header.len())
+        .filter(|i| !exclude.contains(i))
+        .filter(|&i| kind.in_brackets(&header[i]) || units_row.get(i).is_some_and(|u| kind.is(u)))
+        .collect()
 }
 
 /// The column indices `idx` (named `names`) reordered to follow `wanted`, when `names` are
@@ -1079,8 +1094,8 @@ struct Reader<'a> {
     named_runs: bool,
     /// Title lines and units rows read as blank lines (file, line, what).
     skipped: Vec<(usize, u64, String)>,
-    /// The order of a file's slash dates, found from its dates: (file, line, note).
-    date_notes: Vec<(usize, u64, String)>,
+    /// How a file was read where the log did not say it outright: (file, line, note).
+    notes: Vec<(usize, u64, String)>,
     /// Kept rows that start a segment because missing rows were left out before them.
     forced: Vec<usize>,
     /// Run name of each file (its stem when not given): the sheets of one workbook.
@@ -1115,7 +1130,7 @@ impl<'a> Reader<'a> {
             drops: Drops::default(),
             named_runs: false,
             skipped: Vec::new(),
-            date_notes: Vec::new(),
+            notes: Vec::new(),
             forced: Vec::new(),
             file_runs,
             source,
@@ -1547,7 +1562,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         drops,
         named_runs,
         skipped,
-        date_notes,
+        notes,
         forced,
         ..
     } = r;
@@ -1660,13 +1675,13 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             },
         )
     }));
-    issues.extend(date_notes.into_iter().map(|(fi, line, reason)| {
+    issues.extend(notes.into_iter().map(|(fi, line, reason)| {
         let reason = if many {
             format!("{}: {reason}", names[fi])
         } else {
             reason
         };
-        (fi, line, DataIssue::DateOrder { line, reason })
+        (fi, line, DataIssue::Note { line, reason })
     }));
     issues.extend(skipped.into_iter().map(|(fi, line, reason)| {
         let reason = if many {
@@ -1930,16 +1945,72 @@ impl Reader<'_> {
                 e => e,
             }
         };
-        let mut target_idx = resolve(&sel.targets, &header, &excl)
-            .map_err(with_hint)
-            .map_err(option("target columns with --target, default *_um"))?;
+        // The default patterns (FL_THERMAL's naming) that match nothing: the columns whose
+        // unit says what they are, in brackets in the name or in the units row.
+        let units_row = pre.as_ref().map(|p| p.units.as_slice()).unwrap_or(&[]);
+        // The header's line (the line ends before the first record).
+        let header_line = usize::try_from(rdr.position().byte())
+            .ok()
+            .and_then(|end| text.get(..end))
+            .map_or(1, |h| h.matches('\n').count().max(1) as u64);
+        let mut by_unit = |pats: &[String],
+                           default: &str,
+                           kind: crate::unit_words::Quantity,
+                           excl: &[usize]| {
+            let found = unit_columns(&header, units_row, kind, excl);
+            let use_it = pats.len() == 1 && pats[0] == default && !found.is_empty();
+            if use_it && fi == 0 {
+                let names: Vec<&str> = found.iter().map(|&i| header[i].as_str()).collect();
+                self.notes.push((
+                    fi,
+                    header_line,
+                    format!(
+                        "{}: {} by their unit ({}; no column matches the default {default}; name others with {})",
+                        if kind == crate::unit_words::Quantity::Temperature { "inputs" } else { "targets" },
+                        names.join(", "),
+                        kind.name(),
+                        if kind == crate::unit_words::Quantity::Temperature { "--inputs" } else { "--target" },
+                    ),
+                ));
+            }
+            use_it.then_some(found)
+        };
+        let mut target_idx = match resolve(&sel.targets, &header, &excl) {
+            Err(e @ IdentifyError::ColumnNotFound { .. }) => {
+                match by_unit(
+                    &sel.targets,
+                    "*_um",
+                    crate::unit_words::Quantity::Micrometres,
+                    &excl,
+                ) {
+                    Some(v) => Ok(v),
+                    None => Err(e),
+                }
+            }
+            r => r,
+        }
+        .map_err(with_hint)
+        .map_err(option("target columns with --target, default *_um"))?;
         excl.extend(target_idx.iter().copied());
-        let mut input_idx: Vec<usize> = resolve(&sel.inputs, &header, &excl)
-            .map_err(with_hint)
-            .map_err(option("temperature columns with --inputs, default *_c"))?
-            .into_iter()
-            .filter(|i| !excl.contains(i))
-            .collect();
+        let mut input_idx: Vec<usize> = match resolve(&sel.inputs, &header, &excl) {
+            Err(e @ IdentifyError::ColumnNotFound { .. }) => {
+                match by_unit(
+                    &sel.inputs,
+                    "*_c",
+                    crate::unit_words::Quantity::Temperature,
+                    &excl,
+                ) {
+                    Some(v) => Ok(v),
+                    None => Err(e),
+                }
+            }
+            r => r,
+        }
+        .map_err(with_hint)
+        .map_err(option("temperature columns with --inputs, default *_c"))?
+        .into_iter()
+        .filter(|i| !excl.contains(i))
+        .collect();
         if input_idx.is_empty() {
             return Err(invalid(
                 "inputs",
@@ -2162,7 +2233,7 @@ impl Reader<'_> {
                     dialect::DateOrder::DayFirst => ("day first (dd/mm/yyyy)", "mdy"),
                     dialect::DateOrder::MonthFirst => ("month first (mm/dd/yyyy)", "dmy"),
                 };
-                self.date_notes.push((
+                self.notes.push((
                     fi,
                     line,
                     format!(

@@ -132,8 +132,7 @@ fn is_number(cell: &str, delimiter: u8) -> bool {
 /// Whether line `k` is a header by its shape alone: at least two fields, every one a
 /// non-empty name that is no number, over data of the same width (the next non-blank line,
 /// or the one after a units row: the same width, no numbers, and an empty cell or every
-/// cell a short word such as `°C` or `[s]`), at least half of whose fields are numbers. Its
-/// columns: every field (a units row under it is then found from all of them).
+/// cell a short word such as `°C` or `[s]`), at least half of whose fields are numbers.
 fn shape_header(lines: &[&str], k: usize, forced: Option<u8>) -> Option<(u8, Vec<usize>)> {
     let d = line_delimiter(lines[k], forced);
     let names = fields(lines[k], d);
@@ -146,11 +145,15 @@ fn shape_header(lines: &[&str], k: usize, forced: Option<u8>) -> Option<(u8, Vec
     let mut row = width(next.next()?);
     let unit_like =
         |f: &[String]| f.iter().any(|c| c.is_empty()) || f.iter().all(|c| c.chars().count() <= 8);
+    // Its columns: those with a unit under them when there is a units row (so that the row
+    // is found as one, its empty cells under the time and counter columns notwithstanding),
+    // else every one.
+    let mut cols: Vec<usize> = (0..names.len()).collect();
     if row.len() == names.len() && numbers(&row) == 0 && unit_like(&row) {
+        cols.retain(|&c| row.get(c).is_some_and(|u| !u.is_empty()));
         row = width(next.next()?);
     }
-    (row.len() == names.len() && 2 * numbers(&row) >= row.len())
-        .then(|| (d, (0..names.len()).collect()))
+    (row.len() == names.len() && 2 * numbers(&row) >= row.len()).then_some((d, cols))
 }
 
 fn shown(line: &str) -> String {

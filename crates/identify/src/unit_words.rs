@@ -34,3 +34,49 @@ pub(crate) fn units_in_name<U>(
         .and_then(&parse);
     (bracketed, last)
 }
+
+/// What a column's unit says it holds, for the columns the default patterns (`*_c`,
+/// `*_um`) do not name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Quantity {
+    /// A temperature: °C, degC, ℃, C (in a units cell or brackets), K.
+    Temperature,
+    /// A thermal error in µm or nm (mm is left out: a column in mm is an axis position
+    /// far more often than a thermal error).
+    Micrometres,
+}
+
+impl Quantity {
+    /// Whether a unit cell's text is this quantity's unit.
+    pub(crate) fn is(self, text: &str) -> bool {
+        let w = unit_word(text);
+        match self {
+            Quantity::Temperature => {
+                matches!(
+                    w.as_str(),
+                    "°c" | "degc" | "deg c" | "deg. c" | "℃" | "c" | "k" | "celsius" | "grad c"
+                )
+            }
+            Quantity::Micrometres => matches!(
+                w.as_str(),
+                "um" | "micron" | "microns" | "micrometer" | "micrometre" | "nm"
+            ),
+        }
+    }
+
+    /// Whether a column name carries this quantity's unit in brackets (`Spindel [°C]`).
+    pub(crate) fn in_brackets(self, name: &str) -> bool {
+        name.split(['[', '('])
+            .skip(1)
+            .filter_map(|s| s.split([']', ')']).next())
+            .any(|u| self.is(u))
+    }
+
+    /// The quantity's unit, for messages.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Quantity::Temperature => "°C or K",
+            Quantity::Micrometres => "µm or nm",
+        }
+    }
+}

@@ -368,6 +368,30 @@ fn a_graphtec_export_reads_with_its_channels_named() {
         want.time_s
     );
     assert_eq!(got.lines, (7..37).collect::<Vec<u64>>());
+    // With the default selection (time_s, *_c, *_um) alone: the channels by the units row
+    // (degC: inputs; um: the target), with notes on the header's line.
+    let defaults = Selection {
+        time: "time_s".into(),
+        inputs: vec!["*_c".into()],
+        targets: vec!["*_um".into()],
+        run: None,
+    };
+    let zero = read_csv(&text, "gl240.csv", &defaults, opts).unwrap();
+    assert!(same_values(&zero, &want));
+    assert_eq!(
+        (zero.input_names, zero.target_names),
+        (want.input_names, want.target_names)
+    );
+    let notes: Vec<String> = zero.issues.iter().map(ToString::to_string).collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("line 5: inputs: CH1, CH2 by their unit"))
+            && notes
+                .iter()
+                .any(|n| n.starts_with("line 5: targets: CH3 by their unit")),
+        "{notes:?}"
+    );
     let e = read_csv(
         &text,
         "gl240.csv",
@@ -381,6 +405,55 @@ fn a_graphtec_export_reads_with_its_channels_named() {
     .to_string();
     assert!(
         e.contains("available columns are No., Date&Time, ms, CH1, CH2, CH3"),
+        "{e}"
+    );
+}
+
+/// Columns the default patterns (`*_c`, `*_um`) do not name are taken by the unit in their
+/// name's brackets: °C/K inputs, a µm or nm target (a column in mm, an axis position far
+/// more often than a thermal error, is not); the same table as with the columns named.
+/// Where a default pattern matches, it alone selects; where no unit says, the refusal
+/// stands.
+#[test]
+fn columns_are_taken_by_their_unit_when_the_defaults_match_none() {
+    let mut text = "Zeit [s],Spindel [°C],Bett (degC),Pos X [mm],Weg [µm],Delta [K]\n".to_string();
+    for k in 0..30u32 {
+        let (a, b) = (20.0 + f64::from(k) * 0.1, 22.0 - f64::from(k % 7) * 0.2);
+        text += &format!("{},{a},{b},{},{},{}\n", 60 * k, 100 + k, 1.5 * a - b, a - b);
+    }
+    let defaults = Selection {
+        time: "time_s".into(),
+        inputs: vec!["*_c".into()],
+        targets: vec!["*_um".into()],
+        run: None,
+    };
+    let named = Selection {
+        time: "Zeit [s]".into(),
+        inputs: vec![
+            "Spindel [°C]".into(),
+            "Bett (degC)".into(),
+            "Delta [K]".into(),
+        ],
+        targets: vec!["Weg [µm]".into()],
+        run: None,
+    };
+    let opts = ReadOptions::default();
+    let want = read_csv(&text, "log.csv", &named, opts).unwrap();
+    let got = read_csv(&text, "log.csv", &defaults, opts).unwrap();
+    assert!(same_values(&got, &want));
+    assert_eq!(got.input_names, want.input_names);
+    assert_eq!(got.target_names, vec!["Weg [µm]"]);
+    // A default pattern that matches selects alone.
+    let with_c = text.replacen("Bett (degC)", "bett_c", 1);
+    let t = read_csv(&with_c, "log.csv", &defaults, opts).unwrap();
+    assert_eq!(t.input_names, vec!["bett_c"]);
+    // No unit says: refused as before, naming the option.
+    let bare = text.replacen("Weg [µm]", "Weg", 1);
+    let e = read_csv(&bare, "log.csv", &defaults, opts)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("column \"*_um\" not found") && e.contains("--target"),
         "{e}"
     );
 }
