@@ -526,6 +526,33 @@ struct Cols<'a> {
     many: bool,
     stem: String,
     dialect: Dialect,
+    /// The time column as the log names it (`Date+Time` for a date and a time column).
+    time_name: String,
+}
+
+/// The date column beside the time-of-day column `time` of a log (a `Date` or `Datum`
+/// column, one only), when the first data row holds a clock time there and the two cells
+/// read together as a time stamp.
+fn date_beside(header: &[String], time: usize, text: &str, delimiter: u8) -> Option<usize> {
+    let dates: Vec<usize> = (0..header.len())
+        .filter(|&i| matches!(header[i].trim().to_lowercase().as_str(), "date" | "datum"))
+        .collect();
+    let [d] = dates[..] else {
+        return None;
+    };
+    let row: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.contains(header[time].as_str()))
+        .skip(1)
+        .find(|l| !l.trim().is_empty())?
+        .split(char::from(delimiter))
+        .map(|c| c.trim().trim_matches('"'))
+        .collect();
+    let (date, clock) = (row.get(d)?, row.get(time)?);
+    (dialect::parse_clock(clock, false).is_some()
+        && (dialect::parse_timestamp(&format!("{date} {clock}")).is_some()
+            || dialect::is_ambiguous_slash_date(&format!("{date} {clock}"))))
+    .then_some(d)
 }
 
 /// The columns not in `exclude` whose unit is of `kind`: in brackets in the name (`Spindel
@@ -1895,10 +1922,17 @@ impl Reader<'_> {
                     .collect();
                 if !header.contains(&sel.time) && sel.time == DEFAULT_TIME_COLUMN && like.len() == 1
                 {
+                    // A time of day beside a date column (`Date`, `Datum`: Hioki, Siemens
+                    // exports) is read with it, as `--time-column Date+Time` reads them.
+                    let date = date_beside(&header, like[0], text, delimiter);
+                    time2_idx = date.map(|_| like[0]);
                     if fi == 0 {
-                        self.time_taken = Some(header[like[0]].clone());
+                        self.time_taken = Some(match date {
+                            Some(d) => format!("{}+{}", header[d], header[like[0]]),
+                            None => header[like[0]].clone(),
+                        });
                     }
-                    Some(like[0])
+                    Some(date.unwrap_or(like[0]))
                 } else if !header.contains(&sel.time) {
                     let like = like.first().map_or(String::new(), |&i| {
                         let h = &header[i];
@@ -2041,7 +2075,7 @@ impl Reader<'_> {
             self.time_column = time_idx.map(|i| {
                 let cell = pre.as_ref().and_then(|p| p.units.get(i).cloned());
                 let name = match time2_idx {
-                    Some(_) => sel.time.clone(),
+                    Some(t) => format!("{}+{}", header[i], header[t]),
                     None => header[i].clone(),
                 };
                 (name, cell)
@@ -2089,6 +2123,11 @@ impl Reader<'_> {
                 .file_stem()
                 .map_or(name.to_string(), |s| s.to_string_lossy().into_owned()),
         };
+        let time_name = match (time_idx, time2_idx) {
+            (Some(ti), None) => header.get(ti).map_or(sel.time.clone(), |h| h.clone()),
+            (Some(ti), Some(t2)) => format!("{}+{}", header[ti], header[t2]),
+            _ => sel.time.clone(),
+        };
         let c = Cols {
             header: &header,
             time_idx,
@@ -2099,6 +2138,7 @@ impl Reader<'_> {
             many,
             stem,
             dialect,
+            time_name,
         };
         // Quote-free text (the usual sensor log) is split directly: the same records as the
         // csv crate's, several times faster on large logs; anything else goes through it.
@@ -2106,14 +2146,9 @@ impl Reader<'_> {
             true => 0,
             false => usize::try_from(rdr.position().byte()).unwrap_or(usize::MAX),
         };
-        // The time column as the log names it (the selection's name for DATE+TIME).
-        let time_name = match (c.time_idx, c.time2_idx) {
-            (Some(ti), None) => header.get(ti).map_or(sel.time.as_str(), |h| h.as_str()),
-            _ => sel.time.as_str(),
-        };
         let mut st = RowState {
             last_line: 1,
-            date_order: self.date_order(fi, (text, start), delimiter, c.time_idx, time_name)?,
+            date_order: self.date_order(fi, (text, start), delimiter, c.time_idx, &c.time_name)?,
             ..RowState::default()
         };
         // A clean single-run log (every row complete, finite, time increasing) is parsed
@@ -2251,7 +2286,6 @@ impl Reader<'_> {
     }
 
     fn row(&mut self, fi: usize, line: u64, rec: &[&str], c: &Cols, st: &mut RowState) {
-        let sel = self.sel;
         if rec.iter().all(|f| f.is_empty()) {
             return;
         }
@@ -2398,11 +2432,7 @@ impl Reader<'_> {
             (Some(ti), None) => rec.get(ti).copied().unwrap_or("").into(),
             _ => "".into(),
         };
-        // The time column as the log names it (the selection's name for DATE+TIME).
-        let time_name: &str = match (c.time_idx, c.time2_idx) {
-            (Some(ti), None) => c.header.get(ti).map_or(sel.time.as_str(), |h| h.as_str()),
-            _ => sel.time.as_str(),
-        };
+        let time_name: &str = &c.time_name;
         let time = match (c.time_idx, self.opts.sample_interval_s) {
             (Some(_), _) => {
                 let order = st.date_order;

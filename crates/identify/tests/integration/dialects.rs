@@ -897,3 +897,43 @@ proptest! {
         prop_assert!(e.contains(&format!("line(s) {}:", k + 1)) && e.contains("fields, header has 5"), "{}", e);
     }
 }
+
+/// A date column and a time-of-day column (Hioki, Siemens exports: `"Date","Time",…`) with
+/// no time column named are read together, as `--time-column Date+Time` reads them: across
+/// midnight, the times of the same log in ISO 8601. A `Time` column of seconds beside a
+/// `Date` column is the time alone.
+#[test]
+fn a_date_and_a_clock_column_are_one_time_without_options() {
+    let s = Selection {
+        time: "time_s".into(),
+        inputs: vec!["a_c".into()],
+        targets: vec!["z_um".into()],
+        run: None,
+    };
+    let (mut iso, mut split, mut secs) = (
+        "time_s,a_c,z_um\n".to_string(),
+        "\"Date\",\"Time\",\"a_c\",\"z_um\"\n".to_string(),
+        "Date,Time,a_c,z_um\n".to_string(),
+    );
+    for k in 0..40u32 {
+        let m = 23 * 60 + 40 + 5 * k;
+        let (day, h, min) = (9 + m / 1440, (m / 60) % 24, m % 60);
+        let v = format!("{},{}", 20 + k % 5, k % 3);
+        iso += &format!("{},{v}\n", 300 * k);
+        split += &format!("\"2026/03/{day:02}\",\"{h:02}:{min:02}:00\",{v}\n");
+        secs += &format!("2026-03-{day:02},{},{v}\n", 300 * k);
+    }
+    let want = read_csv(&iso, "log.csv", &s, ReadOptions::default()).unwrap();
+    let got = read_csv(&split, "log.csv", &s, ReadOptions::default()).unwrap();
+    assert_eq!(got.time_s, want.time_s);
+    assert_eq!((&got.inputs, &got.targets), (&want.inputs, &want.targets));
+    let notes: Vec<String> = got.issues.iter().map(ToString::to_string).collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("time column: \"Date+Time\"")),
+        "{notes:?}"
+    );
+    let alone = read_csv(&secs, "log.csv", &s, ReadOptions::default()).unwrap();
+    assert_eq!(alone.time_s, want.time_s);
+}
