@@ -560,7 +560,7 @@ fn date_beside(header: &[String], time: usize, text: &str, delimiter: u8) -> Opt
 fn unit_columns(
     header: &[String],
     units_row: &[String],
-    kind: crate::unit_words::Quantity,
+    kind: crate::quantity::Quantity,
     exclude: &[usize],
 ) -> Vec<usize> {
     (0..header.len())
@@ -1989,7 +1989,7 @@ impl Reader<'_> {
             .map_or(1, |h| h.matches('\n').count().max(1) as u64);
         let mut by_unit = |pats: &[String],
                            default: &str,
-                           kind: crate::unit_words::Quantity,
+                           kind: crate::quantity::Quantity,
                            excl: &[usize]| {
             let found = unit_columns(&header, units_row, kind, excl);
             let use_it = pats.len() == 1 && pats[0] == default && !found.is_empty();
@@ -2000,10 +2000,10 @@ impl Reader<'_> {
                     header_line,
                     format!(
                         "{}: {} by their unit ({}; no column matches the default {default}; name others with {})",
-                        if kind == crate::unit_words::Quantity::Temperature { "inputs" } else { "targets" },
+                        if kind == crate::quantity::Quantity::Temperature { "inputs" } else { "targets" },
                         names.join(", "),
                         kind.name(),
-                        if kind == crate::unit_words::Quantity::Temperature { "--inputs" } else { "--target" },
+                        if kind == crate::quantity::Quantity::Temperature { "--inputs" } else { "--target" },
                     ),
                 ));
             }
@@ -2014,7 +2014,7 @@ impl Reader<'_> {
                 match by_unit(
                     &sel.targets,
                     "*_um",
-                    crate::unit_words::Quantity::Micrometres,
+                    crate::quantity::Quantity::Micrometres,
                     &excl,
                 ) {
                     Some(v) => Ok(v),
@@ -2031,7 +2031,7 @@ impl Reader<'_> {
                 match by_unit(
                     &sel.inputs,
                     "*_c",
-                    crate::unit_words::Quantity::Temperature,
+                    crate::quantity::Quantity::Temperature,
                     &excl,
                 ) {
                     Some(v) => Ok(v),

@@ -39,6 +39,7 @@ pub mod missing_code;
 mod par;
 pub mod pipeline;
 pub mod preamble;
+pub mod quantity;
 pub mod regress;
 pub mod report;
 pub mod resample;
