@@ -1702,20 +1702,20 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             },
         )
     }));
-    issues.extend(notes.into_iter().map(|(fi, line, reason)| {
-        let reason = if many {
+    // A note of file `fi`, prefixed with the file's name when there are several.
+    let of_file = |fi: usize, reason: String| {
+        if many {
             format!("{}: {reason}", names[fi])
         } else {
             reason
-        };
+        }
+    };
+    issues.extend(notes.into_iter().map(|(fi, line, reason)| {
+        let reason = of_file(fi, reason);
         (fi, line, DataIssue::Note { line, reason })
     }));
     issues.extend(skipped.into_iter().map(|(fi, line, reason)| {
-        let reason = if many {
-            format!("{}: {reason}", names[fi])
-        } else {
-            reason
-        };
+        let reason = of_file(fi, reason);
         (fi, line, DataIssue::Skipped { line, reason })
     }));
     // A run whose rows come back after another run's: each run's rows taken together.
@@ -1726,11 +1726,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
             t.run_names.get(run).map_or("?", String::as_str),
             t.run_names.len()
         );
-        let reason = if many {
-            format!("{}: {reason}", names[fi])
-        } else {
-            reason
-        };
+        let reason = of_file(fi, reason);
         issues.push((fi, line, DataIssue::RunsTogether { line, reason }));
     }
     // Segments: a new run starts one; a gap (step > gap_factor × the median step within
