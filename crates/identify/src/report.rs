@@ -90,7 +90,8 @@ pub struct Extrapolation {
     pub test_rows: usize,
     /// Test rows whose inputs are outside the training envelope.
     pub outside_rows: usize,
-    /// Mean 95 % prediction-interval half-width over every row (target unit, µm);
+    /// Mean 95 % prediction-interval half-width over the test rows, the rows the
+    /// extrapolation line speaks of (over every row when there is none; target unit, µm);
     /// NaN without intervals.
     pub mean_half_width_um: f64,
 }
@@ -101,13 +102,20 @@ impl Extrapolation {
     pub fn of(test: &[bool], outside: &[bool], interval_um: &[f64]) -> Self {
         let mut test_rows = 0;
         let mut outside_rows = 0;
+        let (mut half_sum, mut half_rows) = (0.0, 0usize);
         for (i, &te) in test.iter().enumerate() {
             if te {
                 test_rows += 1;
                 outside_rows += usize::from(outside.get(i).copied().unwrap_or(false));
+                if let Some(h) = interval_um.get(i) {
+                    half_sum += h;
+                    half_rows += 1;
+                }
             }
         }
-        let mean_half_width_um = if interval_um.is_empty() {
+        let mean_half_width_um = if half_rows > 0 {
+            half_sum / half_rows as f64
+        } else if interval_um.is_empty() {
             f64::NAN
         } else {
             interval_um.iter().sum::<f64>() / interval_um.len() as f64
@@ -695,8 +703,11 @@ mod tests {
         );
         assert_eq!(e.test_rows, 3);
         assert_eq!(e.outside_rows, 2);
-        // (1 + 2 + 3 + 4 + 6) / 5 = 3.2, over every row.
-        assert!((e.mean_half_width_um - 3.2).abs() < 1e-15);
+        // (3 + 4 + 6) / 3, over the test rows (as the reference numpy_static.py).
+        assert!((e.mean_half_width_um - 13.0 / 3.0).abs() < 1e-15);
+        // No test row: over every row.
+        let e = Extrapolation::of(&[false, false], &[false, false], &[1.0, 2.0]);
+        assert!((e.mean_half_width_um - 1.5).abs() < 1e-15);
         // Missing flags count as inside; no intervals → NaN.
         let e = Extrapolation::of(&[true, true], &[true], &[]);
         assert_eq!((e.test_rows, e.outside_rows), (2, 1));
