@@ -75,6 +75,12 @@ fn d2_of_rows(env: &Envelope, feats: &[Cow<[f64]>], n: usize) -> Vec<f64> {
     for w_row in env.whitening.chunks(p) {
         s.fill(-0.0);
         for ((&w, &m), x) in w_row.iter().zip(&env.feature_mean).zip(feats) {
+            // A zero weight (the upper triangle of a least-squares W) adds ±0 to each sum,
+            // which changes no sum's square: skipped, bit for bit the same d² (the regressors
+            // of a fit are finite).
+            if w == 0.0 {
+                continue;
+            }
             for (si, &xi) in s.iter_mut().zip(&x[..n]) {
                 *si += w * (xi - m);
             }
@@ -133,7 +139,6 @@ impl FitKind {
 /// # Source
 /// Hoaglin & Welsch (1978), the hat matrix; Walker & Birch (1988), *Influence measures in
 /// ridge regression*, Technometrics 30, the ridge hat matrix [STANDARD].
-#[allow(clippy::needless_range_loop)] // rows of column-major series
 pub fn training_envelope(
     table: &Table,
     train: &[bool],
@@ -141,21 +146,75 @@ pub fn training_envelope(
     model: &LinearModel,
     kind: FitKind,
 ) -> Result<Envelope> {
+    let all = regressor_series(table, model)?;
     let rows = TrainRows::new(train);
+    let feats: Vec<Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
+    let mut env = unbounded_envelope(table, &rows, axis, model, kind, &feats)?;
+    if !env.whitening.is_empty() {
+        env.max_d2 = max_training_d2(&env, &feats);
+    }
+    Ok(env)
+}
+
+/// [`training_envelope`] and [`rows_outside_and_intervals`] at once for a validation RMSE
+/// `sigma_v`: the same envelope, flags and half-widths, bit for bit, with d² computed once
+/// per row (the bound is its largest value over the training rows).
+pub fn training_envelope_and_rows(
+    table: &Table,
+    train: &[bool],
+    axis: &str,
+    model: &LinearModel,
+    kind: FitKind,
+    sigma_v: f64,
+) -> Result<(Envelope, Vec<bool>, Vec<f64>)> {
+    let all = regressor_series(table, model)?;
+    let rows = TrainRows::new(train);
+    let mut env = {
+        let feats: Vec<Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
+        unbounded_envelope(table, &rows, axis, model, kind, &feats)?
+    };
+    let n = table.time_s.len();
+    let d2 = d2_of_rows(&env, &all, n);
+    if !env.whitening.is_empty() {
+        env.max_d2 = d2
+            .iter()
+            .zip(train)
+            .filter(|(_, &m)| m)
+            .fold(0.0, |a, (&v, _)| f64::max(a, v));
+    }
+    let (outside, half) = outside_and_intervals(table, &env, &d2, sigma_v)?;
+    Ok((env, outside, half))
+}
+
+/// The envelope of [`training_envelope`] with `max_d2` left at 0: the ranges, and the
+/// whitening where the fit bounds the regressors (`feats`: the model's regressor series
+/// over the training rows `rows`).
+#[allow(clippy::needless_range_loop)] // rows of column-major series
+fn unbounded_envelope(
+    table: &Table,
+    rows: &TrainRows,
+    axis: &str,
+    model: &LinearModel,
+    kind: FitKind,
+    feats: &[Cow<[f64]>],
+) -> Result<Envelope> {
     let mut ranges = Vec::new();
     for name in model.channels() {
-        let x = rows.of(&table.inputs[channel(table, name)?]);
-        let (min, max) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
-            (a.0.min(v), a.1.max(v))
-        });
+        // Over the training rows in row order (no copy of them).
+        let x = &table.inputs[channel(table, name)?];
+        let (min, max) = x
+            .iter()
+            .zip(rows.mask)
+            .filter(|(_, &m)| m)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, (&v, _)| {
+                (a.0.min(v), a.1.max(v))
+            });
         ranges.push(ChannelRange {
             channel: name.to_string(),
             min,
             max,
         });
     }
-    let all = regressor_series(table, model)?;
-    let feats: Vec<Cow<[f64]>> = all.iter().map(|f| rows.of(f)).collect();
     let n = feats.first().map_or(0, |f| f.len());
     let p = feats.len();
     let mut env = Envelope {
@@ -174,12 +233,11 @@ pub fn training_envelope(
         .map(|f| f.iter().sum::<f64>() / n as f64)
         .collect();
     if kind != FitKind::LeastSquares {
-        let Some(w) = shrunk_whitening(&feats, &mean, kind) else {
+        let Some(w) = shrunk_whitening(feats, &mean, kind) else {
             return Ok(env);
         };
         env.feature_mean = mean;
         env.whitening = w;
-        env.max_d2 = max_training_d2(&env, &feats);
         return Ok(env);
     }
     let xc = DMatrix::from_fn(n, p, |i, j| feats[j][i] - mean[j]);
@@ -199,7 +257,6 @@ pub fn training_envelope(
         .flat_map(|i| (0..p).map(move |j| (i, j)))
         .map(|(i, j)| if j <= i { w[(i, j)] } else { 0.0 })
         .collect();
-    env.max_d2 = max_training_d2(&env, &feats);
     Ok(env)
 }
 
@@ -278,26 +335,40 @@ pub fn rows_outside_and_intervals(
     sigma_v: f64,
 ) -> Result<(Vec<bool>, Vec<f64>)> {
     let feats = regressor_series(table, model)?;
+    let d2 = d2_of_rows(env, &feats, table.time_s.len());
+    outside_and_intervals(table, env, &d2, sigma_v)
+}
+
+/// [`rows_outside_and_intervals`] from the d² of every row.
+fn outside_and_intervals(
+    table: &Table,
+    env: &Envelope,
+    d2: &[f64],
+    sigma_v: f64,
+) -> Result<(Vec<bool>, Vec<f64>)> {
     let chans: Vec<&[f64]> = env
         .ranges
         .iter()
         .map(|r| channel(table, &r.channel).map(|i| table.inputs[i].as_slice()))
         .collect::<Result<_>>()?;
-    let n = table.time_s.len();
-    let d2 = d2_of_rows(env, &feats, n);
+    let n = d2.len();
     let rows = env.rows.max(2) as f64;
     let bounded = !env.whitening.is_empty();
-    let mut outside = Vec::with_capacity(n);
-    let mut half = Vec::with_capacity(n);
-    for (i, &d2) in d2.iter().enumerate() {
-        let out_of_range = env.ranges.iter().zip(&chans).any(|(r, c)| {
-            let v = c[i];
-            v < r.min || v > r.max
-        });
-        outside.push(out_of_range || (d2 > env.max_d2 && bounded));
-        let h = 1.0 / rows + d2 / (rows - 1.0);
-        half.push(1.96 * sigma_v * (1.0 + h).sqrt());
+    // Column by column over all rows (the same flags as row by row: any channel out of its
+    // range, or d² above the bound).
+    let mut outside: Vec<bool> = d2.iter().map(|&v| bounded && v > env.max_d2).collect();
+    for (r, c) in env.ranges.iter().zip(&chans) {
+        for (o, &v) in outside.iter_mut().zip(&c[..n]) {
+            *o |= v < r.min || v > r.max;
+        }
     }
+    let half = d2
+        .iter()
+        .map(|&d2| {
+            let h = 1.0 / rows + d2 / (rows - 1.0);
+            1.96 * sigma_v * (1.0 + h).sqrt()
+        })
+        .collect();
     Ok((outside, half))
 }
 
@@ -371,6 +442,13 @@ mod tests {
             assert_eq!(env.max_d2.to_bits(), max_d2.to_bits(), "case {case}");
             let sigma = 0.7 + next();
             let (outside, half) = rows_outside_and_intervals(&table, &model, &env, sigma).unwrap();
+            // Both at once (what `identify` runs): the same, bit for bit.
+            let (env2, outside2, half2) =
+                training_envelope_and_rows(&table, &train, "a", &model, kind, sigma).unwrap();
+            assert_eq!(env2, env, "case {case}");
+            assert_eq!(outside2, outside, "case {case}");
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&half2), bits(&half), "case {case}");
             let chans: Vec<usize> = env
                 .ranges
                 .iter()

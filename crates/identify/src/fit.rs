@@ -232,6 +232,11 @@ pub struct Identification {
     pub input_names: Vec<String>,
     /// Notes about the inputs (dropped sensors, with the reason).
     pub notes: Vec<String>,
+    /// Plain least squares on all inputs, (train RMSE, test RMSE) per target, when the
+    /// identification computed it on the way (the fixed kinds: from their validation
+    /// engine's factor of every training row); `None` otherwise
+    /// ([`crate::pipeline::identify_with_floor`] then computes it).
+    pub floor: Option<Vec<(f64, Option<f64>)>>,
 }
 
 /// Where an identification came from, for the model file's provenance.

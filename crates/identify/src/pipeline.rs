@@ -223,6 +223,9 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
 struct CvEngine {
     train_r: Vec<DMatrix<f64>>,
     val_r: Vec<DMatrix<f64>>,
+    /// The R factor of [1 X Y] on every training row (the folds' blocks stacked): the final
+    /// fit and the floor from it (every training row is in one fold's block).
+    all_r: DMatrix<f64>,
     n_features: usize,
     n_val: usize,
 }
@@ -242,9 +245,11 @@ impl CvEngine {
                 (0..k).filter(|&g| g != f).map(|g| &blocks[g]).collect();
             r_factor(stack(&others, m))
         });
+        let all_r = r_factor(stack(&blocks.iter().collect::<Vec<_>>(), m));
         Self {
             train_r,
             val_r: blocks,
+            all_r,
             n_features: features.len(),
             n_val,
         }
@@ -419,6 +424,8 @@ fn identify_groups(
         counts.join(", ")
     ));
     let mut first = parts.swap_remove(0);
+    // Each group's floor is on its own rows: the caller computes the floor per group.
+    first.floor = None;
     first.targets = slots.into_iter().flatten().collect();
     first.train = train;
     first.test = test;
@@ -430,16 +437,14 @@ fn identify_one(table: &Table, opts: &IdentifyOptions) -> Result<Identification>
     let mut id = identify_models(table, opts)?;
     // Each target's envelope on its own core (the targets are independent).
     let envelopes = par_map(&id.targets, |m| {
-        let env = crate::envelope::training_envelope(
+        crate::envelope::training_envelope_and_rows(
             table,
             &id.train,
             &m.target,
             &m.model,
             crate::envelope::FitKind::of(m),
-        )?;
-        let (outside, half) =
-            crate::envelope::rows_outside_and_intervals(table, &m.model, &env, m.cv_rmse)?;
-        Ok::<_, IdentifyError>((env, outside, half))
+            m.cv_rmse,
+        )
     });
     for (m, e) in id.targets.iter_mut().zip(envelopes) {
         let (env, outside, half) = e?;
@@ -460,6 +465,16 @@ pub fn identify_with_floor(
     table: &Table,
     opts: &IdentifyOptions,
 ) -> Result<(Identification, Floor)> {
+    // The fixed kinds compute the floor on the way (`Identification::floor`), from the
+    // factor their validation already made: no second thread, no second factorisation.
+    if opts.model != ModelKind::Auto && measured_groups(table).is_none() {
+        let mut id = identify(table, opts)?;
+        let floor = match id.floor.take() {
+            Some(f) => f,
+            None => plain_least_squares(table, &opts.split)?,
+        };
+        return Ok((id, floor));
+    }
     let (id, floor) = std::thread::scope(|s| {
         let floor = s.spawn(|| plain_least_squares(table, &opts.split));
         let id = identify(table, opts);
@@ -689,6 +704,9 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         fold_validation(table, k_folds),
     );
     let test = table.test_mask(&train);
+    let floor = engines
+        .first()
+        .and_then(|eng| engine_floor(table, &train, eng, per_sensor));
     Ok(Identification {
         correlation: corr,
         dendrogram,
@@ -699,7 +717,42 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         method,
         input_names: table.input_names.clone(),
         notes,
+        floor,
     })
+}
+
+/// [`plain_least_squares`] of `table` (its inputs already the ones `drop_degenerate_inputs`
+/// keeps, `train` its training rows) from a validation engine whose features hold every
+/// input's value at columns 1 + `per_sensor`·s: the coefficients from the engine's factor
+/// of every training row, the residuals of every row as [`residuals_of`] computes them.
+/// `None` where plain least squares needs its own factorisation (too few rows, collinear
+/// inputs: the minimum-norm solution).
+fn engine_floor(
+    table: &Table,
+    train: &[bool],
+    eng: &CvEngine,
+    per_sensor: usize,
+) -> Option<Vec<(f64, Option<f64>)>> {
+    let c = table.inputs.len();
+    let n_train = train.iter().filter(|&&m| m).count();
+    if n_train < c + 2 {
+        return None;
+    }
+    let mut cols = vec![0usize];
+    cols.extend((0..c).map(|s| 1 + per_sensor * s));
+    table
+        .targets
+        .iter()
+        .enumerate()
+        .map(|(j, y)| {
+            let (b, _) = regress::lstsq_of_r(&eng.all_r, &cols, 1 + eng.n_features + j)?;
+            let e = residuals_of_coefficients(&b, &table.inputs, y);
+            Some((
+                rmse_where(&e, train, true).unwrap_or(f64::NAN),
+                rmse_where(&e, train, false),
+            ))
+        })
+        .collect()
 }
 
 /// A note naming the targets whose measured training values are all equal (a stuck or
@@ -886,9 +939,25 @@ fn finish(
     }
     let refs: Vec<&[f64]> = cols.iter().map(|v| &v[..]).collect();
     let ytr = rows.of(&table.targets[j]);
+    let eng = &engines[ti];
     let fit = match ch.alpha {
         Some(a) => regress::ridge(&refs, &ytr, a, &names)?,
-        None => regress::ols(&refs, &ytr, &names)?,
+        // Least squares from the engine's factor of every training row (the columns of
+        // [1 X Y] that hold these regressors and this target): no factorisation of the rows.
+        None => {
+            let mut rcols = vec![0usize];
+            for &s in &ch.sensors {
+                rcols.extend((0..per_sensor).map(|q| 1 + per_sensor * s + q));
+            }
+            regress::ols_of_r(
+                &eng.all_r,
+                &rcols,
+                1 + eng.n_features + j,
+                &refs,
+                &ytr,
+                &names,
+            )?
+        }
     };
     let model = LinearModel {
         intercept: fit.coefficients[0],
@@ -1019,14 +1088,19 @@ fn plain_least_squares_one(table: &Table, split: &Split) -> Result<Vec<(f64, Opt
 /// in the same order as `LinearFit::predict` (Σ b_j·x_j from −0.0 as `Iterator::sum`,
 /// then b0 + Σ), one column at a time over all rows instead of row by row.
 fn residuals_of(fit: &regress::LinearFit, columns: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
+    residuals_of_coefficients(&fit.coefficients, columns, y)
+}
+
+/// [`residuals_of`] for the coefficients (intercept first).
+fn residuals_of_coefficients(coefficients: &[f64], columns: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
     let n = y.len();
     let mut s = vec![-0.0f64; n];
-    for (&b, x) in fit.coefficients[1..].iter().zip(columns) {
+    for (&b, x) in coefficients[1..].iter().zip(columns) {
         for (si, &xi) in s.iter_mut().zip(&x[..n]) {
             *si += b * xi;
         }
     }
-    let b0 = fit.coefficients[0];
+    let b0 = coefficients[0];
     y.iter().zip(&s).map(|(&y, &s)| y - (b0 + s)).collect()
 }
 
@@ -1144,6 +1218,95 @@ fn min_norm_least_squares(columns: &[&[f64]], ys: &[&[f64]]) -> Vec<regress::Lin
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// The fixed kinds' floor, taken from their validation engine's factor, is plain least
+    /// squares on all inputs solved afresh ([`plain_least_squares`]): train and test RMSE to
+    /// 1e-9 relative, for the static, ridge and dynamic kinds on random tables (drifting
+    /// correlated inputs, a constant and a duplicated one dropped on the way, two targets);
+    /// with collinear inputs the engine gives none and the minimum-norm floor stays.
+    #[test]
+    fn fixed_kinds_floor_is_plain_least_squares() {
+        let mut u = crate::test_uniform(41);
+        let mut next = move || u() * 2.0 - 1.0;
+        for case in 0..9 {
+            let n = 300 + 37 * case;
+            let c = 3 + case % 5;
+            let mut walk = 0.0;
+            let drift: Vec<f64> = (0..n)
+                .map(|_| {
+                    walk += 0.05 * next();
+                    walk
+                })
+                .collect();
+            let mut inputs: Vec<Vec<f64>> = (0..c)
+                .map(|j| {
+                    let g = 1.0 + 0.3 * j as f64;
+                    drift
+                        .iter()
+                        .map(|d| 22.0 + j as f64 + g * d + 0.2 * next())
+                        .collect()
+                })
+                .collect();
+            inputs.push(vec![21.5; n]);
+            inputs.push(inputs[0].clone());
+            if case == 8 {
+                // Collinear: a sum of two others (no duplicate, rank deficient).
+                let s: Vec<f64> = inputs[1]
+                    .iter()
+                    .zip(&inputs[2])
+                    .map(|(a, b)| a + b)
+                    .collect();
+                inputs.push(s);
+            }
+            let names: Vec<String> = (0..inputs.len()).map(|j| format!("t{j}_c")).collect();
+            let targets: Vec<Vec<f64>> = (0..2)
+                .map(|k| {
+                    (0..n)
+                        .map(|i| 5.0 * k as f64 + 3.0 * inputs[0][i] - 2.0 * inputs[1][i] + next())
+                        .collect()
+                })
+                .collect();
+            let table = Table {
+                time_s: (0..n).map(|i| 60.0 * i as f64).collect(),
+                input_names: names,
+                inputs,
+                target_names: vec!["a_um".into(), "b_um".into()],
+                targets,
+                segments: vec![0],
+                ..Table::default()
+            };
+            let split = Split::TimeBefore(60.0 * (n * 2 / 3) as f64);
+            let want = plain_least_squares(&table, &split).unwrap();
+            for model in [ModelKind::Static, ModelKind::Ridge, ModelKind::Dynamic] {
+                let opts = IdentifyOptions {
+                    model,
+                    split: split.clone(),
+                    classes: Some(2),
+                    ..IdentifyOptions::default()
+                };
+                let id = identify(&table, &opts).unwrap();
+                match (&id.floor, case) {
+                    (None, 8) => {}
+                    (Some(got), _) if case != 8 => {
+                        for ((a, at), (b, bt)) in want.iter().zip(got) {
+                            let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + x.abs());
+                            assert!(close(*a, *b), "case {case} {model:?}: {a} vs {b}");
+                            assert!(close(at.unwrap(), bt.unwrap()), "case {case} {model:?}");
+                        }
+                    }
+                    (f, _) => panic!("case {case} {model:?}: floor {f:?}"),
+                }
+                let (_, floor) = identify_with_floor(&table, &opts).unwrap();
+                let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + x.abs());
+                for ((a, at), (b, bt)) in want.iter().zip(&floor) {
+                    assert!(
+                        close(*a, *b) && close(at.unwrap(), bt.unwrap()),
+                        "case {case}"
+                    );
+                }
+            }
+        }
+    }
 
     /// The floor's residuals, column by column over all rows, are y − `LinearFit::predict`
     /// of each row, bit for bit.

@@ -1586,6 +1586,7 @@ pub fn identify_auto(
         method,
         input_names: table.input_names.clone(),
         notes,
+        floor: None,
     })
 }
 
