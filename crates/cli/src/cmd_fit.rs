@@ -455,14 +455,14 @@ fn load(
         let table = read_paths_with_targets(paths, targets, sel, opts, sheets)?;
         return Ok((table, name));
     }
+    if paths.is_empty() {
+        // The embedded text (no decompression at run time: gearcomp-datasets).
+        let name = "FL_THERMAL (embedded)";
+        let text = gearcomp_datasets::fl_thermal_csv();
+        return Ok((read_runs(&[(text, name)], sel, opts)?, name.to_string()));
+    }
     if let Some(read) = read_streamed(paths, sel, opts) {
         return read;
-    }
-    if paths.is_empty() {
-        let text = gearcomp_datasets::fl_thermal_csv()
-            .context("decompress the embedded FL_THERMAL data")?;
-        let name = "FL_THERMAL (embedded)";
-        return Ok((read_runs(&[(&text, name)], sel, opts)?, name.to_string()));
     }
     let name = paths
         .iter()
@@ -473,24 +473,13 @@ fn load(
     Ok((table, name))
 }
 
-/// One plain log, or the embedded FL_THERMAL (its gzip members inflated as they are
-/// parsed), read in chunks and parsed as it comes when it is clean (no copy of the whole
-/// text in memory); None for anything else, which `load` reads as text, as before.
+/// One plain log, read in chunks and parsed as it comes when it is clean (no copy of the
+/// whole text in memory); None for anything else, which `load` reads as text, as before.
 fn read_streamed(
     paths: &[PathBuf],
     sel: &Selection,
     opts: ReadOptions,
 ) -> Option<anyhow::Result<(Table, String)>> {
-    if paths.is_empty() {
-        let name = "FL_THERMAL (embedded)".to_string();
-        let members = gearcomp_datasets::fl_thermal_pieces().ok()?;
-        let pieces: gearcomp_identify::data::Pieces = members
-            .into_iter()
-            .map(|(r, n)| (Box::new(r) as Box<dyn std::io::Read + Send>, n))
-            .collect();
-        let table = gearcomp_identify::data::read_csv_pieces(pieces, &name, sel, opts)?;
-        return Some(table.map(|t| (t, name)).map_err(Into::into));
-    }
     let [p] = paths else {
         return None;
     };

@@ -16,17 +16,17 @@ use gearcomp_identify::transform::TransformState;
 use gearcomp_identify::{identify, IdentifyOptions};
 
 fn bench(c: &mut Criterion) {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let sel = Selection {
         targets: vec!["ch*_um".into()],
         ..Selection::default()
     };
-    let table = read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap();
+    let table = read_csv(text, "fl_thermal", &sel, ReadOptions::default()).unwrap();
     let opts = IdentifyOptions::default();
     let mut g = c.benchmark_group("fl_thermal");
     g.sample_size(10);
     g.bench_function("baseline_read_csv-16sensors-11115rows", |b| {
-        b.iter(|| read_csv(black_box(&text), "fl", &sel, ReadOptions::default()).unwrap())
+        b.iter(|| read_csv(black_box(text), "fl", &sel, ReadOptions::default()).unwrap())
     });
     // The default (issue 12): every family, rolling-origin validation, envelopes.
     g.bench_function("identify_default_auto-16sensors-5targets-11115rows", |b| {
@@ -63,41 +63,16 @@ fn bench(c: &mut Criterion) {
             .unwrap()
         })
     });
-    r.bench_function("inflate_embedded_fl_thermal-4.4MB", |b| {
-        b.iter(|| gearcomp_datasets::fl_thermal_csv().unwrap())
-    });
     r.bench_function("read_csv_clean-16in-3tg-11115rows", |b| {
-        b.iter(|| read_csv(black_box(&text), "fl", &static_sel, ReadOptions::default()).unwrap())
+        b.iter(|| read_csv(black_box(text), "fl", &static_sel, ReadOptions::default()).unwrap())
     });
-    r.bench_function("inflate_and_read-16in-3tg-11115rows", |b| {
-        b.iter(|| {
-            let t = gearcomp_datasets::fl_thermal_csv().unwrap();
-            read_csv(&t, "fl", &static_sel, ReadOptions::default()).unwrap()
-        })
-    });
-    // What `fit` does now: the embedded copy's gzip members inflated as they are parsed, and
-    // a `--data` log file read in 256 KB chunks and parsed as they come, against reading the
-    // whole text first (in one process the freed buffers are reused, so the page faults a
-    // fresh process pays for a 4.4 MB text do not show here: see static_vs_numpy.py).
-    r.bench_function("inflate_members_while_parsing-16in-3tg-11115rows", |b| {
-        b.iter(|| {
-            let pieces: gearcomp_identify::data::Pieces = gearcomp_datasets::fl_thermal_pieces()
-                .unwrap()
-                .into_iter()
-                .map(|(m, n)| (Box::new(m) as Box<dyn std::io::Read + Send>, n))
-                .collect();
-            gearcomp_identify::data::read_csv_pieces(
-                pieces,
-                "fl",
-                &static_sel,
-                ReadOptions::default(),
-            )
-            .unwrap()
-            .unwrap()
-        })
-    });
+    // What `fit` does: the embedded text (no decompression: gearcomp-datasets) parsed by
+    // `read_csv_clean` above, and a `--data` log file read in 256 KB chunks and parsed as
+    // they come, against reading the whole text first (in one process the freed buffers are
+    // reused, so the page faults a fresh process pays for a 4.4 MB text do not show here:
+    // see static_vs_numpy.py).
     let path = std::env::temp_dir().join(format!("gearcomp-bench-{}.csv", std::process::id()));
-    std::fs::write(&path, &text).unwrap();
+    std::fs::write(&path, text).unwrap();
     r.bench_function("baseline_read_text_then_parse-16in-3tg-11115rows", |b| {
         b.iter(|| {
             let t = std::fs::read_to_string(&path).unwrap();
@@ -125,7 +100,7 @@ fn bench(c: &mut Criterion) {
         classes: Some(6),
         ..IdentifyOptions::default()
     };
-    let static_table = read_csv(&text, "fl", &static_sel, ReadOptions::default()).unwrap();
+    let static_table = read_csv(text, "fl", &static_sel, ReadOptions::default()).unwrap();
     r.bench_function("identify_static_6_classes_and_plain_ls-3tg", |b| {
         b.iter(|| {
             let id = identify(black_box(&static_table), &static_opts).unwrap();

@@ -10,12 +10,12 @@ use gearcomp_identify::select::Family;
 use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 
 fn main() {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let sel = Selection {
         targets: vec!["ch1_um".into(), "ch3_um".into(), "ch5_um".into()],
         ..Selection::default()
     };
-    let t = read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap();
+    let t = read_csv(text, "fl_thermal", &sel, ReadOptions::default()).unwrap();
     let base = plain_least_squares(&t, &Split::TimeBefore(86_400.0)).unwrap();
     let folds = std::env::var("FOLDS")
         .ok()

@@ -1128,7 +1128,7 @@ struct Reader<'a> {
     /// Run name of each file (its stem when not given): the sheets of one workbook.
     file_runs: &'a [String],
     /// Where the records come from when the text given to [`Reader::file`] is only the
-    /// header line ([`read_csv_file`], [`read_csv_pieces`]); taken when read.
+    /// header line ([`read_csv_file`]); taken when read.
     source: Source<'a>,
     /// [`read_csv_file`] cannot read the file by [`clean_table_file`].
     declined: bool,
@@ -1228,130 +1228,12 @@ pub fn read_csv_file(
     Reader::new(sel, opts, &[], Source::File(path)).read_after_header(&head, name)
 }
 
-/// A log given in pieces of whole lines (e.g. the members of a gzip file), each a reader
-/// of its text and its length in bytes (for the columns' capacity); the first piece starts
-/// with the header line.
-pub type Pieces<'a> = Vec<(Box<dyn std::io::Read + Send + 'a>, usize)>;
-
 /// Where [`Reader::file`] finds the records.
 enum Source<'a> {
     /// In the text given.
     Text,
     /// In the file, after the header line given as the text ([`clean_table_file`]).
     File(&'a std::path::Path),
-    /// In the pieces, the first one's header line (given as the text) already read from
-    /// it and the rest of its first read put before it ([`clean_table_pieces`]).
-    Pieces(Pieces<'a>),
-}
-
-/// [`read_csv_file`] of a log given in pieces ([`Pieces`]; `name` in messages): each
-/// piece read in chunks and parsed as it comes, on its own thread, when the log is a clean
-/// single-run log; `None` otherwise or at any read error (the caller then reads the whole
-/// text, which reports it), `Some` holding the same as [`read_csv`] of the pieces' text.
-pub fn read_csv_pieces(
-    mut pieces: Pieces<'_>,
-    name: &str,
-    sel: &Selection,
-    opts: ReadOptions,
-) -> Option<Result<Table>> {
-    if check_read_options(opts).is_err() || pieces.is_empty() {
-        return None;
-    }
-    // The header line from the first piece; what follows it in that read stays in front
-    // of the piece.
-    let (first, first_len) = pieces.remove(0);
-    let mut r0 = first;
-    let mut got = Vec::new();
-    let mut chunk = [0u8; 4096];
-    let nl = loop {
-        let n = r0.read(&mut chunk).ok()?;
-        got.extend_from_slice(chunk.get(..n)?);
-        if let Some(p) = got.iter().position(|&c| c == b'\n') {
-            break p;
-        }
-        if n == 0 || got.len() > 1 << 20 {
-            return None;
-        }
-    };
-    let rest = got.split_off(nl + 1);
-    let head = String::from_utf8(got).ok()?;
-    let rest_len = first_len.saturating_sub(head.len());
-    let mut all: Pieces<'_> = vec![(
-        Box::new(std::io::Read::chain(std::io::Cursor::new(rest), r0)),
-        rest_len,
-    )];
-    all.extend(pieces);
-    Reader::new(sel, opts, &[], Source::Pieces(all)).read_after_header(&head, name)
-}
-
-/// [`clean_table`] of a log in pieces after its header line `head` (`start`: where the
-/// header's reader stopped in it), each piece read in chunks of `chunk` bytes and parsed as it comes, on its own
-/// thread; `None` where [`clean_table`] of the whole text declines, or at a read error.
-fn clean_table_pieces(
-    head: &str,
-    start: usize,
-    width: usize,
-    slots: &[usize],
-    pieces: Pieces<'_>,
-    chunk: usize,
-) -> Option<CleanTable> {
-    let before = head.as_bytes().get(..start)?;
-    if before.contains(&b'"') || slots.is_empty() {
-        return None;
-    }
-    let first_line = 1 + before.iter().filter(|&&c| c == b'\n').count() as u64;
-    // What the header's reader left of the header line (the `\n` of a `\r\n`) comes
-    // first, as [`clean_table`] reads the text from `start`.
-    let left = head.as_bytes().get(start..)?.to_vec();
-    let parsed: Vec<Option<CleanPiece>> = std::thread::scope(|s| {
-        let mut pieces = pieces.into_iter();
-        let first = pieces.next().map(|(r, len)| {
-            let r: Box<dyn std::io::Read + Send + '_> =
-                Box::new(std::io::Read::chain(std::io::Cursor::new(left), r));
-            (r, len)
-        });
-        let handles: Vec<_> = pieces
-            .map(|(r, len)| s.spawn(move || clean_stream(r, len, width, slots, chunk)))
-            .collect();
-        let mut out = vec![first.and_then(|(r, len)| clean_stream(r, len, width, slots, chunk))];
-        out.extend(handles.into_iter().map(|h| h.join().ok().flatten()));
-        out
-    });
-    assemble(first_line, parsed.into_iter().collect::<Option<_>>()?)
-}
-
-/// One piece of whole lines (`len` bytes, for the capacity) read from `r` in chunks and
-/// parsed by a [`PieceParser`] as it comes.
-fn clean_stream(
-    mut r: Box<dyn std::io::Read + Send + '_>,
-    len: usize,
-    width: usize,
-    slots: &[usize],
-    chunk: usize,
-) -> Option<CleanPiece> {
-    let mut parser = PieceParser::new(width, slots, len)?;
-    let mut buf: Vec<u8> = Vec::with_capacity(2 * chunk.max(1));
-    loop {
-        let have = buf.len();
-        buf.resize(have + chunk.max(1), 0);
-        let n = loop {
-            match r.read(&mut buf[have..]) {
-                Ok(n) => break n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(_) => return None,
-            }
-        };
-        buf.truncate(have + n);
-        if n == 0 {
-            parser.lines(std::str::from_utf8(&buf).ok()?)?;
-            return Some(parser.done());
-        }
-        if let Some(p) = buf[have..].iter().rposition(|&c| c == b'\n') {
-            let upto = have + p + 1;
-            parser.lines(std::str::from_utf8(&buf[..upto]).ok()?)?;
-            buf.drain(..upto);
-        }
-    }
 }
 
 /// The first line of the file at `path` with its line end (at most 1 MiB), as text; `None`
@@ -2164,14 +2046,6 @@ impl Reader<'_> {
                     Source::File(path) => {
                         clean_table_file(path, text, start, header.len(), &slots, FILE_CHUNK_BYTES)
                     }
-                    Source::Pieces(pieces) => clean_table_pieces(
-                        text,
-                        start,
-                        header.len(),
-                        &slots,
-                        pieces,
-                        FILE_CHUNK_BYTES,
-                    ),
                     Source::Text => clean_table(text, start, header.len(), &slots),
                 };
                 if let Some(clean) = clean {
@@ -2761,61 +2635,6 @@ mod tests {
             // Debug text: an unmeasured target is NaN in both (NaN ≠ NaN for PartialEq).
             assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "seed {seed}");
         }
-    }
-
-    /// A log given in pieces of whole lines ([`read_csv_pieces`], the embedded copy's gzip
-    /// members) gives what [`read_csv`] gives of the whole text, or leaves it to it, for
-    /// 1–4 pieces cut at random line ends (CRLF and LF logs, empty pieces included).
-    #[test]
-    fn a_log_in_pieces_is_the_text_read_at_once() {
-        let sl = sel(&["*_c"], &["d_um"]);
-        let opts = ReadOptions {
-            skip_bad_rows: true,
-            ..ReadOptions::default()
-        };
-        for seed in 0..150u64 {
-            let irregular = seed % 3 == 0;
-            let text = random_log(seed, 1 + (seed as usize * 7) % 60, irregular);
-            let ends: Vec<usize> = text.match_indices('\n').map(|(i, _)| i + 1).collect();
-            let k = 1 + seed as usize % 4;
-            let mut cuts: Vec<usize> = (1..k)
-                .map(|j| ends[(seed as usize * 31 + j * 17) % ends.len()])
-                .collect();
-            cuts.sort_unstable();
-            cuts.insert(0, 0);
-            cuts.push(text.len());
-            let pieces: Pieces = cuts
-                .windows(2)
-                .map(|w| {
-                    let part = text.as_bytes()[w[0]..w[1]].to_vec();
-                    let n = part.len();
-                    (
-                        Box::new(std::io::Cursor::new(part)) as Box<dyn std::io::Read + Send>,
-                        n,
-                    )
-                })
-                .collect();
-            match read_csv_pieces(pieces, "f", &sl, opts) {
-                Some(t) => assert_eq!(
-                    t.map_err(|e| e.to_string()),
-                    read_csv(&text, "f", &sl, opts).map_err(|e| e.to_string()),
-                    "seed {seed}, cuts {cuts:?}"
-                ),
-                None => assert!(irregular, "seed {seed}: a clean log declined"),
-            }
-        }
-        // The embedded FL_THERMAL, its four gzip members inflated as they are parsed.
-        let sl = sel(&["*_c"], &["ch1_um", "ch3_um", "ch5_um"]);
-        let pieces: Pieces = gearcomp_datasets::fl_thermal_pieces()
-            .unwrap()
-            .into_iter()
-            .map(|(r, n)| (Box::new(r) as Box<dyn std::io::Read + Send>, n))
-            .collect();
-        let text = gearcomp_datasets::fl_thermal_csv().unwrap();
-        let want = read_csv(&text, "fl", &sl, ReadOptions::default()).unwrap();
-        let got = read_csv_pieces(pieces, "fl", &sl, ReadOptions::default());
-        assert_eq!(got.unwrap().unwrap(), want);
-        assert_eq!(want.time_s.len(), 11_115);
     }
 
     /// A log file read in chunks ([`clean_table_file`]) gives exactly the table of its text

@@ -38,9 +38,9 @@ fn refused_config(dir: &std::path::Path, cfg: &str) -> String {
 #[test]
 fn replay_fl_thermal_matches_independent_evaluation() {
     let dir = tmp("fl");
-    let csv_text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let csv_text = gearcomp_datasets::fl_thermal_csv();
     let data = dir.join("fl_thermal.csv");
-    std::fs::write(&data, &csv_text).unwrap();
+    std::fs::write(&data, csv_text).unwrap();
     let names: Vec<String> = (1..=16).map(|i| format!("t{i}_c")).collect();
     let cfg = format!(
         "{}[[axes]]\nname = \"X\"\napply = {{ kind = \"command\" }}\nmax_offset_um = 200.0\n\
@@ -217,9 +217,9 @@ fn replay_shortens_a_long_configuration_value() {
 #[test]
 fn replay_warns_when_a_model_leaves_its_training_envelope() {
     let dir = tmp("envelope");
-    let csv_text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let csv_text = gearcomp_datasets::fl_thermal_csv();
     let data = dir.join("fl_thermal.csv");
-    std::fs::write(&data, &csv_text).unwrap();
+    std::fs::write(&data, csv_text).unwrap();
     let mut lines = csv_text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let idx = |n: &str| header.iter().position(|h| *h == n).unwrap();
@@ -343,9 +343,9 @@ fn csv_reader(text: &str) -> impl Iterator<Item = Vec<String>> + '_ {
 #[test]
 fn fitted_model_warns_in_the_5000_rpm_period_and_never_on_training_rows() {
     let dir = tmp("fit-envelope");
-    let csv_text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let csv_text = gearcomp_datasets::fl_thermal_csv();
     let data = dir.join("fl_thermal.csv");
-    std::fs::write(&data, &csv_text).unwrap();
+    std::fs::write(&data, csv_text).unwrap();
     let fit = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
         .args(["fit", "--target", "ch1_um", "ch3_um", "ch5_um", "--out"])
         .arg(dir.join("model.toml"))

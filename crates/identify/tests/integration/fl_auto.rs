@@ -7,12 +7,12 @@ use gearcomp_identify::data::{read_csv, ReadOptions, Selection, Table};
 use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 
 fn table() -> Table {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let sel = Selection {
         targets: vec!["ch1_um".into(), "ch3_um".into(), "ch5_um".into()],
         ..Selection::default()
     };
-    read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap()
+    read_csv(text, "fl_thermal", &sel, ReadOptions::default()).unwrap()
 }
 
 #[test]

@@ -12,12 +12,12 @@ use gearcomp_identify::transform::transform_series;
 use gearcomp_identify::{identify, plain_least_squares, IdentifyOptions, Split};
 
 fn table() -> Table {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let sel = Selection {
         targets: vec!["ch*_um".into()],
         ..Selection::default()
     };
-    read_csv(&text, "fl_thermal", &sel, ReadOptions::default()).unwrap()
+    read_csv(text, "fl_thermal", &sel, ReadOptions::default()).unwrap()
 }
 
 fn golden() -> serde_json::Value {

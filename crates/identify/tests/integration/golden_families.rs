@@ -11,14 +11,14 @@ use gearcomp_identify::select::{evaluate_fixed, FitSpec, FixedTerm};
 use gearcomp_identify::{train_mask, Split};
 
 fn table(runs: bool) -> Table {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let sel = Selection {
         targets: vec!["ch3_um".into()],
         run: runs.then(|| "run".to_string()),
         ..Selection::default()
     };
     if !runs {
-        return read_csv(&text, "fl", &sel, ReadOptions::default()).unwrap();
+        return read_csv(text, "fl", &sel, ReadOptions::default()).unwrap();
     }
     let mut out = String::new();
     for (i, l) in text.lines().enumerate() {

@@ -114,7 +114,7 @@ fn hobbing_runs_default_beats_plain_least_squares_out_of_run() {
 
 #[test]
 fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares() {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     // Cut into 8 h pseudo-runs (a run column added here); `GEARCOMP_MULTIRUN_HOURS=h`
     // measures another cut (the assertions below are those of the 8 h cut).
     let hours: f64 = std::env::var("GEARCOMP_MULTIRUN_HOURS")

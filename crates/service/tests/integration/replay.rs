@@ -40,15 +40,15 @@ fn stored_offsets(db: &std::path::Path) -> Vec<(f64, f64, f64)> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fl_thermal_live_replay_equals_offline_replay() {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("fl_thermal.csv"), &text).unwrap();
+    std::fs::write(dir.path().join("fl_thermal.csv"), text).unwrap();
     std::fs::write(dir.path().join("engine.toml"), fl_engine()).unwrap();
 
     // Offline: the engine over the log, one step per row.
     let cfg = EngineConfig::from_toml_str(&fl_engine()).unwrap();
     let offline =
-        gearcomp_thermal::replay::replay_csv(&mut Engine::new(&cfg).unwrap(), &text).unwrap();
+        gearcomp_thermal::replay::replay_csv(&mut Engine::new(&cfg).unwrap(), text).unwrap();
     assert_eq!(offline.rows.len(), 11_115);
     assert!(offline.bad_rows.is_empty());
 

@@ -343,7 +343,7 @@ proptest! {
 /// the training rows, a warning on the 5000 rpm test period (24 h … 28 h).
 #[test]
 fn fl_thermal_warns_in_the_5000_rpm_period_and_not_on_training_rows() {
-    let text = gearcomp_datasets::fl_thermal_csv().unwrap();
+    let text = gearcomp_datasets::fl_thermal_csv();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').map(str::trim).collect();
     let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
@@ -416,7 +416,7 @@ fn fl_thermal_warns_in_the_5000_rpm_period_and_not_on_training_rows() {
     let mut cfg = EngineConfig::from_toml_str(&c).unwrap();
     cfg.insert_model("m.toml", m);
     let mut e = Engine::new(&cfg).unwrap();
-    let replay = replay_csv(&mut e, &text).unwrap();
+    let replay = replay_csv(&mut e, text).unwrap();
     assert!(replay.bad_rows.is_empty());
     let (mut train_warn, mut hot, mut hot_warn, mut later_warn, mut later) = (0, 0, 0, 0, 0);
     for r in &replay.rows {
