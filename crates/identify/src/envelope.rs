@@ -15,10 +15,10 @@
 //! an extrapolation, while a run hotter than any training run still is.
 
 use crate::data::Table;
-use crate::error::{IdentifyError, Result};
-use crate::fit::TrainRows;
+use crate::error::Result;
+use crate::fit::{input_index, regressor_series, TrainRows};
 use crate::transform::transform_segments;
-use gearcomp_core::model::{ChannelRange, Envelope, LinearModel, Transform};
+use gearcomp_core::model::{ChannelRange, Envelope, LinearModel};
 use nalgebra::DMatrix;
 use std::borrow::Cow;
 
@@ -29,35 +29,8 @@ pub fn regressors(table: &Table, model: &LinearModel) -> Result<Vec<Vec<f64>>> {
         .terms
         .iter()
         .map(|t| {
-            let i = channel(table, &t.channel)?;
+            let i = input_index(table, &t.channel)?;
             transform_segments(&table.time_s, &table.inputs[i], t.transform, &segs)
-        })
-        .collect()
-}
-
-/// [`regressors`], with a value term's series borrowed from its input column (the value
-/// transform is the identity: the same numbers without a copy); any other term, or a table
-/// whose series or segments [`transform_segments`] refuses, as [`regressors`] (the same
-/// error).
-fn regressor_series<'t>(table: &'t Table, model: &LinearModel) -> Result<Vec<Cow<'t, [f64]>>> {
-    let segs = table.segment_ranges();
-    let n = table.time_s.len();
-    let mut next = 0usize;
-    let segments_ok = segs.iter().all(|&(s, e)| {
-        let ok = s == next && e <= n && e > s;
-        next = e;
-        ok
-    }) && next == n;
-    model
-        .terms
-        .iter()
-        .map(|t| {
-            let u = &table.inputs[channel(table, &t.channel)?];
-            if t.transform == Transform::Value && segments_ok && u.len() == n {
-                Ok(Cow::Borrowed(u.as_slice()))
-            } else {
-                transform_segments(&table.time_s, u, t.transform, &segs).map(Cow::Owned)
-            }
         })
         .collect()
 }
@@ -90,17 +63,6 @@ fn d2_of_rows(env: &Envelope, feats: &[Cow<[f64]>], n: usize) -> Vec<f64> {
         }
     }
     d2
-}
-
-fn channel(table: &Table, name: &str) -> Result<usize> {
-    table
-        .input_names
-        .iter()
-        .position(|n| n == name)
-        .ok_or_else(|| IdentifyError::ColumnNotFound {
-            pattern: name.to_string(),
-            available: table.input_names.join(", "),
-        })
 }
 
 /// How a model's coefficients were fitted, which decides its leverage.
@@ -201,7 +163,7 @@ fn unbounded_envelope(
     let mut ranges = Vec::new();
     for name in model.channels() {
         // Over the training rows in row order (no copy of them).
-        let x = &table.inputs[channel(table, name)?];
+        let x = &table.inputs[input_index(table, name)?];
         let (min, max) = x
             .iter()
             .zip(rows.mask)
@@ -349,7 +311,7 @@ fn outside_and_intervals(
     let chans: Vec<&[f64]> = env
         .ranges
         .iter()
-        .map(|r| channel(table, &r.channel).map(|i| table.inputs[i].as_slice()))
+        .map(|r| input_index(table, &r.channel).map(|i| table.inputs[i].as_slice()))
         .collect::<Result<_>>()?;
     let n = d2.len();
     let rows = env.rows.max(2) as f64;

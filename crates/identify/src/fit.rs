@@ -9,10 +9,12 @@ use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
 use crate::regress::LinearFit;
 use crate::transform::transform_segments;
+use gearcomp_core::model::Transform;
 use gearcomp_core::model::{
     AxisModel, LinearModel, ModelFile, Provenance, WorkpieceShrink, MODEL_FORMAT,
 };
 use nalgebra::DMatrix;
+use std::borrow::Cow;
 
 /// The kind of model fitted per target.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -417,21 +419,56 @@ pub(crate) fn select_rows(x: &[f64], mask: &[bool]) -> Vec<f64> {
         .collect()
 }
 
+/// The index of the input column `name` of `table` (an error naming the columns there are).
+pub(crate) fn input_index(table: &Table, name: &str) -> Result<usize> {
+    table
+        .input_names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| IdentifyError::ColumnNotFound {
+            pattern: name.to_string(),
+            available: table.input_names.join(", "),
+        })
+}
+
+/// The regressor series of each term of `model` over the table (the engine's transform
+/// semantics, as [`crate::envelope::regressors`]), a value term's borrowed from its input
+/// column (the value transform is the identity: the same numbers without a copy); any other
+/// term, or a table whose series or segments [`transform_segments`] refuses, as
+/// `regressors` computes it (the same error).
+pub(crate) fn regressor_series<'t>(
+    table: &'t Table,
+    model: &LinearModel,
+) -> Result<Vec<Cow<'t, [f64]>>> {
+    let segs = table.segment_ranges();
+    let n = table.time_s.len();
+    let mut next = 0usize;
+    let segments_ok = segs.iter().all(|&(s, e)| {
+        let ok = s == next && e <= n && e > s;
+        next = e;
+        ok
+    }) && next == n;
+    model
+        .terms
+        .iter()
+        .map(|t| {
+            let u = &table.inputs[input_index(table, &t.channel)?];
+            if t.transform == Transform::Value && segments_ok && u.len() == n {
+                Ok(Cow::Borrowed(u.as_slice()))
+            } else {
+                transform_segments(&table.time_s, u, t.transform, &segs).map(Cow::Owned)
+            }
+        })
+        .collect()
+}
+
 /// Evaluates a linear model over the whole table with the engine's transform semantics.
 pub fn predict(table: &Table, model: &LinearModel) -> Result<Vec<f64>> {
     let mut out = vec![model.intercept; table.time_s.len()];
-    let segs = table.segment_ranges();
-    for t in &model.terms {
-        let i = table
-            .input_names
-            .iter()
-            .position(|n| *n == t.channel)
-            .ok_or_else(|| IdentifyError::ColumnNotFound {
-                pattern: t.channel.clone(),
-                available: table.input_names.join(", "),
-            })?;
-        let x = transform_segments(&table.time_s, &table.inputs[i], t.transform, &segs)?;
-        for (o, v) in out.iter_mut().zip(x) {
+    // A value term's series is its input column itself (no copy; the same numbers).
+    let series = regressor_series(table, model)?;
+    for (t, x) in model.terms.iter().zip(&series) {
+        for (o, v) in out.iter_mut().zip(x.iter()) {
             *o += t.coefficient * v;
         }
     }
