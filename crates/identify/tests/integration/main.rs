@@ -21,4 +21,5 @@ mod shapes;
 mod sparse_targets;
 mod spreadsheets;
 mod stack;
+mod static_reference;
 mod time_unit;
