@@ -42,16 +42,24 @@ impl LinearFit {
     }
 }
 
-fn design(columns: &[&[f64]], y: &[f64], names: &[String]) -> Result<DMatrix<f64>> {
-    let n = y.len();
-    let p = columns.len() + 1;
+/// A regression on `regressors` columns and an intercept needs one row more than its
+/// coefficients (a residual degree of freedom for σ̂).
+fn enough_rows(regressors: usize, n: usize) -> Result<()> {
+    let p = regressors + 1;
     if n < p + 1 {
         return Err(IdentifyError::TooFewRows {
-            what: format!("regression on {} regressors", columns.len()),
+            what: format!("regression on {regressors} regressors"),
             rows: n,
             needed: p + 1,
         });
     }
+    Ok(())
+}
+
+fn design(columns: &[&[f64]], y: &[f64], names: &[String]) -> Result<DMatrix<f64>> {
+    let n = y.len();
+    let p = columns.len() + 1;
+    enough_rows(columns.len(), n)?;
     for (j, c) in columns.iter().enumerate() {
         if c.len() != n {
             return Err(invalid(
@@ -214,18 +222,12 @@ pub fn ols_many(columns: &[&[f64]], ys: &[&[f64]], names: &[String]) -> Result<V
     }
     // The design goes into the factorisation (no copy); the fitted values come from the
     // columns (`fitted_of`: the same figures as the design times the coefficients).
-    let p = a.ncols();
     let solver = QrSolver::new(a, names)?;
     ys.iter()
         .map(|y| {
             let b = solver.solve(&DVector::from_column_slice(y))?;
             let coefficients: Vec<f64> = b.iter().copied().collect();
-            let fitted = fitted_of(&coefficients, columns, y.len());
-            let mut fit = summarise_fitted(coefficients, Vec::new(), &fitted, y);
-            let dof = y.len() - p;
-            let sigma = (fit.sse / dof as f64).sqrt();
-            fit.std_errors = (0..p).map(|j| sigma * solver.r_inv.row(j).norm()).collect();
-            Ok(fit)
+            Ok(fit_on_rows(coefficients, &solver.r_inv, columns, y))
         })
         .collect()
 }
@@ -275,13 +277,7 @@ pub(crate) fn ols_of_r(
 ) -> Result<LinearFit> {
     let n = y.len();
     let p = columns.len() + 1;
-    if n < p + 1 {
-        return Err(IdentifyError::TooFewRows {
-            what: format!("regression on {} regressors", columns.len()),
-            rows: n,
-            needed: p + 1,
-        });
-    }
+    enough_rows(columns.len(), n)?;
     let Some((coefficients, top)) = lstsq_of_r(r, cols, ycol) else {
         // The rows' own factorisation names the deficient column and its pivot.
         return ols(columns, y, names);
@@ -289,11 +285,23 @@ pub(crate) fn ols_of_r(
     let r_inv = top
         .solve_upper_triangular(&DMatrix::identity(p, p))
         .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-    let fitted = fitted_of(&coefficients, columns, n);
+    Ok(fit_on_rows(coefficients, &r_inv, columns, y))
+}
+
+/// The least-squares fit of `coefficients` on the rows of `columns` and `y`: fitted values,
+/// residuals, R², RMSE, and the standard errors σ̂·‖(R⁻¹)_j·‖, σ̂² = Q/(n − p).
+fn fit_on_rows(
+    coefficients: Vec<f64>,
+    r_inv: &DMatrix<f64>,
+    columns: &[&[f64]],
+    y: &[f64],
+) -> LinearFit {
+    let p = coefficients.len();
+    let fitted = fitted_of(&coefficients, columns, y.len());
     let mut fit = summarise_fitted(coefficients, Vec::new(), &fitted, y);
-    let sigma = (fit.sse / (n - p) as f64).sqrt();
+    let sigma = (fit.sse / (y.len() - p) as f64).sqrt();
     fit.std_errors = (0..p).map(|j| sigma * r_inv.row(j).norm()).collect();
-    Ok(fit)
+    fit
 }
 
 /// Ridge regression with an unpenalised intercept, columns standardised on these rows.
