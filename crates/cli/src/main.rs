@@ -5,11 +5,6 @@
 
 use std::process::ExitCode;
 
-/// mimalloc instead of the system allocator (docs/identification.md, "Performance": far fewer
-/// page faults on the large columns and matrices of `fit`).
-#[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod cmd_demo;
