@@ -84,6 +84,18 @@ pub fn correlation_matrix(columns: &[&[f64]], names: &[String]) -> Result<DMatri
     Ok(r)
 }
 
+/// [`correlation_matrix`] of `columns` when every one has the same length ≥ 2 and varies,
+/// `None` otherwise: each entry bit for bit the one [`correlation_matrix`] gives for those two
+/// columns, and |entry| the one [`pearson`] gives (the same means, sums and quotient; a
+/// column's figures do not depend on the other columns).
+pub(crate) fn correlation_matrix_if_varying(columns: &[&[f64]]) -> Option<DMatrix<f64>> {
+    let means: Vec<f64> = columns
+        .iter()
+        .map(|x| x.iter().sum::<f64>() / x.len() as f64)
+        .collect();
+    correlation_matrix_varying(columns, &means)
+}
+
 /// [`correlation_matrix`] when every column has the same length ≥ 2 and varies (`None`
 /// otherwise: the pairwise loop then names the first constant pair). The same figures, bit
 /// for bit, as [`pearson_about`] per pair: each column's Σ(x − x̄)² is the sum that

@@ -122,6 +122,9 @@ impl MissingCodes {
     }
 }
 
+/// Tables of fewer cells are checked on one thread (a thread costs more than it saves).
+const PARALLEL_MIN_CELLS: usize = 1 << 17;
+
 /// Checks the columns (name and values as written, before any unit conversion: a table's
 /// inputs and targets; `line_of(i)`: where row i is, for messages): logger codes
 /// (`logger_codes`) and, unless `keep_far_values`, far groups (`far_values`), in that
@@ -135,7 +138,14 @@ pub fn check_columns<'a>(
     keep_far_values: bool,
 ) -> Result<()> {
     let columns: Vec<(&str, &[f64])> = columns.collect();
-    let extents: Vec<Extent> = columns.iter().map(|(_, c)| Extent::of(c)).collect();
+    // Each column's pass on its own, on every core for a large table (the same extents: a
+    // column's figures do not depend on the others).
+    let cells: usize = columns.iter().map(|(_, c)| c.len()).sum();
+    let extents: Vec<Extent> = if cells >= PARALLEL_MIN_CELLS {
+        crate::par::par_map(&columns, |(_, c)| Extent::of(c))
+    } else {
+        columns.iter().map(|(_, c)| Extent::of(c)).collect()
+    };
     logger_codes(&columns, &extents, line_of)?;
     if keep_far_values {
         return Ok(());

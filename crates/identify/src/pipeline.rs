@@ -529,7 +529,25 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     let k_folds = opts.folds;
     let tr_inputs: Vec<std::borrow::Cow<[f64]>> = table.inputs.iter().map(|x| rows.of(x)).collect();
     let tr_refs: Vec<&[f64]> = tr_inputs.iter().map(|v| &v[..]).collect();
-    let corr = cluster::correlation_matrix(&tr_refs, &table.input_names)?;
+    // The inputs' correlations and, with Pearson representatives, each input's |r| with each
+    // target from one matrix over the inputs and the targets (the same bits as the inputs'
+    // matrix and `pearson` per pair); any constant column falls back to them, which name it.
+    let tr_targets: Vec<std::borrow::Cow<[f64]>> =
+        table.targets.iter().map(|y| rows.of(y)).collect();
+    let joint = (opts.representative == RepresentativeBy::Pearson)
+        .then(|| {
+            let all: Vec<&[f64]> = tr_refs
+                .iter()
+                .copied()
+                .chain(tr_targets.iter().map(|v| &v[..]))
+                .collect();
+            cluster::correlation_matrix_if_varying(&all)
+        })
+        .flatten();
+    let corr = match &joint {
+        Some(m) => m.view((0, 0), (c, c)).into_owned(),
+        None => cluster::correlation_matrix(&tr_refs, &table.input_names)?,
+    };
     let absr = corr.map(f64::abs);
     let dendrogram = Dendrogram::single_linkage(&absr);
     let counts: Vec<usize> = match opts.classes {
@@ -607,8 +625,11 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     let target_index: Vec<usize> = (0..table.targets.len()).collect();
     let out = par_map(&target_index, |&j| -> Result<TargetModel> {
         let y = &table.targets[j];
-        let ytr = rows.of(y);
-        let score = representative_scores(table, &tr_refs, &ytr, j, opts.representative)?;
+        let ytr = &tr_targets[j];
+        let score = match &joint {
+            Some(m) => (0..c).map(|i| m[(i, c + j)].abs()).collect(),
+            None => representative_scores(table, &tr_refs, ytr, j, opts.representative)?,
+        };
         let mut best: Option<Choice> = None;
         for (_, classes) in &class_sets {
             let reps = cluster::representatives(classes, &score);
