@@ -246,19 +246,12 @@ pub fn fit_contact_line(points: &[(f64, f64)]) -> (f64, f64, f64) {
             points[i].1 - mb
         }
     });
-    let svd = m.svd(false, true);
-    let normal = svd
-        .v_t
-        .as_ref()
-        .map(|v| {
-            let imin = if svd.singular_values[0] < svd.singular_values[1] {
-                0
-            } else {
-                1
-            };
-            (v[(imin, 0)], v[(imin, 1)])
-        })
-        .unwrap_or((0.0, 1.0));
+    // The normal is the right singular vector of the smaller singular value (the last); with
+    // fewer than two points, or a NaN among them, there is none and the line is b = const.
+    let normal = gearcomp_linalg::Svd::new(&m)
+        .ok()
+        .filter(|s| s.v_t.nrows() == 2)
+        .map_or((0.0, 1.0), |s| (s.v_t[(1, 0)], s.v_t[(1, 1)]));
     // Normal (sin ρ, cos ρ) with cos ρ ≥ 0.
     let (mut sn, mut cs) = normal;
     if cs < 0.0 {

@@ -162,7 +162,12 @@ where
                 // taken, so the condition is that of the Jacobian here (it was NaN, printed
                 // "cond NaN" and `"condition": null`).
                 let (je, _) = equilibrated_jacobian(&x, f.len())?;
-                let sig = je.singular_values();
+                let sig = gearcomp_linalg::singular_values(&je).map_err(|e| {
+                    DressError::NoConvergence {
+                        what: "SVD of the Jacobian",
+                        detail: e.to_string(),
+                    }
+                })?;
                 let smax = sig.iter().fold(0.0f64, |a, &b| a.max(b));
                 let smin = sig.iter().fold(f64::INFINITY, |a, &b| a.min(b));
                 cond = smax / smin;
@@ -175,13 +180,11 @@ where
             });
         }
         let (je, cscale) = equilibrated_jacobian(&x, f.len())?;
-        let svd = je.svd(true, true);
-        let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
-            return Err(DressError::NoConvergence {
-                what: "SVD of the Jacobian",
-                detail: "no singular vectors".into(),
-            });
-        };
+        let svd = gearcomp_linalg::Svd::new(&je).map_err(|e| DressError::NoConvergence {
+            what: "SVD of the Jacobian",
+            detail: e.to_string(),
+        })?;
+        let (u, vt) = (&svd.u, &svd.v_t);
         let sig = &svd.singular_values;
         let smax = sig.iter().fold(0.0f64, |a, &b| a.max(b));
         let smin = sig.iter().fold(f64::INFINITY, |a, &b| a.min(b));

@@ -198,15 +198,14 @@ fn fit_line_class(
         c /= scale[j];
     }
     let b = DVector::from_column_slice(values);
-    let svd = a.svd(true, true);
-    let smax = svd.singular_values.max();
-    let sol = svd
-        .solve(&b, 1e-10 * smax)
-        .map_err(|_| GrindError::BadData {
-            field: "remaining deviation (line-class fit)",
-            got: n,
-            expected: "a grid spread along w and z",
-        })?;
+    let bad = || GrindError::BadData {
+        field: "remaining deviation (line-class fit)",
+        got: n,
+        expected: "a grid spread along w and z",
+    };
+    let svd = gearcomp_linalg::Svd::new(&a).map_err(|_| bad())?;
+    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    let sol = svd.solve(&b, 1e-10 * smax);
     // coefficients in t = (X − xc)/xs back to powers of X
     let poly = |off: usize, len: usize| {
         let p_t = Poly((0..len).map(|k| sol[off + k] / scale[off + k]).collect());

@@ -257,18 +257,16 @@ fn shrunk_whitening(
             a.cholesky()?.inverse() * rz.transpose()
         }
         FitKind::Components(k) => {
-            let svd = z.svd(false, true);
-            let vt = svd.v_t.as_ref()?;
-            let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-            order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+            let svd = gearcomp_linalg::Svd::new(&z).ok()?;
+            let vt = &svd.v_t;
             let mut w = DMatrix::zeros(p, p);
-            for (row, &c) in order.iter().take(k.min(p)).enumerate() {
+            for c in 0..k.min(svd.singular_values.len()) {
                 let s = svd.singular_values[c];
                 if !crate::regress::exceeds(s, 0.0) {
                     return None;
                 }
                 for j in 0..p {
-                    w[(j, row)] = vt[(c, j)] / s;
+                    w[(j, c)] = vt[(c, j)] / s;
                 }
             }
             w

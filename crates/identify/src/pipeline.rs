@@ -1209,15 +1209,18 @@ fn min_norm_least_squares(columns: &[&[f64]], ys: &[&[f64]]) -> Vec<regress::Lin
     let n = ys.first().map_or(0, |y| y.len());
     let p = columns.len() + 1;
     let a = DMatrix::from_fn(n, p, |i, j| if j == 0 { 1.0 } else { columns[j - 1][i] });
-    let svd = a.clone().svd(true, true);
-    let s1 = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    let svd = gearcomp_linalg::Svd::new(&a).ok();
+    let s1 = svd.as_ref().map_or(0.0, |s| {
+        s.singular_values.iter().copied().fold(0.0, f64::max)
+    });
     let eps = s1 * n.max(p) as f64 * f64::EPSILON;
     ys.iter()
         .map(|y| {
             let yv = DVector::from_column_slice(y);
-            let b = svd
-                .solve(&yv, eps)
-                .map_or_else(|_| vec![0.0; p], |b| b.iter().copied().collect());
+            let b = svd.as_ref().map_or_else(
+                || vec![0.0; p],
+                |s| s.solve(&yv, eps).iter().copied().collect(),
+            );
             let fitted = &a * DVector::from_column_slice(&b);
             let residuals: Vec<f64> = (0..n).map(|i| y[i] - fitted[i]).collect();
             let sse: f64 = residuals.iter().map(|e| e * e).sum();

@@ -411,15 +411,12 @@ pub(crate) fn pcr_solve(
     names: &[String],
 ) -> Result<DVector<f64>> {
     let p = z.ncols();
-    let svd = z.svd(true, true);
-    let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
-        return Err(invalid("PCR", "SVD", "a decomposable matrix"));
-    };
-    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    let svd = gearcomp_linalg::Svd::new(&z)
+        .map_err(|_| invalid("PCR", "SVD", "a decomposable matrix"))?;
+    let (u, vt) = (&svd.u, &svd.v_t);
     let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
     let mut beta = DVector::zeros(p);
-    for &c in order.iter().take(k) {
+    for c in 0..k.min(svd.singular_values.len()) {
         let s = svd.singular_values[c];
         if !exceeds(s, RANK_TOL * smax) {
             return Err(IdentifyError::RankDeficient {

@@ -6,7 +6,7 @@
 //! 2. Every citation can be opened from the repository: no references to files outside it,
 //!    the seeds named by publication number, every relative markdown link resolves.
 //! 3. One vocabulary: one `enum Hand`, one `enum Flank`, one α_t = atan(tan α_n / cos β),
-//!    one module that claims to be the place of unit conversion.
+//!    one module that claims to be the place of unit conversion, one SVD (`gearcomp_linalg`).
 //! 4. The CLI is glue: no function in `crates/cli/src` grows past a fixed length.
 //!
 //! The checks only read files below the repository root (`CARGO_MANIFEST_DIR/../..`).
@@ -1444,6 +1444,43 @@ fn product_sources(root: &Path) -> Vec<PathBuf> {
             && (r.contains("/src/") || r.contains("/benches/") || r.contains("/examples/"))
     });
     all
+}
+
+/// The SVD goes through `gearcomp_linalg` everywhere, tests included: nalgebra's own
+/// (`.svd(…)`, `.singular_values()`, `SVD::new`, `try_svd`) returns factors that miss the
+/// matrix by up to 1e-2 on ordinary least-squares designs (dimforge/nalgebra#1172).
+#[test]
+fn architecture_one_svd() {
+    let root = repo_root();
+    let mut all = Vec::new();
+    walk(&root.join("crates"), &mut all);
+    let mut failures = Vec::new();
+    for p in all.iter().filter(|p| has_ext(p, &["rs"])) {
+        let r = rel(&root, p);
+        if r.starts_with("crates/linalg/") || r == THIS_FILE {
+            continue;
+        }
+        let src = fs::read_to_string(p).expect("source");
+        let code: String = strip_code(&src).into_iter().collect();
+        for (n, line) in code.lines().enumerate() {
+            let l: String = line.chars().filter(|c| !c.is_whitespace()).collect();
+            for pat in [
+                ".svd(",
+                ".singular_values()",
+                "SVD::new",
+                "try_svd(",
+                "svd_unordered(",
+            ] {
+                if l.contains(pat) {
+                    failures.push(format!("{r}:{}: `{pat}`", n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "nalgebra's SVD outside crates/linalg (use gearcomp_linalg::Svd): {failures:#?}"
+    );
 }
 
 #[test]

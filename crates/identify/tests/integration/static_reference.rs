@@ -123,7 +123,10 @@ fn single_linkage(cols: &[Vec<f64>], k: usize) -> Vec<Vec<usize>> {
     classes
 }
 
-/// Least squares with intercept by SVD: the coefficients (intercept first).
+/// Least squares with intercept by SVD (faer's, through `gearcomp_linalg`; the static
+/// pipeline solves by Householder QR): the coefficients (intercept first). nalgebra's own SVD
+/// was the reference once and missed the optimum by 1e-4 relative in an intercept on a fresh
+/// seed (its factors can miss A by 1e-2, dimforge/nalgebra#1172).
 fn lstsq(cols: &[&[f64]], y: &[f64]) -> Vec<f64> {
     let n = y.len();
     let a = DMatrix::from_fn(
@@ -131,9 +134,9 @@ fn lstsq(cols: &[&[f64]], y: &[f64]) -> Vec<f64> {
         cols.len() + 1,
         |i, j| if j == 0 { 1.0 } else { cols[j - 1][i] },
     );
-    let svd = a.svd(true, true);
-    svd.solve(&DVector::from_column_slice(y), 1e-12)
-        .unwrap()
+    let svd = gearcomp_linalg::Svd::new(&a).unwrap();
+    let eps = 1e-12 * svd.singular_values[0];
+    svd.solve(&DVector::from_column_slice(y), eps)
         .iter()
         .copied()
         .collect()
@@ -337,7 +340,9 @@ fn check(seed: u64) -> Result<(), String> {
 
 #[test]
 fn static_pipeline_matches_an_independent_construction_on_fixed_seeds() {
-    for seed in 0..16 {
+    // The last one is a fresh seed that once caught the reference itself (nalgebra's SVD,
+    // 1e-4 off in the intercept).
+    for seed in (0..16).chain([11_945_249_032_071_792_889]) {
         check(seed).unwrap();
     }
 }
