@@ -31,6 +31,49 @@ fn c1_c7_contact_line_is_straight() {
     assert!((rho - rho2).abs() < 0.5f64.to_radians());
 }
 
+/// Eq. (9) fit against its construction: points on w sin ρ + b cos ρ = X (ρ in (−90°, 90°),
+/// cos ρ ≥ 0 as the fit normalises it), spread along the line with a little scatter across
+/// it, give back ρ and X, and the largest distance is the largest scatter put in. One point
+/// (no direction) is the line b = b₀ through it, without a panic.
+#[test]
+fn contact_line_fit_recovers_the_line_it_was_built_from() {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut u = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..300 {
+        let rho = (u() - 0.5) * 3.1;
+        let x = 200.0 * (u() - 0.5);
+        let n = 2 + (u() * 30.0) as usize;
+        let (sn, cs) = rho.sin_cos();
+        let scatter = if case % 2 == 0 { 0.0 } else { 1e-6 };
+        let mut most = 0.0f64;
+        let pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                // Along the line: the direction (cos ρ, −sin ρ); across it: the normal.
+                let t = 40.0 * (i as f64 / (n - 1) as f64 - 0.5) + u();
+                let e = scatter * (if i % 2 == 0 { 1.0 } else { -1.0 }) * u();
+                most = most.max(e.abs());
+                (x * sn + t * cs + e * sn, x * cs - t * sn + e * cs)
+            })
+            .collect();
+        let (r, xf, dev) = fit_contact_line(&pts);
+        // Scatter of 1e-6 mm over a 40 mm line tilts it by some 1e-7 rad at most.
+        let tol = if scatter == 0.0 { 1e-11 } else { 1e-6 };
+        assert!((r - rho).abs() < tol, "case {case}: ρ {r} vs {rho}");
+        assert!((xf - x).abs() < 300.0 * tol, "case {case}: X {xf} vs {x}");
+        assert!(
+            dev <= 2.0 * most + 1e-9,
+            "case {case}: deviation {dev} vs {most}"
+        );
+    }
+    let (r, x, dev) = fit_contact_line(&[(3.0, 7.0)]);
+    assert_eq!((r, x, dev), (0.0, 7.0, 0.0));
+}
+
 /// C2 against docs/dressing.md "Reference: feed marks of the full simulation": G1, ΔK = 0, 4 rows, 41 vectors over one feed period; the largest feed
 /// mark at 0.5°/0.2°/0.1°/0.04° per step is 1.61/0.253/0.065/0.0105 µm and scales as Δt².
 #[test]
