@@ -9,9 +9,8 @@ use crate::data::Table;
 use crate::error::{invalid, IdentifyError, Result};
 use crate::regress::LinearFit;
 use crate::transform::transform_segments;
-use gearcomp_core::model::Transform;
 use gearcomp_core::model::{
-    AxisModel, LinearModel, ModelFile, Provenance, WorkpieceShrink, MODEL_FORMAT,
+    AxisModel, LinearModel, ModelFile, Provenance, Transform, WorkpieceShrink, MODEL_FORMAT,
 };
 use nalgebra::DMatrix;
 use std::borrow::Cow;

@@ -1210,9 +1210,11 @@ fn min_norm_least_squares(columns: &[&[f64]], ys: &[&[f64]]) -> Vec<regress::Lin
     let p = columns.len() + 1;
     let a = DMatrix::from_fn(n, p, |i, j| if j == 0 { 1.0 } else { columns[j - 1][i] });
     let svd = gearcomp_linalg::Svd::new(&a).ok();
-    let s1 = svd.as_ref().map_or(0.0, |s| {
-        s.singular_values.iter().copied().fold(0.0, f64::max)
-    });
+    // The singular values come in decreasing order.
+    let s1 = svd
+        .as_ref()
+        .and_then(|s| s.singular_values.get(0).copied())
+        .unwrap_or(0.0);
     let eps = s1 * n.max(p) as f64 * f64::EPSILON;
     ys.iter()
         .map(|y| {

@@ -414,7 +414,8 @@ pub(crate) fn pcr_solve(
     let svd = gearcomp_linalg::Svd::new(&z)
         .map_err(|_| invalid("PCR", "SVD", "a decomposable matrix"))?;
     let (u, vt) = (&svd.u, &svd.v_t);
-    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    // The singular values come in decreasing order.
+    let smax = svd.singular_values.get(0).copied().unwrap_or(0.0);
     let mut beta = DVector::zeros(p);
     for c in 0..k.min(svd.singular_values.len()) {
         let s = svd.singular_values[c];
