@@ -70,15 +70,7 @@ fn load(path: &Path) -> anyhow::Result<(DressConfig, Worm, Dresser)> {
 fn run_design(c: &Common) -> anyhow::Result<()> {
     let (_, worm, dresser) = load(&c.config)?;
     let out = DesignSummary::new(worm, dresser)?;
-    if c.json {
-        println!("{}", serde_json::to_string_pretty(&out)?);
-    } else {
-        print!("{}", out.text());
-    }
-    if let Some(path) = &c.report {
-        out.html()?.write(path)?;
-    }
-    Ok(())
+    print_and_report(c, &out, out.text(), || out.html())
 }
 
 fn run_solve(c: &Common) -> anyhow::Result<()> {
@@ -103,21 +95,25 @@ fn run_solve(c: &Common) -> anyhow::Result<()> {
     print_and_report(c, &out, out.text(), || out.html())
 }
 
-/// Prints `out` as JSON (`--json`) or `text`, and writes the report of `--report`.
+/// Writes the report of `--report` first (so nothing is printed when it cannot be written,
+/// as in `gearcomp grind`), then prints `out` as JSON (`--json`) or `text`.
 fn print_and_report<T: Serialize>(
     c: &Common,
     out: &T,
     text: String,
     html: impl FnOnce() -> gearcomp_report::Result<HtmlReport>,
 ) -> anyhow::Result<()> {
-    if c.json {
-        println!("{}", serde_json::to_string_pretty(out)?);
-    } else {
-        print!("{text}");
-    }
     if let Some(path) = &c.report {
-        html()?.write(path)?;
+        html()
+            .and_then(|r| r.write(path))
+            .with_context(|| format!("writing report {}", path.display()))?;
     }
+    let printed = if c.json {
+        serde_json::to_string_pretty(out)? + "\n"
+    } else {
+        text
+    };
+    print!("{printed}");
     Ok(())
 }
 

@@ -77,11 +77,29 @@ fn main() -> ExitCode {
             }
             // A long value the user wrote (a 5000-character TOML value or CSV cell) is shown
             // by its start and length, in every command's message.
-            let message = gearcomp_core::shorten::shorten_values(&format!("{e:#}"));
+            let message = gearcomp_core::shorten::shorten_values(&chain_message(&e));
             eprintln!("gearcomp: error: {message}");
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes joined by ": " (as `{e:#}`), leaving out a cause whose text the
+/// message already holds: an error that shows its source in its own text ("create a temporary
+/// file in /x: No such file or directory") would otherwise repeat it.
+fn chain_message(e: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if message.contains(&text) {
+            continue;
+        }
+        if !message.is_empty() {
+            message.push_str(": ");
+        }
+        message.push_str(&text);
+    }
+    message
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

@@ -80,6 +80,20 @@ fn io_err(action: &'static str, p: &Path) -> impl FnOnce(std::io::Error) -> Core
     }
 }
 
+/// The operating-system error of a failed temporary-file creation without the temporary
+/// file's name that `tempfile` appends ("… at path \"/dir/.x.html.L4wDJd.tmp\""): the message
+/// names the directory, and the random name means nothing to the user.
+fn without_temp_path(e: std::io::Error) -> std::io::Error {
+    if e.get_ref().is_none() {
+        return e;
+    }
+    let text = e.to_string();
+    match text.split_once(" at path \"") {
+        Some((head, _)) => std::io::Error::new(e.kind(), head.to_string()),
+        None => e,
+    }
+}
+
 /// Temporary sibling, fsync, rename over `path`; the temporary file is removed on any error.
 fn write_replacing(
     path: &Path,
@@ -106,7 +120,7 @@ fn write_replacing(
         .suffix(".tmp")
         .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(&parent)
-        .map_err(io_err("create a temporary file in", &parent))?;
+        .map_err(|e| io_err("create a temporary file in", &parent)(without_temp_path(e)))?;
     tmp.write_all(bytes).map_err(io_err("write", tmp.path()))?;
     if let Some(perm) = permissions {
         tmp.as_file()

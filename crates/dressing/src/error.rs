@@ -10,7 +10,12 @@ pub type Result<T> = std::result::Result<T, DressError>;
 #[non_exhaustive]
 pub enum DressError {
     /// A parameter is outside its allowed range.
-    #[error("{field} = {value} is outside the allowed range {min} ..= {max}")]
+    #[error(
+        "{field} = {v} is outside the allowed range {lo} ..= {hi}",
+        v = gearcomp_geometry::units::fmt_value(*value),
+        lo = gearcomp_geometry::units::fmt_value(*min),
+        hi = gearcomp_geometry::units::fmt_value(*max)
+    )]
     OutOfRange {
         /// Name of the field (with its unit suffix).
         field: &'static str,

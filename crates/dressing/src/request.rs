@@ -18,6 +18,7 @@ use crate::solve::{
     Solution, ThreePoint,
 };
 use crate::worm::{Flank, Worm};
+use gearcomp_geometry::units::fmt_value;
 use serde::{Deserialize, Serialize};
 
 /// `[worm]`: the new worm.
@@ -366,7 +367,12 @@ pub fn check_key(key: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64>
         };
         Err(input_err(
             key,
-            format!("= {v}{u} is outside the allowed range {lo} ..= {hi}{u}"),
+            format!(
+                "= {}{u} is outside the allowed range {} ..= {}{u}",
+                fmt_value(v),
+                fmt_value(lo),
+                fmt_value(hi)
+            ),
         ))
     }
 }

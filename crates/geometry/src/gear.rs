@@ -24,6 +24,18 @@ pub const MIN_MODULE_MM: f64 = 0.01;
 /// Largest normal module accepted, in mm.
 pub const MAX_MODULE_MM: f64 = 1000.0;
 
+/// Normal pressure angles α_n are accepted strictly between 0° and this, in degrees.
+pub const MAX_PRESSURE_ANGLE_DEG: f64 = 45.0;
+
+/// Helix angles |β| are accepted strictly below this, in degrees.
+pub const MAX_HELIX_ANGLE_DEG: f64 = 60.0;
+
+/// Smallest number of teeth accepted.
+pub const MIN_TEETH: u32 = 3;
+
+/// Largest number of teeth accepted.
+pub const MAX_TEETH: u32 = 10_000;
+
 /// External teeth (on the outside of a blank) or internal teeth (a ring gear).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -638,11 +650,24 @@ pub(crate) fn transverse_basics(spec: &GearSpec) -> Result<TransverseBasics> {
         "normal_pressure_angle",
         spec.normal_pressure_angle_rad,
         0.0,
-        45.0,
+        MAX_PRESSURE_ANGLE_DEG,
         true,
     )?;
-    let beta = check_angle("helix_angle", spec.helix_angle_rad, 0.0, 60.0, false)?;
-    check_range("teeth", f64::from(spec.teeth), 3.0, 10_000.0, "", false)?;
+    let beta = check_angle(
+        "helix_angle",
+        spec.helix_angle_rad,
+        0.0,
+        MAX_HELIX_ANGLE_DEG,
+        false,
+    )?;
+    check_range(
+        "teeth",
+        f64::from(spec.teeth),
+        f64::from(MIN_TEETH),
+        f64::from(MAX_TEETH),
+        "",
+        false,
+    )?;
     let m_t = m_n / beta.cos();
     let alpha_t = transverse_pressure_angle_rad(alpha_n, beta);
     Ok(TransverseBasics {

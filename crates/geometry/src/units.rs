@@ -11,6 +11,46 @@ use std::f64::consts::PI;
 /// Micrometres per millimetre.
 pub const UM_PER_MM: f64 = 1000.0;
 
+/// A number for a message, as a user would write it: at most 12 significant digits with
+/// trailing zeros trimmed (60, not the 59.99999999999999 of a degree → rad → degree round
+/// trip; 0.6, not 0.6000000000000001), in exponent form from 1e9 on and below 1e-4 (1e300 and
+/// 1e-300, not 300 digits; a tiny value never reads back as 0), ∞ for infinities.
+pub fn fmt_value(x: f64) -> String {
+    fn trim(s: &str) -> &str {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            s
+        }
+    }
+    if x.is_nan() {
+        return "NaN".to_string();
+    }
+    if x.is_infinite() {
+        return if x > 0.0 { "∞" } else { "−∞" }.to_string();
+    }
+    if x == 0.0 {
+        return "0".to_string();
+    }
+    let a = x.abs();
+    if !(1e-4..1e9).contains(&a) {
+        let s = format!("{x:.11e}");
+        return match s.split_once('e') {
+            Some((mantissa, exp)) => format!("{}e{exp}", trim(mantissa)),
+            None => s,
+        };
+    }
+    // decimals that leave 12 significant digits (a ≥ 1e-4: at most 15)
+    let decimals = (11 - a.log10().floor() as i32).clamp(0, 15) as usize;
+    let s = format!("{x:.decimals$}");
+    let t = trim(&s);
+    if t == "-0" {
+        "0".to_string()
+    } else {
+        t.to_string()
+    }
+}
+
 /// Degrees (interface) to radians (internal).
 #[inline]
 pub fn deg_to_rad(deg: f64) -> f64 {
@@ -126,5 +166,25 @@ mod tests {
         assert!((f_to_c(212.0) - 100.0).abs() < 1e-12);
         assert_eq!(f_to_c(32.0), 0.0);
         assert!((per_f_to_per_c(1.0) - 1.8).abs() < 1e-15);
+    }
+}
+
+#[cfg(test)]
+mod fmt_value_tests {
+    use super::fmt_value;
+
+    #[test]
+    fn values_read_as_written() {
+        assert_eq!(fmt_value(60f64.to_radians().to_degrees()), "60");
+        assert_eq!(fmt_value(0.2 * 3.0), "0.6");
+        assert_eq!(fmt_value(1e-300), "1e-300");
+        assert_eq!(fmt_value(1e300), "1e300");
+        assert_eq!(fmt_value(-2.5e-7), "-2.5e-7");
+        assert_eq!(fmt_value(89.99779631617203), "89.9977963162");
+        assert_eq!(fmt_value(130.0), "130");
+        assert_eq!(fmt_value(-120.0), "-120");
+        assert_eq!(fmt_value(0.0005), "0.0005");
+        assert_eq!(fmt_value(f64::NAN), "NaN");
+        assert_eq!(fmt_value(f64::INFINITY), "∞");
     }
 }

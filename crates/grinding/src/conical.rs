@@ -40,13 +40,15 @@ pub struct BeveloidGear {
 impl BeveloidGear {
     /// A validated beveloid.
     pub fn new(body: InvoluteGear, cone_angle_rad: f64) -> Result<Self> {
-        check_range(
-            "cone_angle_rad",
-            cone_angle_rad,
-            -MAX_CONE_ANGLE_RAD,
-            MAX_CONE_ANGLE_RAD,
-            "-50° ..= 50° (JP6903407B2: cone angle below 50°)",
-        )?;
+        // reported in degrees, the unit the user writes ("cone_angle_rad = 1.047…" read as
+        // an internal value)
+        if !(cone_angle_rad.is_finite() && cone_angle_rad.abs() <= MAX_CONE_ANGLE_RAD) {
+            return Err(GrindError::OutOfRange {
+                field: "cone_angle_deg",
+                value: cone_angle_rad.to_degrees(),
+                expected: "-50° ..= 50° (JP6903407B2: cone angle below 50°)",
+            });
+        }
         let bev = Self {
             body,
             cone_angle_rad,
@@ -57,8 +59,8 @@ impl BeveloidGear {
             let m = bev.rack_normal(flank);
             if m.x.hypot(m.y) < MIN_COS_BETA_B {
                 return Err(GrindError::OutOfRange {
-                    field: "cone_angle_rad",
-                    value: cone_angle_rad,
+                    field: "cone_angle_deg",
+                    value: cone_angle_rad.to_degrees(),
                     expected: "a cone angle that leaves both flanks a base helix angle below \
                                89.9° (for a worm: |ϑ| clearly below the normal pressure angles)",
                 });

@@ -131,16 +131,13 @@ pub enum GrindError {
     },
 }
 
-/// Checks that `value` is finite and inside `[min, max]`.
-/// A value as written, huge ones in exponent form (`--worm-c 1e300` printed 298 digits).
+/// A value as written: up to 12 significant digits, huge and tiny ones in exponent form
+/// (`--worm-c 1e300` printed 298 digits; a degree → rad → degree round trip 59.99999999999999).
 fn short(x: f64) -> String {
-    if x.is_finite() && x.abs() >= 1e9 {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
+    gearcomp_geometry::units::fmt_value(x)
 }
 
+/// Checks that `value` is finite and inside `[min, max]`.
 pub(crate) fn check_range(
     field: &'static str,
     value: f64,

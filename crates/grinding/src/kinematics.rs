@@ -82,11 +82,26 @@ pub enum FeedCoupling {
     },
 }
 
+/// Largest |K_ZV1| and |z_V01| (mm) of a [`FeedCoupling::linear`].
+pub const MAX_LINEAR_COEFF: f64 = 1e6;
+
 impl FeedCoupling {
     /// A validated constant diagonal ratio.
     pub fn linear(k_zv1: f64, z_v01_mm: f64) -> Result<Self> {
-        check_range("k_zv1", k_zv1, -1e6, 1e6, "finite, |K| ≤ 1e6")?;
-        check_range("z_v01_mm", z_v01_mm, -1e6, 1e6, "finite, |z_V01| ≤ 1e6 mm")?;
+        check_range(
+            "k_zv1",
+            k_zv1,
+            -MAX_LINEAR_COEFF,
+            MAX_LINEAR_COEFF,
+            "finite, |K| ≤ 1e6",
+        )?;
+        check_range(
+            "z_v01_mm",
+            z_v01_mm,
+            -MAX_LINEAR_COEFF,
+            MAX_LINEAR_COEFF,
+            "finite, |z_V01| ≤ 1e6 mm",
+        )?;
         Ok(FeedCoupling::Linear { k_zv1, z_v01_mm })
     }
 

@@ -12,6 +12,120 @@ use crate::contact::WormGearPair;
 use crate::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use crate::GrindError;
 
+/// What the user called the gear-body quantities (CLI options or TOML keys): the range errors
+/// of [`check_gear_input`] name them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GearInputNames {
+    /// Number of teeth (`--teeth`, `[gear] teeth`).
+    pub teeth: &'static str,
+    /// Normal module in mm.
+    pub module: &'static str,
+    /// Normal pressure angle of the right flank (of both if no left one is given), degrees.
+    pub pressure_angle: &'static str,
+    /// Normal pressure angle of the left flank, degrees.
+    pub pressure_angle_left: &'static str,
+    /// Helix angle, degrees.
+    pub helix_angle: &'static str,
+}
+
+/// Allowed number of teeth of the gear body (the geometry crate's gear; the one statement of it).
+pub const TEETH_RANGE: &str = "3 ..= 10000";
+/// Allowed normal module of the gear body.
+pub const MODULE_RANGE: &str = "0.01 ..= 1000 mm";
+/// Allowed normal pressure angle of the gear body: the geometry crate's 0 < α_n < 45°,
+/// narrowed by the DIN 867 rack it is cut with (dedendum 1.25·m_n ≤ π·m_n/(4·tan α_n), the
+/// rack tip keeps a width: α_n ≤ atan(π/5) = 32.1419°).
+pub const PRESSURE_ANGLE_RANGE: &str =
+    "above 0 and at most 32.1419 ° (atan(π/5): above it the DIN 867 rack's dedendum 1.25·m_n \
+     leaves the tool tip no width)";
+/// Allowed helix angle of the gear body (signed; both ends excluded).
+pub const HELIX_ANGLE_RANGE: &str = "above -60 and below 60 °";
+
+/// Checks the gear-body inputs as the user wrote them (angles in degrees) against the ranges
+/// the body must meet — those of the geometry crate, which [`checked_gear`] builds on, narrower
+/// than [`InvoluteGear::asymmetric`]'s (which also takes worms) — so that each quantity has one
+/// range, stated once ([`TEETH_RANGE`], …), in the user's unit and under the user's name.
+///
+/// # Errors
+/// [`GrindError::OutOfRange`] whose field is the name in `names` and whose value is as written.
+pub fn check_gear_input(
+    names: &GearInputNames,
+    teeth: u32,
+    m_n_mm: f64,
+    alpha_n_deg: f64,
+    alpha_n_left_deg: Option<f64>,
+    beta_deg: f64,
+) -> Result<(), GrindError> {
+    use gearcomp_geometry::gear::{
+        MAX_HELIX_ANGLE_DEG, MAX_MODULE_MM, MAX_PRESSURE_ANGLE_DEG, MAX_TEETH, MIN_MODULE_MM,
+        MIN_TEETH,
+    };
+    use gearcomp_geometry::BasicRack;
+    let out = |field, value, expected| GrindError::OutOfRange {
+        field,
+        value,
+        expected,
+    };
+    if !(MIN_TEETH..=MAX_TEETH).contains(&teeth) {
+        return Err(out(names.teeth, f64::from(teeth), TEETH_RANGE));
+    }
+    if !(m_n_mm.is_finite() && (MIN_MODULE_MM..=MAX_MODULE_MM).contains(&m_n_mm)) {
+        return Err(out(names.module, m_n_mm, MODULE_RANGE));
+    }
+    let angles = [
+        (names.pressure_angle, Some(alpha_n_deg)),
+        (names.pressure_angle_left, alpha_n_left_deg),
+    ];
+    for (name, alpha) in angles {
+        if let Some(a) = alpha {
+            // the rack check of the geometry crate, same formula (tip_max ≥ dedendum)
+            let rack_ok = || {
+                let tip_max = std::f64::consts::FRAC_PI_2 / (2.0 * a.to_radians().tan());
+                BasicRack::DIN_867.dedendum_coeff <= tip_max.min(3.0)
+            };
+            if !(a.is_finite() && a > 0.0 && a < MAX_PRESSURE_ANGLE_DEG && rack_ok()) {
+                return Err(out(name, a, PRESSURE_ANGLE_RANGE));
+            }
+        }
+    }
+    if !(beta_deg.is_finite() && beta_deg.abs() < MAX_HELIX_ANGLE_DEG) {
+        return Err(out(names.helix_angle, beta_deg, HELIX_ANGLE_RANGE));
+    }
+    Ok(())
+}
+
+/// [`check_gear_input`], then [`checked_gear`] on the angles in rad.
+///
+/// # Errors
+/// Those of [`check_gear_input`] and [`checked_gear`].
+pub fn gear_from_input(
+    names: &GearInputNames,
+    teeth: u32,
+    m_n_mm: f64,
+    alpha_n_deg: f64,
+    alpha_n_left_deg: Option<f64>,
+    beta_deg: f64,
+    x_shift: f64,
+) -> Result<InvoluteGear, GrindError> {
+    check_gear_input(
+        names,
+        teeth,
+        m_n_mm,
+        alpha_n_deg,
+        alpha_n_left_deg,
+        beta_deg,
+    )?;
+    let rad = gearcomp_geometry::units::deg_to_rad;
+    checked_gear(
+        teeth,
+        m_n_mm,
+        rad(alpha_n_deg),
+        rad(alpha_n_left_deg.unwrap_or(alpha_n_deg)),
+        rad(beta_deg),
+        x_shift,
+    )
+}
+
 /// A gear body that is a gear as the geometry crate defines one (3 ≤ z, no pointed tooth,
 /// root above 0, …) on both flanks.
 ///
@@ -38,6 +152,22 @@ pub fn checked_gear(
         gear.flank_limits(f)?;
     }
     Ok(gear)
+}
+
+/// Largest worm helix angle |β1| accepted, degrees (lead angle at least 0.03°): the limit of
+/// [`InvoluteGear::asymmetric`].
+pub const MAX_WORM_HELIX_DEG: f64 = 89.97;
+
+/// The normal modules m_n a worm of `starts` starts at reference radius `radius_mm` accepts:
+/// `(min, max)`, min included, max excluded, in mm.
+///
+/// # Formula
+/// cos β1 = z1·m_n/(2·r1) must lie in [cos 89.97°, 0.9) ([`InvoluteGear::worm`] and the helix
+/// limit of [`InvoluteGear::asymmetric`]): 2·r1·cos 89.97°/z1 ≤ m_n < 1.8·r1/z1.
+pub fn worm_module_range_mm(starts: u32, radius_mm: f64) -> (f64, f64) {
+    let z = f64::from(starts.max(1));
+    let cos_max = MAX_WORM_HELIX_DEG.to_radians().cos();
+    (2.0 * radius_mm * cos_max / z, 1.8 * radius_mm / z)
 }
 
 /// The grinding worm for a gear: z1 starts at reference radius r1 with the gear's module, and
@@ -339,6 +469,28 @@ impl RollLimits {
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
+
+    /// The stated ranges are the geometry crate's constants (one range per quantity).
+    #[test]
+    fn stated_gear_ranges_are_the_geometry_limits() {
+        use gearcomp_geometry::gear::*;
+        use gearcomp_geometry::BasicRack;
+        assert_eq!(TEETH_RANGE, format!("{MIN_TEETH} ..= {MAX_TEETH}"));
+        assert_eq!(
+            MODULE_RANGE,
+            format!("{MIN_MODULE_MM} ..= {MAX_MODULE_MM} mm")
+        );
+        let rack_max = (std::f64::consts::FRAC_PI_2 / (2.0 * BasicRack::DIN_867.dedendum_coeff))
+            .atan()
+            .to_degrees();
+        assert!(rack_max < MAX_PRESSURE_ANGLE_DEG && (rack_max - 32.1419).abs() < 1e-4);
+        assert!(PRESSURE_ANGLE_RANGE.starts_with("above 0 and at most 32.1419 °"));
+        assert!((32.1419..32.14191).contains(&rack_max));
+        assert_eq!(
+            HELIX_ANGLE_RANGE,
+            format!("above -{MAX_HELIX_ANGLE_DEG} and below {MAX_HELIX_ANGLE_DEG} °")
+        );
+    }
 
     fn rad(d: f64) -> f64 {
         d.to_radians()

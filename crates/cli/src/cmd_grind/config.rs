@@ -67,16 +67,24 @@ pub(super) fn hand_arg(a: &SetupArgs) -> Hand {
     a.worm_hand
 }
 
+/// The options of the gear body, named in its range errors.
+const GEAR_OPTIONS: setup::GearInputNames = setup::GearInputNames {
+    teeth: "--teeth",
+    module: "--module-mm",
+    pressure_angle: "--pressure-angle-deg",
+    pressure_angle_left: "--pressure-angle-left-deg",
+    helix_angle: "--helix-angle-deg",
+};
+
 /// The gear body (cylinder, or the beveloid's body at z = 0) from the set-up options.
 pub(super) fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
-    let alpha_r = deg_to_rad(a.pressure_angle_deg);
-    let alpha_l = deg_to_rad(a.pressure_angle_left_deg.unwrap_or(a.pressure_angle_deg));
-    setup::checked_gear(
+    setup::gear_from_input(
+        &GEAR_OPTIONS,
         a.teeth,
         a.module_mm,
-        alpha_r,
-        alpha_l,
-        deg_to_rad(a.helix_angle_deg),
+        a.pressure_angle_deg,
+        a.pressure_angle_left_deg,
+        a.helix_angle_deg,
         a.profile_shift,
     )
     .map_err(|e| gear_error(&e))
@@ -85,6 +93,10 @@ pub(super) fn gear_body(a: &SetupArgs) -> Result<InvoluteGear> {
 /// A gear error with the option the user wrote.
 pub(super) fn gear_error(e: &GrindError) -> anyhow::Error {
     let field = match e {
+        // already named by its option (setup::check_gear_input)
+        GrindError::OutOfRange { field, .. } if field.starts_with("--") => {
+            return anyhow::anyhow!("{e}")
+        }
         GrindError::OutOfRange { field, .. } => *field,
         GrindError::Geometry(g) => match g {
             GeometryError::OutOfRange { name, .. } => name,
@@ -117,7 +129,25 @@ pub(super) fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
         a.worm_radius_mm,
         hand_arg(a),
     )
-    .context("worm")
+    .map_err(|e| match e {
+        // the lead angle of --module-mm, --worm-starts and --worm-radius-mm is out of range
+        GrindError::OutOfRange { field, .. }
+            if field == "beta_deg" || field == "worm_reference_radius_mm" =>
+        {
+            let (lo, hi) = setup::worm_module_range_mm(a.worm_starts, a.worm_radius_mm);
+            anyhow::anyhow!(
+                "--module-mm = {} with --worm-starts {} and --worm-radius-mm {} gives a worm \
+                 lead angle outside 0.03° ..= 64° (cos β1 = starts·module/(2·radius)); with this \
+                 worm the module must be {} ..< {} mm, or change --worm-radius-mm",
+                fmt_value(a.module_mm),
+                a.worm_starts,
+                fmt_value(a.worm_radius_mm),
+                fmt_value(lo),
+                fmt_value(hi)
+            )
+        }
+        other => anyhow::Error::new(other).context("worm"),
+    })
 }
 
 /// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`.
@@ -162,6 +192,19 @@ pub(super) fn worm_radii(
     let root = a.worm_root_radius_mm.unwrap_or(root0);
     let tip = a.worm_tip_radius_mm.unwrap_or(tip0);
     if !(root.is_finite() && tip.is_finite() && root >= 0.0 && root < r1_mm && tip > r1_mm) {
+        if a.worm_root_radius_mm.is_none() && a.worm_tip_radius_mm.is_none() && dressed.is_none() {
+            anyhow::bail!(
+                "the default worm radii for --module-mm {} (root {} / tip {} mm, the worm \
+                 radius {} mm ∓ 1.25·module) do not fit: the root must stay above 0; give a \
+                 larger --worm-radius-mm (at least {} mm), or --worm-root-radius-mm and \
+                 --worm-tip-radius-mm",
+                fmt_value(a.module_mm),
+                fmt_value(root),
+                fmt_value(tip),
+                fmt_value(r1_mm),
+                fmt_value(1.25 * a.module_mm)
+            );
+        }
         anyhow::bail!(
             "--worm-root-radius-mm = {root} / --worm-tip-radius-mm = {tip}: expected \
              0 ≤ root < worm radius {r1_mm} mm < tip"
@@ -194,7 +237,23 @@ pub(super) fn roll_limits(
     })
 }
 
+/// A feed-coupling option (`--shift-offset-mm`, `--diagonal-ratio`) checked before it is used
+/// (a NaN read "feed coupling: z_v01_mm = NaN"), in the range of [`FeedCoupling::linear`].
+pub(super) fn check_feed_option(option: &str, v: f64, unit: &str) -> Result<()> {
+    use gearcomp_grinding::kinematics::MAX_LINEAR_COEFF as MAX;
+    if !(v.is_finite() && v.abs() <= MAX) {
+        anyhow::bail!(
+            "{option} = {} is out of range: expected -{} ..= {}{unit}",
+            fmt_value(v),
+            fmt_value(MAX),
+            fmt_value(MAX)
+        );
+    }
+    Ok(())
+}
+
 pub(super) fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup> {
+    check_feed_option("--shift-offset-mm", a.shift_offset_mm, " mm")?;
     let gear = gear_body(a)?;
     let flank = flank_arg(a);
     let (pair, r1) = match dressed {

@@ -36,7 +36,7 @@ use anyhow::{Context, Result};
 use clap::Subcommand;
 use gearcomp_dressing::request::{DressedWormTable, GrindDressConfig};
 use gearcomp_dressing::worm::Worm as DressWorm;
-use gearcomp_geometry::units::{deg_to_rad, mm_to_um, rad_to_deg, um_to_mm};
+use gearcomp_geometry::units::{deg_to_rad, fmt_value, mm_to_um, rad_to_deg, um_to_mm};
 use gearcomp_geometry::GeometryError;
 use gearcomp_grinding::conical::{BeveloidGear, ConicalPair, MAX_CONE_ANGLE_RAD};
 use gearcomp_grinding::conical_equalise::{

@@ -186,6 +186,10 @@ fn iso_evaluation(
 }
 
 pub(super) fn simulate(a: SimulateArgs) -> Result<()> {
+    check_feed_option("--shift-offset-mm", a.setup.shift_offset_mm, " mm")?;
+    if let Some(k) = a.diagonal_ratio {
+        check_feed_option("--diagonal-ratio", k, "")?;
+    }
     let c = cones(&a.setup)?;
     if !c.is_cylindrical() {
         if a.dress.is_some() {
@@ -315,6 +319,7 @@ pub(super) fn simulate_dressed(a: &SimulateArgs, path: &std::path::Path) -> Resu
 }
 
 pub(super) fn solve(a: SolveArgs) -> Result<()> {
+    check_feed_option("--shift-offset-mm", a.setup.shift_offset_mm, " mm")?;
     let c = cones(&a.setup)?;
     if !c.is_cylindrical() {
         return solve_conical(&a, c);

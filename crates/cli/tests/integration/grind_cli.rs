@@ -116,7 +116,10 @@ fn grind_table_output() {
 #[test]
 fn grind_rejects_bad_input() {
     for (args, needle) in [
-        (vec!["grind", "simulate", "--module-mm=-3"], "m_n_mm"),
+        (
+            vec!["grind", "simulate", "--module-mm=-3"],
+            "--module-mm = -3",
+        ),
         (
             vec![
                 "grind",

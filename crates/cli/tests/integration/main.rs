@@ -18,6 +18,7 @@ mod grind_conical_cli;
 mod grind_dressed;
 mod grind_equalise;
 mod grind_issue13;
+mod input_errors;
 mod long_values;
 mod output_cli;
 mod replay_cli;

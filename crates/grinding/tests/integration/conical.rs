@@ -389,7 +389,7 @@ fn conical_workpiece_splits_the_diagonal_ratio() {
 #[test]
 fn bad_cone_angles_are_rejected() {
     let e = BeveloidGear::new(gear_body(), 60f64.to_radians()).unwrap_err();
-    assert!(e.to_string().contains("cone_angle_rad"), "{e}");
+    assert!(e.to_string().contains("cone_angle_deg"), "{e}");
     assert!(BeveloidGear::new(gear_body(), f64::NAN).is_err());
 }
 
