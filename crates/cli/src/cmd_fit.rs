@@ -318,7 +318,7 @@ pub struct Args {
     /// Largest number of sensors per target (every family).
     #[arg(long, default_value_t = 8)]
     pub max_sensors: usize,
-    /// Cross-validation folds: runs (with --run-column) or contiguous time blocks.
+    /// Cross-validation folds (2 … 100): runs (with --run-column) or contiguous time blocks.
     #[arg(long, default_value_t = 3)]
     pub folds: usize,
     /// Candidate ridge α values (ridge model).

@@ -54,6 +54,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             b.message
         );
     }
+    // --strict fails before any output: no offsets file (or stdout) from a refused log.
+    if args.strict && !replay.bad_rows.is_empty() {
+        anyhow::bail!(
+            "--strict: {} bad rows in {} (see above); nothing written",
+            replay.bad_rows.len(),
+            args.data.display()
+        );
+    }
     let csv = replay.to_csv()?;
     match &args.out {
         Some(p) => gearcomp_core::fsio::write_atomic(p, csv.as_bytes())
@@ -86,12 +94,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.display()
         ))
     );
-    if args.strict && !replay.bad_rows.is_empty() {
-        anyhow::bail!(
-            "{} bad rows in {} (see above)",
-            replay.bad_rows.len(),
-            args.data.display()
-        );
-    }
     Ok(())
 }

@@ -1198,13 +1198,91 @@ pub(crate) fn read_named_runs(
     if files.is_empty() {
         return Err(invalid("data", "no files", "at least one CSV file"));
     }
+    let names: Vec<&str> = files.iter().map(|f| f.1).collect();
+    // Several files without given run names: each its own run, named by its stem or, where
+    // stems collide (`day1/log.csv day2/log.csv`), by as much of its path as tells it apart.
+    let own_names;
+    let file_runs = if file_runs.is_empty() && files.len() > 1 {
+        own_names = file_run_names(&names)?;
+        &own_names[..]
+    } else {
+        file_runs
+    };
     let mut r = Reader::new(sel, opts, file_runs, Source::Text);
     for (fi, (text, name)) in files.iter().enumerate() {
         r.t.files.push(name.to_string());
         r.file(fi, text, name, files.len() > 1)?;
     }
-    let names: Vec<&str> = files.iter().map(|f| f.1).collect();
     finish_read(r, &names, opts)
+}
+
+/// The run name of each of several files: its stem (`day 1.csv` → `day 1`), or, for files
+/// whose stems are the same, the shortest ending of their paths that differs
+/// (`a/log.csv`, `b/log.csv` → `a/log`, `b/log`; `x.csv`, `x.txt` → `x.csv`, `x.txt`).
+///
+/// # Errors
+/// The same file named twice (`--data g.csv g.csv`: its rows would be one run twice over).
+fn file_run_names(names: &[&str]) -> Result<Vec<String>> {
+    use std::path::{Component, Path};
+    // Each name's candidates, shortest first: the stem, then the parents before it, then
+    // the same with the file name instead of the stem.
+    let candidates: Vec<Vec<String>> = names
+        .iter()
+        .map(|name| {
+            let path = Path::new(name);
+            let parts: Vec<String> = path
+                .parent()
+                .into_iter()
+                .flat_map(Path::components)
+                .filter(|c| matches!(c, Component::Normal(_)))
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            let stem = path
+                .file_stem()
+                .map_or(name.to_string(), |s| s.to_string_lossy().into_owned());
+            let file = path
+                .file_name()
+                .map_or(name.to_string(), |s| s.to_string_lossy().into_owned());
+            let mut out = Vec::with_capacity(2 * parts.len() + 2);
+            for last in [stem, file] {
+                for k in 0..=parts.len() {
+                    let mut v = parts[parts.len() - k..].to_vec();
+                    v.push(last.clone());
+                    out.push(v.join("/"));
+                }
+            }
+            out.push(name.to_string());
+            out
+        })
+        .collect();
+    let mut level = vec![0usize; names.len()];
+    loop {
+        let current: Vec<&str> = (0..names.len())
+            .map(|i| candidates[i][level[i]].as_str())
+            .collect();
+        let mut clash = false;
+        for i in 0..names.len() {
+            if current
+                .iter()
+                .enumerate()
+                .any(|(j, c)| j != i && *c == current[i])
+            {
+                clash = true;
+                if level[i] + 1 < candidates[i].len() {
+                    level[i] += 1;
+                } else {
+                    return Err(invalid(
+                        "--data",
+                        names[i],
+                        "each file once (it is named twice)",
+                    ));
+                }
+            }
+        }
+        if !clash {
+            return Ok(current.into_iter().map(str::to_string).collect());
+        }
+    }
 }
 
 /// Reads the CSV file at `path` as [`read_csv`] reads its text (`name` in messages), when

@@ -69,6 +69,20 @@ pub fn read_log_files(
     sel: &crate::data::Selection,
     opts: crate::data::ReadOptions,
 ) -> Result<crate::data::Table> {
+    // The same file twice under two names (`g.csv ./g.csv`) would be one run twice over.
+    let mut seen: Vec<std::path::PathBuf> = Vec::with_capacity(paths.len());
+    for p in paths {
+        if let Ok(canonical) = std::fs::canonicalize(p) {
+            if seen.contains(&canonical) {
+                return Err(crate::error::invalid(
+                    "--data",
+                    p.display(),
+                    "each file once (it is named twice)",
+                ));
+            }
+            seen.push(canonical);
+        }
+    }
     let texts: Vec<(LogText, String)> = paths
         .iter()
         .map(|p| Ok((read_log_text(p)?, p.display().to_string())))

@@ -92,6 +92,12 @@ pub struct IdentifyOptions {
     pub families: Vec<Family>,
 }
 
+/// The most validation folds `--folds` takes. Each rolling-origin fold costs a fit per
+/// candidate (about 0.17 s and 1 MB for every family on FL_THERMAL), so a mistyped count
+/// (`--folds 1000000`) would run for days and exhaust memory; a hundred folds is far more
+/// than a validation of a thermal test needs.
+pub const MAX_FOLDS: usize = 100;
+
 impl IdentifyOptions {
     /// Refuses candidate grids a fit cannot use, naming the command-line option, the value
     /// and the expected range (issue 12: `--ridge-alpha -1` and `--class-counts 0` were
@@ -119,11 +125,11 @@ impl IdentifyOptions {
         if self.max_sensors == 0 {
             return Err(invalid("--max-sensors", 0, "at least 1 sensor"));
         }
-        if self.folds < 2 {
+        if !(2..=MAX_FOLDS).contains(&self.folds) {
             return Err(invalid(
                 "--folds",
                 self.folds,
-                "at least 2 validation folds",
+                &format!("2 ..= {MAX_FOLDS} validation folds"),
             ));
         }
         // The families are those of the default's comparison: with a fixed kind they would

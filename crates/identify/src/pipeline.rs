@@ -160,8 +160,8 @@ pub fn default_split(table: &Table) -> (Split, Option<String>) {
 
 /// The fixed kinds' validation in words: `k`-fold cross-validation by run or by contiguous
 /// time block ([`folds`]).
-fn fold_validation(table: &Table, k: usize) -> String {
-    let by = if table.runs.is_some() {
+fn fold_validation(table: &Table, train: &[bool], k: usize) -> String {
+    let by = if training_runs(table, train).is_some() {
         "run"
     } else {
         "contiguous time block"
@@ -169,9 +169,23 @@ fn fold_validation(table: &Table, k: usize) -> String {
     format!("{k}-fold cross-validation by {by}")
 }
 
+/// The runs of the training rows in order of appearance, when there are at least two (the
+/// folds are then by run); `None` for a log without runs or with one training run, whose
+/// time increases (the folds are then blocks of time, as for a log without runs).
+fn training_runs(table: &Table, train: &[bool]) -> Option<Vec<usize>> {
+    let runs = table.runs.as_ref()?;
+    let mut seen: Vec<usize> = Vec::new();
+    for (r, &m) in runs.iter().zip(train) {
+        if m && !seen.contains(r) {
+            seen.push(*r);
+        }
+    }
+    (seen.len() >= 2).then_some(seen)
+}
+
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
-/// groups in order of appearance) or, without runs, `folds` contiguous blocks of equal
-/// time span.
+/// groups in order of appearance) when at least two runs train, otherwise (no runs, or
+/// the other runs held out for test) `folds` contiguous blocks of equal time span.
 ///
 /// # Formula
 /// block = min(⌊(t − t₀)/((t₁ − t₀)/K)⌋, K − 1) over the training period [t₀, t₁]
@@ -179,20 +193,7 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
     if k < 2 {
         return Err(invalid("folds", k, "at least 2 folds"));
     }
-    if let Some(runs) = &table.runs {
-        let mut seen: Vec<usize> = Vec::new();
-        for (r, &m) in runs.iter().zip(train) {
-            if m && !seen.contains(r) {
-                seen.push(*r);
-            }
-        }
-        if seen.len() < 2 {
-            return Err(invalid(
-                "runs in the training data",
-                seen.len(),
-                "at least 2 runs for k-fold by run",
-            ));
-        }
+    if let (Some(runs), Some(seen)) = (&table.runs, training_runs(table, train)) {
         return Ok(runs
             .iter()
             .zip(train)
@@ -550,20 +551,21 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
     };
     let absr = corr.map(f64::abs);
     let dendrogram = Dendrogram::single_linkage(&absr);
+    // A candidate count of c or more classes is every input its own class (the count c);
+    // none is dropped (`--class-counts 3` with 3 inputs fitted 2 classes before).
     let counts: Vec<usize> = match opts.classes {
         Some(k) => vec![k],
         None => {
-            let v: Vec<usize> = opts
-                .class_counts
-                .iter()
-                .copied()
-                .filter(|&k| k >= 1 && k < c)
-                .collect();
-            if v.is_empty() {
-                vec![c - 1]
-            } else {
-                v
+            let mut v: Vec<usize> = Vec::with_capacity(opts.class_counts.len().max(1));
+            for k in opts.class_counts.iter().map(|&k| k.min(c)) {
+                if !v.contains(&k) {
+                    v.push(k);
+                }
             }
+            if v.is_empty() {
+                v.push(c);
+            }
+            v
         }
     };
     let class_sets: Vec<(usize, Vec<Vec<usize>>)> = counts
@@ -698,7 +700,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         let choice = best.ok_or_else(|| IdentifyError::NothingValidated {
             target: table.target_names[j].clone(),
             training_rows: rows.mask.iter().filter(|&&m| m).count(),
-            validation: fold_validation(table, k_folds),
+            validation: fold_validation(table, &train, k_folds),
         })?;
         finish(
             table, &rows, &fold, k_folds, j, &features, &taus, per_sensor, choice, score, &engines,
@@ -722,7 +724,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
             RepresentativeBy::Pearson => "max |Pearson r| with the target",
             RepresentativeBy::GreyRelational => "max grey relational grade (ρ = 0.5)",
         },
-        fold_validation(table, k_folds),
+        fold_validation(table, &train, k_folds),
     );
     let test = table.test_mask(&train);
     let floor = engines

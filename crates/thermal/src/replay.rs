@@ -123,11 +123,40 @@ fn parse_flag(text: &str) -> Option<bool> {
     }
 }
 
-/// Runs `engine` over the CSV `text`.
+/// The field delimiter of a log: `,` when its header line holds one, else a tab or `;`
+/// when it holds that (the exports of spreadsheets in decimal-comma locales), else `,`.
+fn log_delimiter(text: &str) -> u8 {
+    let header = text.lines().next().unwrap_or("");
+    if header.contains(',') {
+        b','
+    } else if header.contains('\t') {
+        b'\t'
+    } else if header.contains(';') {
+        b';'
+    } else {
+        b','
+    }
+}
+
+/// Runs `engine` over the CSV `text` (comma, tab or `;` separated; with a tab or `;`,
+/// numbers may have a decimal comma).
 pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
     // A byte-order mark (Excel's UTF-8 CSV) is no part of the first column's name.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let delimiter = log_delimiter(text);
+    // A log separated by `;` or tabs (a spreadsheet's export in a decimal-comma locale) may
+    // write its numbers with a decimal comma.
+    let decimal_comma = delimiter != b',';
+    let number = |cell: &str| -> std::result::Result<f64, std::num::ParseFloatError> {
+        match cell.parse::<f64>() {
+            Err(_) if decimal_comma && cell.contains(',') && !cell.contains('.') => {
+                cell.replacen(',', ".", 1).parse::<f64>()
+            }
+            r => r,
+        }
+    };
     let mut rdr = csv::ReaderBuilder::new()
+        .delimiter(delimiter)
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
@@ -225,7 +254,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             });
             continue;
         }
-        let time_s = match record[time_col].parse::<f64>() {
+        let time_s = match number(&record[time_col]) {
             Ok(t) if t.is_finite() => t,
             _ => {
                 out.bad_rows.push(BadRow {
@@ -245,7 +274,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             if cell.is_empty() {
                 continue;
             }
-            let raw = cell.parse::<f64>().unwrap_or_else(|_| {
+            let raw = number(cell).unwrap_or_else(|_| {
                 out.bad_rows.push(BadRow {
                     line,
                     message: format!("column {}: {cell:?} is not a number (fed as NaN)", names[k]),
@@ -262,7 +291,7 @@ pub fn replay_csv(engine: &mut Engine, text: &str) -> Result<Replay> {
             if cell.is_empty() {
                 continue;
             }
-            row_positions_mm[i] = match cell.parse::<f64>() {
+            row_positions_mm[i] = match number(cell) {
                 Ok(p) if p.is_finite() => p,
                 _ => {
                     out.bad_rows.push(BadRow {

@@ -1400,7 +1400,7 @@ fn fit_refuses_unusable_candidate_grids_naming_the_option() {
         ),
         (
             vec!["--folds", "1"],
-            "invalid --folds = 1: expected at least 2",
+            "invalid --folds = 1: expected 2 ..= 100",
         ),
         (vec!["--max-sensors", "0"], "invalid --max-sensors = 0"),
         (
@@ -1667,4 +1667,235 @@ fn fit_runs_at_gaps_is_one_file_per_day() {
         .collect();
     assert_eq!(names, ["a/1", "a/2", "b"]);
     std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A noise-free log of `n` sensors (distinct smooth signals) and `y_um = b0 + Σ b_i·s_i`
+/// with random coefficients (SplitMix64 of `seed`): the CSV text and the coefficients.
+fn exact_static_log(seed: u64, n: usize, rows: usize, t0: f64) -> (String, f64, Vec<f64>) {
+    let mut s = seed;
+    let mut next = || {
+        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = s;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        (z ^ (z >> 31)) as f64 / u64::MAX as f64
+    };
+    let b0 = 10.0 * next() - 5.0;
+    let b: Vec<f64> = (0..n)
+        .map(|_| (0.5 + 2.0 * next()) * if next() < 0.5 { -1.0 } else { 1.0 })
+        .collect();
+    let period: Vec<f64> = (0..n).map(|_| 1500.0 + 6000.0 * next()).collect();
+    let phase: Vec<f64> = (0..n).map(|_| 6.0 * next()).collect();
+    let mut text = String::from("time_s");
+    for i in 0..n {
+        text += &format!(",s{i}_c");
+    }
+    text += ",y_um\n";
+    for r in 0..rows {
+        let t = t0 + 60.0 * r as f64;
+        let x: Vec<f64> = (0..n)
+            .map(|i| 25.0 + 3.0 * (t / period[i] + phase[i]).sin() + 0.2 * i as f64)
+            .collect();
+        let y = b0 + b.iter().zip(&x).map(|(b, x)| b * x).sum::<f64>();
+        text += &format!("{t}");
+        for v in &x {
+            text += &format!(",{v}");
+        }
+        text += &format!(",{y}\n");
+    }
+    (text, b0, b)
+}
+
+/// `--model static` (CN105397560's classes) with as many or more candidate classes than
+/// inputs takes every input as its own class: on noise-free random relations over 2–5
+/// sensors it returns the relation (the reference), with the default class counts and with
+/// `--class-counts` equal to the number of inputs (which fitted one class fewer, silently,
+/// before).
+#[test]
+fn fit_static_with_a_class_per_input_returns_the_relation() {
+    let d = tmp("classes");
+    for seed in 1..=12u64 {
+        let n = 2 + (seed as usize % 4);
+        let (text, b0, b) = exact_static_log(seed, n, 300, 0.0);
+        let n_text = n.to_string();
+        for extra in [vec![], vec!["--class-counts", n_text.as_str()]] {
+            let mut args = vec!["--model", "static"];
+            args.extend(&extra);
+            let v = fit_json(&d, "exact.csv", &text, &args)
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let t = &v["targets"][0];
+            assert_eq!(
+                t["sensors"].as_array().unwrap().len(),
+                n,
+                "seed {seed}: {t}"
+            );
+            assert!(
+                t["train_rmse_um"].as_f64().unwrap() < 1e-9,
+                "seed {seed}: {t}"
+            );
+            assert!(
+                (t["intercept"].as_f64().unwrap() - b0).abs() < 1e-6,
+                "seed {seed}: {t}"
+            );
+            for term in t["terms"].as_array().unwrap() {
+                let ch = term["channel"].as_str().unwrap();
+                let i: usize = ch[1..ch.len() - 2].parse().unwrap();
+                let c = term["coefficient"].as_f64().unwrap();
+                assert!(
+                    (c - b[i]).abs() < 1e-8 * b[i].abs(),
+                    "seed {seed}: {ch} {c} vs {}",
+                    b[i]
+                );
+            }
+        }
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// The fixed kinds (`--model static | ridge | dynamic`) on two runs, the last one held out
+/// for test: one run trains, so the folds are blocks of its time (as the default's rolling
+/// origin), not a refusal for "at least 2 runs"; the relation is returned and tests exactly.
+#[test]
+fn fit_fixed_kinds_validate_one_training_run_by_time_blocks() {
+    let d = tmp("onerun");
+    let (a, _, _) = exact_static_log(7, 3, 200, 0.0);
+    let (b, _, _) = exact_static_log(7, 3, 200, 30_000.0);
+    // The same relation, the second run's time restarting at 0.
+    let b: String = b
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k == 0 {
+                format!("{l}\n")
+            } else {
+                let (t, rest) = l.split_once(',').unwrap();
+                format!("{},{rest}\n", t.parse::<f64>().unwrap() - 30_000.0)
+            }
+        })
+        .collect();
+    std::fs::write(d.join("r1.csv"), a).unwrap();
+    std::fs::write(d.join("r2.csv"), b).unwrap();
+    for model in ["static", "ridge", "dynamic"] {
+        let out = bin()
+            .current_dir(&d)
+            .args([
+                "fit", "--target", "y_um", "--json", "--model", model, "--data", "r1.csv", "r2.csv",
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{model}: {err}");
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(
+            v["method"]
+                .as_str()
+                .unwrap()
+                .contains("by contiguous time block"),
+            "{model}: {}",
+            v["method"]
+        );
+        assert_eq!(v["test_rows"].as_u64(), Some(200), "{model}");
+        let t = &v["targets"][0];
+        assert_eq!(
+            t["validation_folds_um"].as_array().unwrap().len(),
+            3,
+            "{model}: {t}"
+        );
+        if model != "ridge" {
+            assert!(t["test_rmse_um"].as_f64().unwrap() < 1e-6, "{model}: {t}");
+        }
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Files of the same name in different folders (`day1/log.csv day2/log.csv`) are separate
+/// runs named by the folder; the same file named twice is refused, naming it.
+#[test]
+fn fit_names_runs_of_same_named_files_apart_and_refuses_a_file_twice() {
+    let d = tmp("samename");
+    for k in 0..3 {
+        std::fs::create_dir_all(d.join(format!("day{k}"))).unwrap();
+        std::fs::write(d.join(format!("day{k}/log.csv")), run_csv(k, true)).unwrap();
+    }
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "--json",
+            "--data",
+            "day0/log.csv",
+            "day1/log.csv",
+            "day2/log.csv",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let runs: Vec<&str> = v["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert_eq!(runs, ["day0/log", "day1/log", "day2/log"]);
+    assert_eq!(v["test_rows"].as_u64(), Some(240), "the last run tests");
+    for twice in [
+        ["day0/log.csv", "day0/log.csv"],
+        ["day0/log.csv", "./day0/../day0/log.csv"],
+    ] {
+        let out = bin()
+            .current_dir(&d)
+            .args(["fit", "--target", "y_um", "--data"])
+            .args(twice)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--data") && err.contains("each file once"),
+            "{err}"
+        );
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// `--folds` beyond 100 is refused before any work (one million folds exhausted memory),
+/// naming the option, the value and the range; 100 itself passes the check.
+#[test]
+fn fit_refuses_more_folds_than_it_can_validate() {
+    for (k, refused) in [
+        ("1", true),
+        ("101", true),
+        ("1000000", true),
+        ("100", false),
+    ] {
+        let out = bin()
+            .args([
+                "fit",
+                "--model",
+                "static",
+                "--classes",
+                "6",
+                "--target",
+                "ch1_um",
+                "--folds",
+                k,
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(!out.status.success(), refused, "--folds {k}: {err}");
+        if refused {
+            assert!(
+                err.contains(&format!("--folds = {k}")) && err.contains("2 ..= 100"),
+                "{err}"
+            );
+        }
+    }
 }

@@ -163,7 +163,8 @@ fn replay_reports_bad_rows_with_line_numbers() {
             "{err}"
         );
     }
-    // --strict turns the report into a failure.
+    // --strict turns the report into a failure, before anything is written: no offsets on
+    // stdout, no --out file, and an existing one left as it was.
     let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
         .current_dir(&dir)
         .args([
@@ -172,6 +173,39 @@ fn replay_reports_bad_rows_with_line_numbers() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--strict") && err.contains("nothing written"),
+        "{err}"
+    );
+    for before in [None, Some("kept\n")] {
+        let out = dir.join("offsets.csv");
+        std::fs::remove_file(&out).ok();
+        if let Some(b) = before {
+            std::fs::write(&out, b).unwrap();
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+            .current_dir(&dir)
+            .args([
+                "replay",
+                "--config",
+                "cfg.toml",
+                "--data",
+                "log.csv",
+                "--strict",
+                "--out",
+                "offsets.csv",
+            ])
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2));
+        assert_eq!(std::fs::read_to_string(&out).ok().as_deref(), before);
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -401,5 +435,75 @@ fn fitted_model_warns_in_the_5000_rpm_period_and_never_on_training_rows() {
     assert_eq!((train, hot), (5760, 960));
     assert_eq!(train_warn, 0);
     assert!(hot_warn * 100 >= hot * 85, "{hot_warn}/{hot}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A log separated by tabs or `;`, with decimal commas (a spreadsheet's export in a German
+/// locale), replays to the same offsets as the comma-separated log with decimal points:
+/// random logs (fixed seeds), compared row by row with the plain log's output.
+#[test]
+fn replay_reads_tab_and_semicolon_logs_with_decimal_commas() {
+    let dir = tmp("dialects");
+    let cfg = format!(
+        "{}[[axes]]\nname = \"Z\"\napply = {{ kind = \"measuring_system\" }}\nmax_offset_um = 100.0\n\
+         [[axes.terms]]\nkind = \"difference\"\na = \"A\"\nb = \"B\"\nkz_um_per_c = -3.75\n",
+        channels(&["A".into(), "B".into()])
+    );
+    std::fs::write(dir.join("cfg.toml"), cfg).unwrap();
+    let run = |log: &str| {
+        std::fs::write(dir.join("log.csv"), log).unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+            .current_dir(&dir)
+            .args(["replay", "--config", "cfg.toml", "--data", "log.csv"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(err.contains(" 0 bad rows"), "{err}");
+        String::from_utf8(o.stdout).unwrap()
+    };
+    for seed in [1u64, 2, 3] {
+        // SplitMix64: temperatures 18–30 °C with three decimals, 40 rows a second apart.
+        let mut s = seed;
+        let mut next = || {
+            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = s;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            (z ^ (z >> 31)) as f64 / u64::MAX as f64
+        };
+        let rows: Vec<(f64, f64, f64)> = (0..40)
+            .map(|k| {
+                let a = (18.0 + 12.0 * next()) * 1000.0;
+                let b = (18.0 + 12.0 * next()) * 1000.0;
+                (k as f64 + 0.5, a.round() / 1000.0, b.round() / 1000.0)
+            })
+            .collect();
+        let write = |sep: &str, comma: bool| {
+            let mut t = format!("time_s{sep}A{sep}B\n");
+            for (time, a, b) in &rows {
+                let cells = [time, a, b].map(|v| {
+                    let v = v.to_string();
+                    if comma {
+                        v.replace('.', ",")
+                    } else {
+                        v
+                    }
+                });
+                t.push_str(&cells.join(sep));
+                t.push('\n');
+            }
+            t
+        };
+        let plain = run(&write(",", false));
+        assert_eq!(plain.lines().count(), 41, "{plain}");
+        for (sep, comma) in [("\t", false), ("\t", true), (";", true), (";", false)] {
+            assert_eq!(
+                run(&write(sep, comma)),
+                plain,
+                "seed {seed}, {sep:?} comma {comma}"
+            );
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
