@@ -1453,6 +1453,7 @@ fn time_drop_hint(
     drops: Drops,
     rows: usize,
     (stamps, clock): (bool, bool),
+    run_column: Option<&str>,
     where_: &dyn Fn(usize, u64) -> String,
 ) -> String {
     let (n, Some((fi, line, prev, time))) = (drops.count, drops.first) else {
@@ -1478,6 +1479,17 @@ fn time_drop_hint(
     if stamps && (3000.0..=3600.0).contains(&(prev - time)) {
         return format!(
             "; local time stamps fall by about an hour at {}: a daylight-saving change? Write the stamps with their UTC offset (2024-10-27 02:30:00+02:00) or in UTC",
+            where_(fi, line)
+        );
+    }
+    if let (true, Some(column)) = (
+        time < prev && drops.second == Some((fi, line + 1)),
+        run_column,
+    ) {
+        // The run column is named: a label written again for a later run (R1, R2, R1) makes
+        // one run of both, whose time then restarts.
+        return format!(
+            "; the time restarts at {} ({prev} → {time}) within one run of --run-column {column}: a label used again for a later run? The rows of a label are one run wherever they are; give each run its own label",
             where_(fi, line)
         );
     }
@@ -1551,6 +1563,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         skipped,
         notes,
         forced,
+        sel,
         ..
     } = r;
     let many = names.len() > 1;
@@ -1591,6 +1604,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
                     drops,
                     t.time_s.len() + bad.len(),
                     (time_stamps, time_clock),
+                    sel.run.as_deref(),
                     &where_
                 )
             ),

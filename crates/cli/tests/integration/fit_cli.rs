@@ -1899,3 +1899,39 @@ fn fit_refuses_more_folds_than_it_can_validate() {
         }
     }
 }
+
+/// A run label written again for a later run (R1, R2, R1, the time restarting in the third
+/// block) makes one run whose time falls: the refusal says so under the run column named,
+/// instead of asking for the run column that was given.
+#[test]
+fn fit_names_a_run_label_used_again_when_its_time_restarts() {
+    let d = tmp("relabel");
+    let mut text = String::from("run,time_s,a_c,b_c,y_um\n");
+    for (k, label) in ["R1", "R2", "R1"].iter().enumerate() {
+        for l in run_csv(k, true).lines().skip(1).take(60) {
+            text += &format!("{label},{l}\n");
+        }
+    }
+    std::fs::write(d.join("runs.csv"), text).unwrap();
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "fit",
+            "--target",
+            "y_um",
+            "--run-column",
+            "run",
+            "--data",
+            "runs.csv",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("within one run of --run-column run") && err.contains("its own label"),
+        "{err}"
+    );
+    assert!(!err.contains("Name the run column"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}
