@@ -634,6 +634,10 @@ fn workpiece_model(
 
 /// Runs `gearcomp fit`: read, identify, write the model file, the summary and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // The model file's name chooses its format: refused before the fit, not after it.
+    if let Some(p) = &args.out {
+        gearcomp_core::model::ModelFile::check_path(p).context("--out")?;
+    }
     let sel = Selection {
         time: args.time_column.clone(),
         inputs: args.inputs.clone(),

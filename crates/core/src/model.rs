@@ -536,8 +536,32 @@ impl ModelFile {
         Ok(toml::to_string_pretty(self)?)
     }
 
+    /// Refuses a model-file path whose extension is neither `.toml` nor `.json` (the format
+    /// is chosen by it: `m.yaml` would hold TOML, and `load` would read it as TOML too).
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidField`] naming the path.
+    pub fn check_path(path: &std::path::Path) -> Result<()> {
+        let known = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml") || e.eq_ignore_ascii_case("json"));
+        if known {
+            Ok(())
+        } else {
+            Err(CoreError::InvalidField {
+                field: "model file".into(),
+                value: path.display().to_string(),
+                expected: "a .toml or .json file name (the extension chooses the format)".into(),
+            })
+        }
+    }
+
     /// Validates, then writes the file atomically (TOML, or JSON for a `.json` path).
+    ///
+    /// # Errors
+    /// [`Self::check_path`]'s, [`Self::validate`]'s, or the write's.
     pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        Self::check_path(path)?;
         self.validate()?;
         let text = if path
             .extension()

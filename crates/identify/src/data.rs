@@ -1781,6 +1781,13 @@ impl Reader<'_> {
         let sel = self.sel;
         let raw_len = text.len();
         let text = dialect::strip_bom(text);
+        if text.trim().is_empty() {
+            return Err(invalid(
+                "--data",
+                name,
+                "a log with a header line and rows (the file is empty or blank)",
+            ));
+        }
         // Excel's `sep=;` first line: its delimiter, and the line read as a blank one (line
         // numbers stay those of the file; the header is line 2).
         let hinted;

@@ -1935,3 +1935,56 @@ fn fit_names_a_run_label_used_again_when_its_time_restarts() {
     assert!(!err.contains("Name the run column"), "{err}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// An empty or blank log is named as such, and a model-file name that is neither `.toml`
+/// nor `.json` is refused before the fit (it wrote TOML into `m.yaml`), leaving no file.
+#[test]
+fn fit_refuses_an_empty_log_and_an_unknown_model_file_extension() {
+    let d = tmp("emptyext");
+    for (name, text) in [("empty.csv", ""), ("blank.csv", "\n \r\n\n")] {
+        std::fs::write(d.join(name), text).unwrap();
+        let out = bin()
+            .current_dir(&d)
+            .args(["fit", "--data", name])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("--data = {name}")) && err.contains("empty or blank"),
+            "{err}"
+        );
+    }
+    for (out_name, ok) in [
+        ("m.yaml", false),
+        ("m", false),
+        ("m.TOML", true),
+        ("m.json", true),
+    ] {
+        let out = bin()
+            .current_dir(&d)
+            .args([
+                "fit",
+                "--model",
+                "static",
+                "--classes",
+                "6",
+                "--target",
+                "ch1_um",
+                "--out",
+                out_name,
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.success(), ok, "{out_name}: {err}");
+        assert_eq!(d.join(out_name).exists(), ok, "{out_name}");
+        if !ok {
+            assert!(
+                err.contains("--out") && err.contains(".toml or .json"),
+                "{err}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
