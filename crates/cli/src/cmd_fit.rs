@@ -632,12 +632,17 @@ fn workpiece_model(
     Ok(Some((w, wid.targets[0].clone())))
 }
 
-/// Runs `gearcomp fit`: read, identify, write the model file, the summary and the report.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    // The model file's name chooses its format: refused before the fit, not after it.
+/// The model file's name chooses its format: refused before the fit, not after it.
+fn check_out(args: &Args) -> anyhow::Result<()> {
     if let Some(p) = &args.out {
         gearcomp_core::model::ModelFile::check_path(p).context("--out")?;
     }
+    Ok(())
+}
+
+/// Runs `gearcomp fit`: read, identify, write the model file, the summary and the report.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    check_out(&args)?;
     let sel = Selection {
         time: args.time_column.clone(),
         inputs: args.inputs.clone(),

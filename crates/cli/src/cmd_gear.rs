@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use gearcomp_geometry::report::{tooth_extent, GearReport, GearRequest, MateRequest, ReportError};
-use gearcomp_geometry::units::deg_to_rad as rad;
+use gearcomp_geometry::units::{deg_to_rad as rad, fmt_value};
 use gearcomp_geometry::{BasicRack, GearSpec, GeometryError, Hand, Mesh};
 use serde::Deserialize;
 
@@ -35,7 +35,8 @@ pub struct Args {
     /// Normal module m_n in mm (> 0).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     module: Option<f64>,
-    /// Normal pressure angle α_n in degrees (0 < α_n < 45) [default: 20].
+    /// Normal pressure angle α_n in degrees (0 < α_n < 45, and below atan(π/(4·h_fP*)),
+    /// where the tool tooth becomes pointed: 32.14 for the DIN 867 rack) [default: 20].
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pressure_angle: Option<f64>,
     /// Helix angle β at the reference circle in degrees, signed as in ISO 21771:
@@ -62,7 +63,8 @@ pub struct Args {
         long,
         value_name = "MM[,MM]",
         value_delimiter = ',',
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = finite_mm
     )]
     allowances: Option<Vec<f64>>,
     /// Ball diameter D_M in mm for the dimension over (internal: between) balls
@@ -83,10 +85,13 @@ pub struct Args {
     /// Basic rack addendum coefficient h_aP* in units of m_n [default: 1.0, DIN 867].
     #[arg(long, value_name = "COEFF", allow_negative_numbers = true)]
     addendum_coeff: Option<f64>,
-    /// Basic rack dedendum coefficient h_fP* in units of m_n [default: 1.25, DIN 867].
+    /// Basic rack dedendum coefficient h_fP* in units of m_n (above h_aP*, at most 3 and
+    /// below π/(4·tan α_n), where the tool tooth becomes pointed) [default: 1.25, DIN 867].
     #[arg(long, value_name = "COEFF", allow_negative_numbers = true)]
     dedendum_coeff: Option<f64>,
-    /// Basic rack root radius coefficient ρ_fP* in units of m_n [default: 0.25, DIN 867].
+    /// Basic rack root radius coefficient ρ_fP* in units of m_n [default: 0.25, DIN 867;
+    /// above about 25° of pressure angle, where the tool tip cannot carry 0.25, the largest it
+    /// can (a full-radius tip)].
     #[arg(long, value_name = "COEFF", allow_negative_numbers = true)]
     root_radius_coeff: Option<f64>,
     /// Mating gear: number of teeth z2 (external gear; the pinion if this gear is internal).
@@ -101,7 +106,8 @@ pub struct Args {
         long,
         value_name = "MM[,MM]",
         value_delimiter = ',',
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = finite_mm
     )]
     mate_allowances: Option<Vec<f64>>,
     /// Mating gear: face width in mm [default: --width].
@@ -120,6 +126,16 @@ pub struct Args {
     #[arg(long)]
     #[serde(skip)]
     json: bool,
+}
+
+/// An allowance in mm as written on the command line: a finite number (clap then names the
+/// option and the value as written when it is not).
+fn finite_mm(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err("not a finite number of mm (allowances are \"lower,upper\" in mm)".into()),
+        Err(e) => Err(format!("{e} (allowances are \"lower,upper\" in mm)")),
+    }
 }
 
 impl Args {
@@ -197,7 +213,9 @@ fn flagged(e: GeometryError, what: &str) -> anyhow::Error {
         | GeometryError::OffFlank { name, .. }
         | GeometryError::SpanTooWide { name, .. }
         | GeometryError::BallOffFlank { name, .. }
-        | GeometryError::PointedTooth { name, .. } => Some(name),
+        | GeometryError::PointedTooth { name, .. }
+        | GeometryError::DedendumRange { name, .. }
+        | GeometryError::PointedTool { name, .. } => Some(name),
         _ => None,
     };
     match name.and_then(flag_of) {
@@ -223,6 +241,10 @@ fn flagged_mate(e: GeometryError, what: &str, shift_flag: &str) -> anyhow::Error
             Some("--mate-teeth")
         } else if n.starts_with("face_width_mm") {
             Some("--mate-width")
+        } else if n.starts_with("thickness_allowance_mm")
+            || n.starts_with("generating profile shift x_E")
+        {
+            Some("--mate-allowances")
         } else {
             flag_of(n)
         }
@@ -233,8 +255,22 @@ fn flagged_mate(e: GeometryError, what: &str, shift_flag: &str) -> anyhow::Error
     }
 }
 
-/// Splits "lower,upper" (or one value) into (lower, upper).
+/// Splits "lower,upper" (or one value) into (lower, upper); a NaN or infinite value is
+/// refused here (sorting would drop a NaN silently: min/max ignore it).
 fn allowance_pair(a: Option<&[f64]>, what: &str) -> anyhow::Result<Option<(f64, f64)>> {
+    if let Some(bad) = a.and_then(|v| v.iter().find(|x| !x.is_finite())) {
+        let written = a
+            .unwrap_or_default()
+            .iter()
+            .map(|x| fmt_value(*x))
+            .collect::<Vec<_>>()
+            .join(",");
+        bail!(
+            "{what}={written}: {} is not a number of mm; give finite allowances \
+             \"lower,upper\" in mm (each within ±0.5·m_n)",
+            fmt_value(*bad)
+        );
+    }
     match a {
         None | Some([]) => Ok(None),
         Some([one]) => Ok(Some((*one, *one))),
@@ -286,7 +322,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let args = args.merge_file()?;
     let req = request(&args)?;
     let mate_shift_flag = req.mate.as_ref().map_or("--mate-shift", |m| m.shift_name);
-    let out = GearReport::compute(&req).map_err(|e| report_error(e, mate_shift_flag))?;
+    let out = GearReport::compute(&req).map_err(|e| match e {
+        // A pointed tool tooth: the pressure angle's fault, and the dedendum's too when the
+        // user gave it (the limit is the rack's).
+        ReportError::Step {
+            what,
+            source: source @ GeometryError::PointedTool { .. },
+            ..
+        } if args.dedendum_coeff.is_some() => {
+            anyhow::anyhow!("{what}: --pressure-angle/--dedendum-coeff: {source}")
+        }
+        e => report_error(e, mate_shift_flag),
+    })?;
     let text = if args.json {
         serde_json::to_string_pretty(&out)? + "\n"
     } else {
@@ -310,9 +357,28 @@ fn spec(args: &Args) -> anyhow::Result<GearSpec> {
         bail!("invalid helix = {helix_deg} °: expected −60 < β < 60 ° (sign = hand)");
     }
     let din = BasicRack::DIN_867;
+    let alpha_n = rad(args.pressure_angle.unwrap_or(20.0));
+    let mut rack = BasicRack {
+        addendum_coeff: args.addendum_coeff.unwrap_or(din.addendum_coeff),
+        dedendum_coeff: args.dedendum_coeff.unwrap_or(din.dedendum_coeff),
+        root_radius_coeff: din.root_radius_coeff,
+    };
+    rack.root_radius_coeff = match args.root_radius_coeff {
+        Some(rho) => rho,
+        // DIN 867's 0.25 where the tool tip carries it, else the full-radius tip (as
+        // `BasicRack::din_867_at`), so the default rack works up to the pointed tool.
+        None => {
+            let rho_max = rack.max_root_radius_coeff(alpha_n);
+            if rho_max.is_finite() && rho_max >= 0.0 {
+                din.root_radius_coeff.min(rho_max)
+            } else {
+                din.root_radius_coeff
+            }
+        }
+    };
     Ok(GearSpec {
         normal_module_mm: module,
-        normal_pressure_angle_rad: rad(args.pressure_angle.unwrap_or(20.0)),
+        normal_pressure_angle_rad: alpha_n,
         helix_angle_rad: rad(helix_deg.abs()),
         hand: if helix_deg < 0.0 {
             Hand::Left
@@ -327,11 +393,7 @@ fn spec(args: &Args) -> anyhow::Result<GearSpec> {
         },
         profile_shift: args.shift.unwrap_or(0.0),
         face_width_mm: args.width,
-        rack: BasicRack {
-            addendum_coeff: args.addendum_coeff.unwrap_or(din.addendum_coeff),
-            dedendum_coeff: args.dedendum_coeff.unwrap_or(din.dedendum_coeff),
-            root_radius_coeff: args.root_radius_coeff.unwrap_or(din.root_radius_coeff),
-        },
+        rack,
     })
 }
 

@@ -24,6 +24,20 @@ pub struct BallMeasurement {
     pub protrudes_beyond_tip: bool,
 }
 
+/// The recommended ball of [`Gear::recommended_ball`] and where it touches.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RecommendedBall {
+    /// Ball diameter D_M in mm.
+    pub ball_mm: f64,
+    /// Diameter where the ball touches the flanks, in mm.
+    pub contact_diameter_mm: f64,
+    /// The circle d + 2·σ·x·m_n the ball is meant to touch, in mm.
+    pub target_diameter_mm: f64,
+    /// Whether the ball touches on that circle (false: it lies off the usable flank and the
+    /// ball touches at the middle of the usable flank).
+    pub at_target: bool,
+}
+
 impl Gear {
     /// inv α_Kt of the ball centre for ball diameter D_M and profile shift x.
     ///
@@ -67,50 +81,49 @@ impl Gear {
     }
 
     /// The ball diameter D_M (0 < D_M ≤ 5·m_n) whose contact lies on the circle of diameter
-    /// `contact_mm`, or None. Solved on the roll length ℓ_c, which is continuous and monotone
-    /// in D_M where the ball fits the gap (rises for external, falls for internal gears).
+    /// `contact_mm`, or None.
+    ///
+    /// Solved on the pressure angle α_K of the ball centre, not on D_M: D_M is affine in
+    /// inv α_K, D_M = d_b·cos β_b·(σ·(inv α_K − inv α_t) + π/z − (π/2 + 2·x·tan α_n)/z), and the
+    /// contact's roll length ℓ_c(α_K) = r_b·tan α_K − σ·(D_M/2)·cos β_b then has the derivative
+    /// r_b·(sec²α_K − cos²β_b·tan²α_K) > 0 for both kinds of gear: one root, found by bisection
+    /// over the whole of 0 ≤ α_K < π/2. (A scan over D_M missed it at small pressure angles,
+    /// where ℓ_c rises by ~1/(2·tan²α) mm per mm of D_M and the root lies within one step of
+    /// the smallest ball that fits the gap.)
     fn ball_for_contact_mm(&self, shift: f64, contact_mm: f64) -> Option<f64> {
         let m_n = self.spec().normal_module_mm;
         let r_b = self.r_b();
         let r_t = 0.5 * contact_mm;
-        let l_t = (r_t * r_t - r_b * r_b).max(0.0).sqrt();
-        let f = |ball: f64| self.ball_geometry(ball, shift).2 - l_t;
-        // Scan for a sign change, then bisect.
-        let n = 400;
-        let d_max = 5.0 * m_n;
-        let mut prev: Option<(f64, f64)> = None;
-        for i in 1..=n {
-            let ball = d_max * f64::from(i) / f64::from(n);
-            let v = f(ball);
-            if !v.is_finite() {
-                prev = None;
-                continue;
-            }
-            if v == 0.0 {
-                return Some(ball);
-            }
-            if let Some((b0, v0)) = prev {
-                if v0.signum() != v.signum() {
-                    let (mut a, mut fa, mut b) = (b0, v0, ball);
-                    for _ in 0..200 {
-                        let mid = 0.5 * (a + b);
-                        let fm = f(mid);
-                        if fm.signum() == fa.signum() {
-                            a = mid;
-                            fa = fm;
-                        } else {
-                            b = mid;
-                        }
-                        if b - a < 1e-13 * m_n {
-                            break;
-                        }
-                    }
-                    return Some(0.5 * (a + b));
-                }
-            }
-            prev = Some((ball, v));
+        if !(r_t.is_finite() && r_t >= r_b) {
+            return None;
         }
-        None
+        let l_t = ((r_t - r_b) * (r_t + r_b)).sqrt();
+        let z = f64::from(self.spec().teeth);
+        let sigma = self.sigma();
+        let q = (FRAC_PI_2 + 2.0 * shift * self.tan_alpha_n) / z;
+        let factor = self.base_normal_factor_mm();
+        let cos_bb = self.dims().base_helix_angle_rad.cos();
+        let ball_at =
+            |alpha_k: f64| factor * (sigma * (inv(alpha_k) - self.inv_alpha_t) + PI / z - q);
+        let g = |alpha_k: f64| r_b * alpha_k.tan() - sigma * 0.5 * ball_at(alpha_k) * cos_bb - l_t;
+        let (mut a, mut b) = (0.0, FRAC_PI_2 - 1e-9);
+        if !(g(a) <= 0.0 && g(b) >= 0.0) {
+            return None;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (a + b);
+            if mid <= a || mid >= b {
+                break;
+            }
+            if g(mid) <= 0.0 {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        let alpha_k = 0.5 * (a + b);
+        let ball = ball_at(alpha_k);
+        (ball.is_finite() && ball > 0.0 && ball <= 5.0 * m_n).then_some(ball)
     }
 
     /// The range of ball diameters (within 0 < D_M ≤ 5·m_n) whose contact lies on the usable
@@ -254,7 +267,8 @@ impl Gear {
     }
 
     /// Recommended ball diameter D_M: the ball touches the flanks on the circle
-    /// d + 2·σ·x·m_n (the reference circle moved with the profile shift), solved by bisection.
+    /// d + 2·σ·x·m_n (the reference circle moved with the profile shift); see
+    /// [`Gear::recommended_ball`] for where it touches when that circle is off the flank.
     ///
     /// Exact value, not rounded to a catalogue ball: pick the nearest ball you own and check
     /// it with [`Gear::ball_dimension`]. For x = 0 spur gears it is 1.7244·m_n at z = 20,
@@ -267,31 +281,62 @@ impl Gear {
     /// DIN 3960:1987, 3.6.5 (ball touching near the reference circle) [STANDARD]; solved
     /// exactly here [DERIVED]
     pub fn recommended_ball_mm(&self, shift: f64) -> Result<f64> {
+        self.recommended_ball(shift).map(|b| b.ball_mm)
+    }
+
+    /// The recommended ball with the diameter it really touches.
+    ///
+    /// The ball touches on d + 2·σ·x·m_n when that circle lies on the usable flank
+    /// ([`Gear::flank_range_mm`]). When it does not (an undercut gear with a negative shift,
+    /// whose target circle lies below the usable flank that starts at the base circle), the
+    /// ball touches instead at the middle of the usable flank, (d_Fmin + d_Fmax)/2: a
+    /// documented fallback that keeps the contact off the base circle, where the involute
+    /// has no curvature to measure on ([`RecommendedBall::at_target`] is then false).
+    ///
+    /// # Source
+    /// DIN 3960:1987, 3.6.5 [STANDARD]; fallback contact [DERIVED]
+    pub fn recommended_ball(&self, shift: f64) -> Result<RecommendedBall> {
         check_range("profile_shift", shift, -MAX_SHIFT, MAX_SHIFT, "", false)?;
         let m_n = self.spec().normal_module_mm;
         let (lo, hi) = self.flank_range_mm(shift);
-        let target =
-            (self.dims().reference_diameter_mm + 2.0 * self.sigma() * shift * m_n).clamp(lo, hi);
-        // A target clamped to an end of the flank is met to 1e-13·m_n, on either side:
-        // keep the ball inside the accepted range so it is always measurable.
+        let target_mm = self.dims().reference_diameter_mm + 2.0 * self.sigma() * shift * m_n;
+        let at_target = target_mm >= lo && target_mm <= hi;
+        let aim = if at_target {
+            target_mm
+        } else {
+            0.5 * (lo + hi)
+        };
         let (b_lo, b_hi) = self.ball_range_mm(shift);
         let on_range = b_lo.is_finite() && b_hi >= b_lo;
-        match self.ball_for_contact_mm(shift, target) {
-            Some(b) if on_range => Ok(b.clamp(b_lo, b_hi)),
-            Some(b) => Ok(b),
-            // The target circle cannot be reached (e.g. an undercut gear whose flank is taken
-            // from the base circle): the ball of the accepted range touching nearest to it.
+        let ball_mm = match self.ball_for_contact_mm(shift, aim) {
+            // The exact ball lies inside the accepted range unless the aim is within
+            // rounding (1e-6 mm of ball) of a flank end: keep it measurable.
+            Some(b) if on_range => b.clamp(b_lo, b_hi),
+            Some(b) => b,
             None if on_range => {
-                let dist = |b: f64| (self.ball_geometry(b, shift).1 - target).abs();
-                Ok(if dist(b_lo) <= dist(b_hi) { b_lo } else { b_hi })
+                let dist = |b: f64| (self.ball_geometry(b, shift).1 - aim).abs();
+                if dist(b_lo) <= dist(b_hi) {
+                    b_lo
+                } else {
+                    b_hi
+                }
             }
-            None => Err(GeometryError::OffFlank {
-                name: "ball_mm (no ball up to 5·m_n touches the usable flank)",
-                value: 5.0 * m_n,
-                contact_diameter_mm: target,
-                min_mm: lo,
-                max_mm: hi,
-            }),
-        }
+            None => {
+                return Err(GeometryError::OffFlank {
+                    name: "ball_mm (no ball up to 5·m_n touches the usable flank)",
+                    value: 5.0 * m_n,
+                    contact_diameter_mm: aim,
+                    min_mm: lo,
+                    max_mm: hi,
+                })
+            }
+        };
+        let contact_diameter_mm = self.ball_geometry(ball_mm, shift).1;
+        Ok(RecommendedBall {
+            ball_mm,
+            contact_diameter_mm,
+            target_diameter_mm: target_mm,
+            at_target,
+        })
     }
 }

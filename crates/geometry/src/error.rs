@@ -1,6 +1,8 @@
 //! Errors of the gear geometry: every variant names the parameter, its value and the
 //! allowed range, and is `Copy` so a caller on a hot path never allocates for it.
 
+use crate::units::fmt_value;
+
 /// Why a gear, a measurement or a pair cannot be computed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -28,9 +30,14 @@ pub enum GeometryError {
     /// The generating rack undercuts the tooth (a warning: see `Gear::undercut`).
     #[error(
         "undercut: {name} = {value:.4} is below x_min = {min:.4} for z = {teeth} with this tool \
-         (no undercut for {name} ≥ {min:.4}, or z ≥ {min_teeth:.1} at this shift); the rack tip \
+         (no undercut for {name} ≥ {min:.4}{or_teeth}); the rack tip \
          cuts away the involute above the base circle and weakens the root; the usable flank is \
-         taken from the base circle, so check that measurement contacts lie above the undercut"
+         taken from the base circle, so check that measurement contacts lie above the undercut",
+        or_teeth = if min_teeth.is_finite() && *min_teeth <= f64::from(crate::gear::MAX_TEETH) {
+            format!(", or z ≥ {min_teeth:.1} at this shift")
+        } else {
+            "; no tooth count up to 10000 avoids it at this shift".to_string()
+        }
     )]
     Undercut {
         /// The profile shift that was checked ("profile_shift" or the generating shift).
@@ -118,6 +125,63 @@ pub enum GeometryError {
         flank_min_mm: f64,
         /// Highest diameter of the usable flank in mm.
         flank_max_mm: f64,
+    },
+    /// The basic rack's dedendum coefficient is not above its addendum coefficient or beyond
+    /// its upper limit.
+    #[error(
+        "dedendum coefficient h_fP* = {v} must be above {lo} (the addendum coefficient h_aP*) \
+         and {upper}",
+        v = fmt_value(*value),
+        lo = fmt_value(*addendum_coeff),
+        upper = if *max_pointed {
+            format!("below {} (the tool tooth is pointed there at this pressure angle: \
+                     π/(4·tan α_n))", fmt_value(*max))
+        } else {
+            format!("at most {}", fmt_value(*max))
+        }
+    )]
+    DedendumRange {
+        /// The parameter ("dedendum_coeff").
+        name: &'static str,
+        /// The dedendum coefficient h_fP* given.
+        value: f64,
+        /// The addendum coefficient h_aP* (exclusive lower bound).
+        addendum_coeff: f64,
+        /// The upper bound.
+        max: f64,
+        /// The upper bound is where the tool tooth becomes pointed (exclusive), not the
+        /// fixed limit 3 (inclusive).
+        max_pointed: bool,
+    },
+    /// The tool tooth of the basic rack is pointed: its tip width π/2 − 2·h_fP*·tan α_n is
+    /// not positive, so no gear can be generated at this pressure angle with this dedendum.
+    #[error(
+        "pressure angle α_n = {a}° with the rack dedendum h_fP* = {h}: the tool tooth is pointed \
+         (π/2 − 2·h_fP*·tan α_n ≤ 0); with h_fP* = {h} the pressure angle must be below \
+         {a_max}° (atan(π/(4·h_fP*))){alt}",
+        a = fmt_value(*alpha_n_deg),
+        h = fmt_value(*dedendum_coeff),
+        a_max = fmt_value(*max_alpha_n_deg),
+        alt = if *max_dedendum_coeff > *addendum_coeff {
+            format!(", or at {}° h_fP* must be below {} (π/(4·tan α_n))",
+                    fmt_value(*alpha_n_deg), fmt_value(*max_dedendum_coeff))
+        } else {
+            String::new()
+        }
+    )]
+    PointedTool {
+        /// The parameter ("normal_pressure_angle").
+        name: &'static str,
+        /// The normal pressure angle in degrees.
+        alpha_n_deg: f64,
+        /// The dedendum coefficient h_fP*.
+        dedendum_coeff: f64,
+        /// The addendum coefficient h_aP*.
+        addendum_coeff: f64,
+        /// The largest pressure angle for this dedendum (exclusive), in degrees.
+        max_alpha_n_deg: f64,
+        /// The largest dedendum coefficient at this pressure angle (exclusive).
+        max_dedendum_coeff: f64,
     },
     /// Two gears that cannot mesh together.
     #[error("gears do not mesh: {name} differs ({value} vs {other}); they must be equal")]

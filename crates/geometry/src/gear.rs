@@ -27,6 +27,24 @@ pub const MAX_MODULE_MM: f64 = 1000.0;
 /// Normal pressure angles α_n are accepted strictly between 0° and this, in degrees.
 pub const MAX_PRESSURE_ANGLE_DEG: f64 = 45.0;
 
+/// Largest basic-rack dedendum coefficient h_fP* accepted (in m_n).
+pub const MAX_DEDENDUM_COEFF: f64 = 3.0;
+
+/// The largest normal pressure angle (exclusive, in degrees) the basic rack admits: above it
+/// the tool tooth, of tip width π/2 − 2·h_fP*·tan α_n, is pointed; and never 45° or more.
+/// 32.14° for DIN 867 (h_fP* = 1.25).
+///
+/// # Formula
+/// α_n,max = min(atan(π/(4·h_fP*)), 45°)
+/// # Source
+/// geometry of the basic rack, ISO 53:1998, 4 [DERIVED]
+pub fn max_pressure_angle_deg(rack: &BasicRack) -> f64 {
+    (PI / (4.0 * rack.dedendum_coeff))
+        .atan()
+        .to_degrees()
+        .min(MAX_PRESSURE_ANGLE_DEG)
+}
+
 /// Helix angles |β| are accepted strictly below this, in degrees.
 pub const MAX_HELIX_ANGLE_DEG: f64 = 60.0;
 
@@ -687,15 +705,33 @@ pub(crate) fn transverse_basics(spec: &GearSpec) -> Result<TransverseBasics> {
 /// geometry of the basic rack, ISO 53:1998, 4 [DERIVED]
 fn check_rack(rack: &BasicRack, alpha_n: f64) -> Result<()> {
     check_range("addendum_coeff", rack.addendum_coeff, 0.0, 3.0, "", true)?;
-    let tip_max = (FRAC_PI_2 / (2.0 * alpha_n.tan())).min(3.0);
-    check_range(
-        "dedendum_coeff",
-        rack.dedendum_coeff,
-        rack.addendum_coeff,
-        tip_max,
-        "",
-        true,
-    )?;
+    let (h_a, h_f) = (rack.addendum_coeff, rack.dedendum_coeff);
+    // The tool tooth is pointed from h_fP* = π/(4·tan α_n) on.
+    let pointed = FRAC_PI_2 / (2.0 * alpha_n.tan());
+    if !(h_f.is_finite() && h_f > h_a && h_f <= MAX_DEDENDUM_COEFF) {
+        let max_pointed = pointed > h_a && pointed <= MAX_DEDENDUM_COEFF;
+        return Err(GeometryError::DedendumRange {
+            name: "dedendum_coeff",
+            value: h_f,
+            addendum_coeff: h_a,
+            max: if max_pointed {
+                pointed
+            } else {
+                MAX_DEDENDUM_COEFF
+            },
+            max_pointed,
+        });
+    }
+    if h_f >= pointed {
+        return Err(GeometryError::PointedTool {
+            name: "normal_pressure_angle",
+            alpha_n_deg: (alpha_n.to_degrees() * 1e10).round() / 1e10,
+            dedendum_coeff: h_f,
+            addendum_coeff: h_a,
+            max_alpha_n_deg: max_pressure_angle_deg(rack),
+            max_dedendum_coeff: pointed,
+        });
+    }
     let rho_max = rack.max_root_radius_coeff(alpha_n);
     check_range(
         "root_radius_coeff",

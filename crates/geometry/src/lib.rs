@@ -45,7 +45,7 @@ pub mod thickness;
 pub mod tool;
 pub mod units;
 
-pub use balls::BallMeasurement;
+pub use balls::{BallMeasurement, RecommendedBall};
 pub use error::{GeometryError, Result};
 pub use gear::{
     transverse_pressure_angle_rad, BasicRack, Flank, Gear, GearDimensions, GearSpec, Hand, Mesh,

@@ -313,8 +313,16 @@ pub struct PairReport {
 pub struct Recommended {
     /// k.
     pub span_k: u32,
-    /// D_M touching at d + 2·x·m_n.
+    /// D_M touching at d + 2·x·m_n (or, when that circle is off the usable flank, at the
+    /// middle of the usable flank: see `ball_at_target`).
     pub ball_mm: f64,
+    /// Diameter where the recommended ball really touches the flanks, in mm.
+    pub ball_contact_diameter_mm: f64,
+    /// The circle d + 2·σ·x·m_n in mm.
+    pub ball_target_diameter_mm: f64,
+    /// Whether the ball touches on d + 2·σ·x·m_n (false: that circle lies off the usable
+    /// flank, and the ball touches at the middle of the usable flank instead).
+    pub ball_at_target: bool,
 }
 
 /// The whole report of a gear (and its mate).
@@ -412,12 +420,14 @@ fn measurement_settings(
     let rec_k = gear
         .recommended_span_k_for(x, &shifts)
         .map_err(ReportError::NoSpan)?;
-    let rec_ball = gear
-        .recommended_ball_mm(x)
-        .map_err(step("recommended ball"))?;
+    let rec = gear.recommended_ball(x).map_err(step("recommended ball"))?;
+    let rec_ball = rec.ball_mm;
     let recommended = Recommended {
         span_k: rec_k,
         ball_mm: rec_ball,
+        ball_contact_diameter_mm: rec.contact_diameter_mm,
+        ball_target_diameter_mm: rec.target_diameter_mm,
+        ball_at_target: rec.at_target,
     };
     Ok((
         recommended,
@@ -575,6 +585,18 @@ fn pair_report(
         }
     };
     let pair = GearPair::new(g1, g2, a_w).map_err(step("the pair"))?;
+    // The mate's allowances are checked on the mate first, so their errors are the mate's
+    // (the backlash below checks both gears' allowances under one name).
+    if let Some((lower, upper)) = m.allowances_mm {
+        for (case, allowance) in [("lower", lower), ("upper", upper)] {
+            mate.generating_shift(allowance)
+                .map_err(|source| ReportError::Step {
+                    what: format!("mating gear, {case} thickness allowance"),
+                    mate: true,
+                    source,
+                })?;
+        }
+    }
     let backlash = backlash_cases(&pair, internal, allowances_mm, m.allowances_mm, warnings)?;
     let p: &PairGeometry = pair.geometry();
     if p.transverse_contact_ratio < 1.0 {
@@ -845,9 +867,22 @@ impl GearReport {
         for tooth in &self.tooth {
             t.tooth(tooth);
         }
+        let r = &self.recommended;
+        let touching = if r.ball_at_target {
+            format!(
+                "touching at d + 2·x·m_n = {:.4} mm",
+                r.ball_contact_diameter_mm
+            )
+        } else {
+            format!(
+                "touching at {:.4} mm, the middle of the usable flank: d + 2·x·m_n = {:.4} mm \
+                 lies off the usable flank",
+                r.ball_contact_diameter_mm, r.ball_target_diameter_mm
+            )
+        };
         t.line(&format!(
-            " recommended: k = {}, ball D_M = {:.4} mm (touching at d + 2·x·m_n)",
-            self.recommended.span_k, self.recommended.ball_mm
+            " recommended: k = {}, ball D_M = {:.4} mm ({touching})",
+            r.span_k, r.ball_mm
         ));
         if !self.at_diameter.is_empty() {
             t.line("\nThickness at diameter (nominal shift)");

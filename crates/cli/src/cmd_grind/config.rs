@@ -101,6 +101,7 @@ pub(super) fn gear_error(e: &GrindError) -> anyhow::Error {
         GrindError::Geometry(g) => match g {
             GeometryError::OutOfRange { name, .. } => name,
             GeometryError::Undercut { .. } | GeometryError::PointedTooth { .. } => "profile_shift",
+            GeometryError::PointedTool { .. } => "normal_pressure_angle",
             _ => "",
         },
         _ => "",

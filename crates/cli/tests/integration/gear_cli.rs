@@ -811,3 +811,282 @@ fn mate_options_and_derived_mate_shift_name_what_the_user_wrote() {
         })
         .unwrap();
 }
+
+/// The tester's findings on `gear` (F1–F7): exit codes and messages naming the option the
+/// user wrote, the value and the range.
+fn fails_with(args: &[&str], needles: &[&str], absent: &[&str]) {
+    let out = gearcomp(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?} should fail: {err}");
+    assert!(out.stdout.is_empty(), "{args:?}: output on failure");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: {err:?} lacks {n:?}");
+    }
+    for n in absent {
+        assert!(!err.contains(n), "{args:?}: {err:?} has {n:?}");
+    }
+}
+
+/// F1: a NaN (or ∞) in one of two allowances was dropped by the lower/upper sort.
+#[test]
+fn f1_non_finite_allowance_is_refused_naming_the_option() {
+    let g = ["--module", "2", "--teeth", "30"];
+    for v in ["nan,0", "nan,-0.05", "0,nan", "inf,0", "-0.05,-inf", "nan"] {
+        let a = format!("--allowances={v}");
+        let bad = v
+            .split(',')
+            .find(|s| s.contains("nan") || s.contains("inf"))
+            .unwrap();
+        let args = [&g[..], &[a.as_str(), "--json"]].concat();
+        fails_with(&args, &["--allowances", &format!("'{bad}'"), "finite"], &[]);
+        let a = format!("--mate-allowances={v}");
+        let args = [&g[..], &["--mate-teeth", "20", a.as_str(), "--json"]].concat();
+        fails_with(
+            &args,
+            &["--mate-allowances", &format!("'{bad}'"), "finite"],
+            &[],
+        );
+    }
+    // through a TOML file too (TOML has nan)
+    let dir = std::env::temp_dir().join(format!("gearcomp-f1-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("gear.toml");
+    std::fs::write(&f, "module = 2\nteeth = 30\nallowances = [nan, 0.0]\n").unwrap();
+    fails_with(
+        &["--file", f.to_str().unwrap()],
+        &["--allowances=NaN,0", "NaN is not a number of mm"],
+        &[],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// F2: errors in the mate's allowances named --allowances.
+#[test]
+fn f2_mate_allowance_errors_name_mate_allowances() {
+    for v in ["2", "-5", "1e308"] {
+        let a = format!("--mate-allowances=-0.05,{v}");
+        fails_with(
+            &["--module", "2", "--teeth", "30", "--mate-teeth", "20", &a],
+            &["--mate-allowances", &format!("= {v} mm"), "-1 … 1 mm"],
+            &["--allowances:"],
+        );
+    }
+    // this gear's own allowances still name --allowances
+    fails_with(
+        &[
+            "--module",
+            "2",
+            "--teeth",
+            "30",
+            "--mate-teeth",
+            "20",
+            "--allowances=-0.05,2",
+        ],
+        &["--allowances", "= 2 mm"],
+        &["--mate-allowances"],
+    );
+}
+
+/// F3: the recommended ball at α_n ≤ 3° touched at the base circle (reference values solved
+/// independently: inv α_K = inv α_t − e_t/d + D/(d_b·cos β_b), d_c = d + 2·x·m_n).
+#[test]
+fn f3_recommended_ball_at_small_pressure_angles() {
+    for (args, want, d_c) in [
+        (
+            [
+                "--module",
+                "1.66854",
+                "--teeth",
+                "127",
+                "--pressure-angle",
+                "2.682",
+                "--helix",
+                "0",
+            ],
+            2.625466,
+            211.9046,
+        ),
+        (
+            [
+                "--module",
+                "2",
+                "--teeth",
+                "80",
+                "--pressure-angle",
+                "3",
+                "--helix",
+                "30",
+            ],
+            3.148178,
+            184.7521,
+        ),
+        (
+            [
+                "--module",
+                "2",
+                "--teeth",
+                "200",
+                "--pressure-angle",
+                "2",
+                "--helix",
+                "0",
+            ],
+            3.144435,
+            400.0,
+        ),
+    ] {
+        let v = json(&args);
+        close(&v, "recommended.ball_mm", want, 1e-6);
+        close(&v, "recommended.ball_contact_diameter_mm", d_c, 5e-5);
+        assert_eq!(v["recommended"]["ball_at_target"], true, "{args:?}");
+        close(&v, "tooth.0.ball.contact_diameter_mm", d_c, 5e-5);
+    }
+}
+
+/// F4: an undercut gear whose d + 2·x·m_n lies inside the base circle: the output says
+/// where the recommended ball really touches, and the JSON carries it.
+#[test]
+fn f4_recommended_ball_of_undercut_gear_says_where_it_touches() {
+    for args in [
+        &["--module", "1.64319", "--teeth", "10", "--shift=-0.4572"][..],
+        &[
+            "--module",
+            "2.22872",
+            "--teeth",
+            "8",
+            "--helix=29.5821",
+            "--shift=-0.4876",
+            "--width",
+            "10.4354",
+        ][..],
+    ] {
+        let v = json(args);
+        assert_eq!(v["recommended"]["ball_at_target"], false, "{args:?}");
+        let d_b = num(&v, "gear.base_diameter_mm");
+        let d_c = num(&v, "recommended.ball_contact_diameter_mm");
+        assert!(d_c > d_b + 0.1, "{args:?}: contact {d_c} vs d_b {d_b}");
+        assert!(num(&v, "recommended.ball_target_diameter_mm") < d_b);
+        close(&v, "tooth.0.ball.contact_diameter_mm", d_c, 1e-9);
+        let out = gearcomp(args);
+        let text = String::from_utf8_lossy(&out.stdout);
+        let line = text.lines().find(|l| l.contains("recommended:")).unwrap();
+        assert!(
+            line.contains("middle of the usable flank") && line.contains("off the usable flank"),
+            "{line}"
+        );
+    }
+    // a gear on target keeps the old wording
+    let out = gearcomp(&["--module", "2", "--teeth", "30"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("(touching at d + 2·x·m_n = 60.0000 mm)"),
+        "{text}"
+    );
+}
+
+/// F5: a pointed tool tooth named --dedendum-coeff with min > max; it is the pressure
+/// angle's limit for this rack (32.14° for DIN 867), and both options when both were given.
+#[test]
+fn f5_pointed_tool_names_the_pressure_angle_and_its_limit() {
+    let g = ["--module", "2", "--teeth", "30"];
+    for a in ["40", "32.15", "44"] {
+        let args = [&g[..], &["--pressure-angle", a]].concat();
+        fails_with(
+            &args,
+            &[
+                "--pressure-angle:",
+                &format!("α_n = {a}°"),
+                "below 32.1419076353°",
+            ],
+            &["--dedendum-coeff", "dedendum_coeff"],
+        );
+    }
+    fails_with(
+        &[&g[..], &["--dedendum-coeff", "2.2"]].concat(),
+        &[
+            "--pressure-angle/--dedendum-coeff",
+            "h_fP* = 2.2",
+            "below 2.15786371922",
+        ],
+        &[],
+    );
+    // the default rack works up to the limit (root radius reduced to what the tip carries)
+    for a in ["25", "30", "32.14"] {
+        let v = json(&[&g[..], &["--pressure-angle", a]].concat());
+        assert!(all_finite(&v), "{a}: {v}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_gearcomp"))
+        .args(["gear", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        help.contains("atan(π/(4·h_fP*))") && help.contains("32.14"),
+        "{help}"
+    );
+}
+
+/// F6: h_fP* = h_aP* was refused with "range 1.2 … 2.157864" (1.2 inside it).
+#[test]
+fn f6_dedendum_bound_is_shown_exclusive() {
+    fails_with(
+        &[
+            "--module",
+            "2",
+            "--teeth",
+            "30",
+            "--addendum-coeff",
+            "1.2",
+            "--dedendum-coeff",
+            "1.2",
+        ],
+        &[
+            "--dedendum-coeff:",
+            "h_fP* = 1.2",
+            "above 1.2 (the addendum coefficient",
+            "below 2.15786371922",
+        ],
+        &["dedendum_coeff", "1.2 … "],
+    );
+    let v = json(&[
+        "--module",
+        "2",
+        "--teeth",
+        "30",
+        "--addendum-coeff",
+        "1.2",
+        "--dedendum-coeff",
+        "1.2000001",
+    ]);
+    assert!(all_finite(&v));
+    fails_with(
+        &[
+            "--module",
+            "2",
+            "--teeth",
+            "30",
+            "--dedendum-coeff",
+            "3.5",
+            "--pressure-angle",
+            "5",
+        ],
+        &["--dedendum-coeff:", "h_fP* = 3.5", "at most 3"],
+        &[],
+    );
+}
+
+/// F7: α_n = 1e-300° printed "z ≥ inf".
+#[test]
+fn f7_tiny_pressure_angle_prints_no_inf() {
+    let out = gearcomp(&["--module", "2", "--teeth", "30", "--pressure-angle=1e-300"]);
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        !text.contains("inf") && !text.contains("NaN") && !text.contains('∞'),
+        "{text}"
+    );
+    assert!(
+        text.contains("no tooth count up to 10000 avoids it"),
+        "{text}"
+    );
+}

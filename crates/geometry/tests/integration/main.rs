@@ -8,4 +8,5 @@ mod independent_checks;
 mod issue2_vectors;
 mod pair_warnings;
 mod properties;
+mod recommended_ball;
 mod span_contact;

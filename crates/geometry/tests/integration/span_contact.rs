@@ -165,7 +165,7 @@ fn undercut_is_computed_and_reported() {
         "{m:?} {c:?}"
     );
     // Heavily undercut helical pinion (z = 8, β = 30.78°, x = −0.379): the target circle
-    // lies below the usable flank; the recommended ball is the accepted one nearest to it,
+    // lies below the usable flank; the recommended ball touches at the middle of the usable flank instead,
     // and it measures (this refused the whole `gear` command before).
     let mut s = GearSpec::spur(1.411, 20f64.to_radians(), 8);
     s.helix_angle_rad = 30.78f64.to_radians();
