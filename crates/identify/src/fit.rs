@@ -132,6 +132,15 @@ impl IdentifyOptions {
                 &format!("2 ..= {MAX_FOLDS} validation folds"),
             ));
         }
+        // The default compares the class counts of --class-counts: a fixed count would be
+        // ignored without a word (`--classes 1000` with 3 inputs was accepted).
+        if let (ModelKind::Auto, Some(k)) = (self.model, self.classes) {
+            return Err(invalid(
+                "--classes",
+                k,
+                "a fixed class count only with --model static | ridge | dynamic (the default compares --class-counts)",
+            ));
+        }
         // The families are those of the default's comparison: with a fixed kind they would
         // be ignored without a word.
         if self.model != ModelKind::Auto && !self.families.is_empty() {

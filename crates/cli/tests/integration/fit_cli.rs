@@ -1395,6 +1395,10 @@ fn fit_refuses_unusable_candidate_grids_naming_the_option() {
         (vec!["--class-counts", "0"], "invalid --class-counts = 0"),
         (vec!["--classes", "0"], "invalid --classes = 0"),
         (
+            vec!["--classes", "1000"],
+            "invalid --classes = 1000: expected a fixed class count only with --model static",
+        ),
+        (
             vec!["--tau-s", "300,inf"],
             "invalid --tau-s = inf: expected time constants > 0 s",
         ),
