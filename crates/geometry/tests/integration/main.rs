@@ -5,6 +5,7 @@
 mod bad_input;
 mod construct;
 mod independent_checks;
+mod involute;
 mod issue2_vectors;
 mod pair_warnings;
 mod properties;

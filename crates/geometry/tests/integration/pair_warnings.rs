@@ -8,25 +8,9 @@
 use gearcomp_geometry::report::{GearReport, GearRequest, MateRequest};
 use gearcomp_geometry::{BasicRack, GearSpec, Hand, Mesh};
 use proptest::prelude::*;
+
+use super::involute::{inv, inv_inverse};
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
-
-fn inv(a: f64) -> f64 {
-    a.tan() - a
-}
-
-/// Inverse involute by bisection on (0, π/2).
-fn inv_inverse(v: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0_f64, 1.5_f64);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if inv(mid) < v {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
 
 /// (d_Nf1, d_Nf2) of pinion (external, z1, x1) and mate (z2, x2; internal if `internal`) at
 /// the zero-backlash centre distance, `None` where the mate's tip passes the tangent point.

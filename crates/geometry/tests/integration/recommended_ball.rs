@@ -11,26 +11,9 @@ use std::f64::consts::PI;
 
 use gearcomp_geometry::{BasicRack, Gear, GearSpec, Hand, Mesh};
 use proptest::prelude::*;
+
+use super::involute::{inv, inv_inverse};
 use proptest::test_runner::{Config, RngSeed, TestRunner};
-
-/// inv α = tan α − α (the plain definition, fine for the α_K > 1° here).
-fn inv(a: f64) -> f64 {
-    a.tan() - a
-}
-
-/// α with inv α = v, by bisection on [0, π/2).
-fn inv_inverse(v: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, PI / 2.0 - 1e-12);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if inv(mid) < v {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
 
 /// Contact diameter of a ball D on the gear `s` at its nominal shift.
 fn contact_diameter(s: &GearSpec, ball: f64) -> f64 {
