@@ -358,23 +358,16 @@ fn spec(args: &Args) -> anyhow::Result<GearSpec> {
     }
     let din = BasicRack::DIN_867;
     let alpha_n = rad(args.pressure_angle.unwrap_or(20.0));
-    let mut rack = BasicRack {
+    let rack = BasicRack {
         addendum_coeff: args.addendum_coeff.unwrap_or(din.addendum_coeff),
         dedendum_coeff: args.dedendum_coeff.unwrap_or(din.dedendum_coeff),
-        root_radius_coeff: din.root_radius_coeff,
+        root_radius_coeff: args.root_radius_coeff.unwrap_or(din.root_radius_coeff),
     };
-    rack.root_radius_coeff = match args.root_radius_coeff {
-        Some(rho) => rho,
-        // DIN 867's 0.25 where the tool tip carries it, else the full-radius tip (as
-        // `BasicRack::din_867_at`), so the default rack works up to the pointed tool.
-        None => {
-            let rho_max = rack.max_root_radius_coeff(alpha_n);
-            if rho_max.is_finite() && rho_max >= 0.0 {
-                din.root_radius_coeff.min(rho_max)
-            } else {
-                din.root_radius_coeff
-            }
-        }
+    // DIN 867's 0.25 where the tool tip carries it, else the full-radius tip, so the default
+    // rack works up to the pointed tool; a radius the user gave is checked as given.
+    let rack = match args.root_radius_coeff {
+        Some(_) => rack,
+        None => rack.root_radius_carried_at(alpha_n),
     };
     Ok(GearSpec {
         normal_module_mm: module,

@@ -36,7 +36,7 @@ pub enum GeometryError {
         or_teeth = if min_teeth.is_finite() && *min_teeth <= f64::from(crate::gear::MAX_TEETH) {
             format!(", or z ≥ {min_teeth:.1} at this shift")
         } else {
-            "; no tooth count up to 10000 avoids it at this shift".to_string()
+            format!("; no tooth count up to {} avoids it at this shift", crate::gear::MAX_TEETH)
         }
     )]
     Undercut {

@@ -237,12 +237,21 @@ impl BasicRack {
     /// pressure angle whose narrower rack tip cannot carry ρ_fP* = 0.25 (above about 25°)
     /// the root radius is the largest it can carry (a full-radius tool tip).
     pub fn din_867_at(alpha_n_rad: f64) -> BasicRack {
-        let r = BasicRack::DIN_867;
+        BasicRack::DIN_867.root_radius_carried_at(alpha_n_rad)
+    }
+
+    /// This rack with its root radius reduced, where the tip is too narrow for it at the
+    /// normal pressure angle `alpha_n_rad`, to the largest the tip carries (a full-radius
+    /// tool tip); unchanged where it fits, and where no radius fits (a pointed tool tooth,
+    /// which the gear's rack check then names).
+    pub fn root_radius_carried_at(self, alpha_n_rad: f64) -> BasicRack {
+        let rho_max = self.max_root_radius_coeff(alpha_n_rad);
+        if !(rho_max.is_finite() && rho_max >= 0.0) {
+            return self;
+        }
         BasicRack {
-            root_radius_coeff: r
-                .root_radius_coeff
-                .min(r.max_root_radius_coeff(alpha_n_rad)),
-            ..r
+            root_radius_coeff: self.root_radius_coeff.min(rho_max),
+            ..self
         }
     }
 }

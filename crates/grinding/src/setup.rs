@@ -57,7 +57,7 @@ pub fn check_gear_input(
     beta_deg: f64,
 ) -> Result<(), GrindError> {
     use gearcomp_geometry::gear::{
-        MAX_HELIX_ANGLE_DEG, MAX_MODULE_MM, MAX_PRESSURE_ANGLE_DEG, MAX_TEETH, MIN_MODULE_MM,
+        max_pressure_angle_deg, MAX_HELIX_ANGLE_DEG, MAX_MODULE_MM, MAX_TEETH, MIN_MODULE_MM,
         MIN_TEETH,
     };
     use gearcomp_geometry::BasicRack;
@@ -76,14 +76,12 @@ pub fn check_gear_input(
         (names.pressure_angle, Some(alpha_n_deg)),
         (names.pressure_angle_left, alpha_n_left_deg),
     ];
+    // The geometry crate's limit for the rack the body is cut with (below 45°, and below the
+    // pointed tool tooth of DIN 867).
+    let alpha_max = max_pressure_angle_deg(&BasicRack::DIN_867);
     for (name, alpha) in angles {
         if let Some(a) = alpha {
-            // the rack check of the geometry crate, same formula (tip_max ≥ dedendum)
-            let rack_ok = || {
-                let tip_max = std::f64::consts::FRAC_PI_2 / (2.0 * a.to_radians().tan());
-                BasicRack::DIN_867.dedendum_coeff <= tip_max.min(3.0)
-            };
-            if !(a.is_finite() && a > 0.0 && a < MAX_PRESSURE_ANGLE_DEG && rack_ok()) {
+            if !(a.is_finite() && a > 0.0 && a < alpha_max) {
                 return Err(out(name, a, PRESSURE_ANGLE_RANGE));
             }
         }

@@ -172,7 +172,7 @@ fn fold_validation(table: &Table, train: &[bool], k: usize) -> String {
 /// The runs of the training rows in order of appearance, when there are at least two (the
 /// folds are then by run); `None` for a log without runs or with one training run, whose
 /// time increases (the folds are then blocks of time, as for a log without runs).
-fn training_runs(table: &Table, train: &[bool]) -> Option<Vec<usize>> {
+pub(crate) fn training_runs(table: &Table, train: &[bool]) -> Option<Vec<usize>> {
     let runs = table.runs.as_ref()?;
     let mut seen: Vec<usize> = Vec::new();
     for (r, &m) in runs.iter().zip(train) {

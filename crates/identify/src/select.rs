@@ -112,34 +112,26 @@ impl Scheme {
 /// The deployment validation of the training rows: leave-one-run-out with ≥ 2 training
 /// runs, otherwise `k` rolling-origin folds over `k + 1` blocks of equal time span.
 pub fn deployment_scheme(table: &Table, train: &[bool], k: usize) -> Result<Scheme> {
-    if let Some(runs) = &table.runs {
-        let mut seen: Vec<usize> = Vec::new();
-        for (r, &m) in runs.iter().zip(train) {
-            if m && !seen.contains(r) {
-                seen.push(*r);
-            }
-        }
-        if seen.len() >= 2 {
-            let block = runs
-                .iter()
-                .zip(train)
-                .map(|(r, &m)| m.then(|| seen.iter().position(|s| s == r).unwrap_or(0)))
-                .collect();
-            let n = seen.len();
-            return Ok(Scheme {
-                block,
-                folds: (0..n)
-                    .map(|f| ((0..n).filter(|&g| g != f).collect(), f))
-                    .collect(),
-                description: format!(
-                    "leave-one-run-out over {n} training runs ({})",
-                    seen.iter()
-                        .map(|&r| table.run_names[r].as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            });
-        }
+    if let (Some(runs), Some(seen)) = (&table.runs, crate::pipeline::training_runs(table, train)) {
+        let block = runs
+            .iter()
+            .zip(train)
+            .map(|(r, &m)| m.then(|| seen.iter().position(|s| s == r).unwrap_or(0)))
+            .collect();
+        let n = seen.len();
+        return Ok(Scheme {
+            block,
+            folds: (0..n)
+                .map(|f| ((0..n).filter(|&g| g != f).collect(), f))
+                .collect(),
+            description: format!(
+                "leave-one-run-out over {n} training runs ({})",
+                seen.iter()
+                    .map(|&r| table.run_names[r].as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
     }
     if k < 2 {
         return Err(invalid("folds", k, "at least 2 rolling-origin folds"));
