@@ -319,6 +319,20 @@ pub struct Table {
 }
 
 impl Table {
+    /// The runs of the training rows in order of appearance, when there are at least two (the
+    /// folds are then by run); `None` for a log without runs or with one training run, whose
+    /// time increases (the folds are then blocks of time, as for a log without runs).
+    pub(crate) fn training_runs(&self, train: &[bool]) -> Option<Vec<usize>> {
+        let runs = self.runs.as_ref()?;
+        let mut seen: Vec<usize> = Vec::new();
+        for (r, &m) in runs.iter().zip(train) {
+            if m && !seen.contains(r) {
+                seen.push(*r);
+            }
+        }
+        (seen.len() >= 2).then_some(seen)
+    }
+
     /// The rows `[start, end)` of each segment.
     pub fn segment_ranges(&self) -> Vec<(usize, usize)> {
         let n = self.time_s.len();

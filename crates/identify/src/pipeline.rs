@@ -161,26 +161,12 @@ pub fn default_split(table: &Table) -> (Split, Option<String>) {
 /// The fixed kinds' validation in words: `k`-fold cross-validation by run or by contiguous
 /// time block ([`folds`]).
 fn fold_validation(table: &Table, train: &[bool], k: usize) -> String {
-    let by = if training_runs(table, train).is_some() {
+    let by = if table.training_runs(train).is_some() {
         "run"
     } else {
         "contiguous time block"
     };
     format!("{k}-fold cross-validation by {by}")
-}
-
-/// The runs of the training rows in order of appearance, when there are at least two (the
-/// folds are then by run); `None` for a log without runs or with one training run, whose
-/// time increases (the folds are then blocks of time, as for a log without runs).
-pub(crate) fn training_runs(table: &Table, train: &[bool]) -> Option<Vec<usize>> {
-    let runs = table.runs.as_ref()?;
-    let mut seen: Vec<usize> = Vec::new();
-    for (r, &m) in runs.iter().zip(train) {
-        if m && !seen.contains(r) {
-            seen.push(*r);
-        }
-    }
-    (seen.len() >= 2).then_some(seen)
 }
 
 /// Validation fold of each training row: by run (runs dealt round-robin into `folds`
@@ -193,7 +179,7 @@ pub fn folds(table: &Table, train: &[bool], k: usize) -> Result<Vec<Option<usize
     if k < 2 {
         return Err(invalid("folds", k, "at least 2 folds"));
     }
-    if let (Some(runs), Some(seen)) = (&table.runs, training_runs(table, train)) {
+    if let (Some(runs), Some(seen)) = (&table.runs, table.training_runs(train)) {
         return Ok(runs
             .iter()
             .zip(train)

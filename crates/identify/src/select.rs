@@ -112,7 +112,7 @@ impl Scheme {
 /// The deployment validation of the training rows: leave-one-run-out with ≥ 2 training
 /// runs, otherwise `k` rolling-origin folds over `k + 1` blocks of equal time span.
 pub fn deployment_scheme(table: &Table, train: &[bool], k: usize) -> Result<Scheme> {
-    if let (Some(runs), Some(seen)) = (&table.runs, crate::pipeline::training_runs(table, train)) {
+    if let (Some(runs), Some(seen)) = (&table.runs, table.training_runs(train)) {
         let block = runs
             .iter()
             .zip(train)
