@@ -683,6 +683,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         data: &data_name,
         rows: table.time_s.len(),
         created_by: &created_by,
+        restart_after_s: table.gap_after_s,
     };
     let file = id.to_model_file(&origin, &args.axis, workpiece.as_ref().map(|w| w.0.clone()))?;
 

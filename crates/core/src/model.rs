@@ -48,6 +48,13 @@ pub struct ModelFile {
     /// Free text: machine, test, date.
     #[serde(default)]
     pub description: String,
+    /// Longest time step (s) between two values of a channel over which the model's lag,
+    /// rate and delay states carry on; after a longer one (a gap in the log, the service
+    /// or a sensor down) they start afresh at the next value, as the fit restarted them
+    /// at the gaps of its data (`gearcomp fit` writes 3 × the training data's median
+    /// step). Absent: they always carry on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restart_after_s: Option<f64>,
     /// One model per compensated axis.
     pub axes: Vec<AxisModel>,
     /// How the model was made (data, split, errors), for the record.
@@ -428,6 +435,11 @@ impl ModelFile {
         }
         if self.axes.is_empty() {
             return Err(invalid("axes".into(), "[]", "at least one axis model"));
+        }
+        if let Some(g) = self.restart_after_s {
+            if !(g.is_finite() && g > 0.0) {
+                return Err(invalid("restart_after_s".into(), g, "a time step > 0 s"));
+            }
         }
         for (k, e) in self.envelopes.iter().enumerate() {
             if !self.axes.iter().any(|a| a.axis == e.axis) {

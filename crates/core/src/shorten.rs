@@ -14,6 +14,19 @@ const SHOWN_BARE_CHARS: usize = 200;
 /// Characters of one message line beyond which it is shortened (after its quoted values).
 const SHOWN_LINE_CHARS: usize = 400;
 
+/// A number as a message shows it: as Rust writes it for ordinary magnitudes (`0.25`, `-1`,
+/// `3601`: the shortest text that reads back as the same value), in exponent form beyond
+/// them (`1e300`, `1e-300`, not 300 digits). Shared by the engine's and the service's
+/// messages.
+pub fn number(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-6..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
 /// A user's value as a message shows it: whole up to [`SHOWN_CHARS`] characters, else
 /// its first [`SHOWN_CHARS`] characters, `…` and its length (`qqq… (5000 characters)`),
 /// so a 5000-character value stays one readable line.
@@ -127,6 +140,41 @@ fn shorten_line(line: &str, cut_long_lines: bool) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Plain form up to 16 digits, exponent form beyond; both read back as the value.
+    #[test]
+    fn numbers_read_back_and_stay_short() {
+        for (v, want) in [
+            (1e300, "1e300"),
+            (-2.5e16, "-2.5e16"),
+            (3601.0, "3601"),
+            (1e-12, "1e-12"),
+            (0.00008, "0.00008"),
+            (123456.5, "123456.5"),
+            (0.0, "0"),
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "inf"),
+            (f64::MAX, "1.7976931348623157e308"),
+        ] {
+            assert_eq!(number(v), want);
+        }
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..10_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let v = f64::from_bits(s);
+            if v.is_finite() {
+                let t = number(v);
+                assert_eq!(
+                    t.parse::<f64>().ok().map(f64::to_bits),
+                    Some(v.to_bits()),
+                    "{t}"
+                );
+                assert!(t.len() <= 26, "{t}");
+            }
+        }
+    }
 
     /// Shortening twice (a library's message, then the command's) gives the first result;
     /// a list's comma after a long bare value stays after it.

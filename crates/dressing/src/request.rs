@@ -182,7 +182,19 @@ impl DressingInput {
                 ))
             }
             (Some(p), None) => Some(p.clone()),
-            (None, Some(c)) => Some(ThreePoint::crowning_targets(c).to_vec()),
+            (None, Some(c)) => {
+                // The targets (0, −c, 0) hold f within the points' ±MAX_TARGET_UM.
+                if !(c.is_finite() && c.abs() <= MAX_TARGET_UM) {
+                    return Err(input_err(
+                        "[dressing] crowning_um",
+                        format!(
+                            "= {c} µm is out of range: expected -{MAX_TARGET_UM} ..= \
+                             {MAX_TARGET_UM} µm"
+                        ),
+                    ));
+                }
+                Some(ThreePoint::crowning_targets(c).to_vec())
+            }
             (None, None) => None,
         };
         let k0 = AxisCorrection::default();
@@ -202,11 +214,18 @@ impl DressingInput {
                         format!("got {}, expected 3", p.len()),
                     ));
                 }
-                for q in &p {
-                    if !(0.0..=1.0).contains(&q[0]) || !q[1].is_finite() || q[1].abs() > 1000.0 {
+                for (i, q) in p.iter().enumerate() {
+                    if !(0.0..=1.0).contains(&q[0])
+                        || !q[1].is_finite()
+                        || q[1].abs() > MAX_TARGET_UM
+                    {
                         return Err(input_err(
-                            &format!("[dressing] point {q:?}"),
-                            "fraction must be in 0..=1 and f within ±1000 µm".into(),
+                            "[dressing] points",
+                            format!(
+                                "row {i} = [{}, {}]: expected a fraction in 0 ..= 1 of the \
+                                 active profile and f in -{MAX_TARGET_UM} ..= {MAX_TARGET_UM} µm",
+                                q[0], q[1]
+                            ),
                         ));
                     }
                 }
@@ -214,7 +233,7 @@ impl DressingInput {
                 let problem =
                     ThreePoint::from_fractions(&setup, flank, &[p[0], p[1], p[2]], 1.0, r_tip)?;
                 let sol = solve_three_point(&setup, &problem, k0, &NewtonOptions::default())
-                    .map_err(|e| e.during("3-point dressing solve"))?;
+                    .map_err(|e| self.not_producible(e, design, dresser, flank, &p, worm.d_s_mm))?;
                 (sol.dk, Some(sol.iterations), DressingKind::ThreePoint)
             }
             None => {
@@ -282,6 +301,54 @@ impl DressingInput {
             dressed_roll_range_mm: (w_nf_dk, w_na),
             contact_line_rad: rho,
         })
+    }
+}
+
+impl DressingInput {
+    /// The refusal of 3-point targets `points` that have no axis correction on the worm of
+    /// diameter `d_s_mm`: names the key written (`crowning_um` or `points`) and the largest
+    /// share of it that has one ([`largest_producible_scale`] without a depth budget, since
+    /// `[dressing]` has none), the crowning rounded toward zero so that the stated value is
+    /// itself producible.
+    fn not_producible(
+        &self,
+        e: DressError,
+        design: &Worm,
+        dresser: &Dresser,
+        flank: Flank,
+        points: &[[f64; 2]],
+        d_s_mm: f64,
+    ) -> DressError {
+        let scale = largest_producible_scale(
+            design,
+            dresser,
+            flank,
+            Method::ThreePoint,
+            points,
+            d_s_mm,
+            f64::INFINITY,
+        );
+        let at = format!("at the worm diameter {d_s_mm:.3} mm");
+        let key = if self.crowning_um.is_some() {
+            "[dressing] crowning_um"
+        } else {
+            "[dressing] points"
+        };
+        let hint = match (scale, self.crowning_um) {
+            (None, _) => format!("{at} not even the unmodified profile has one"),
+            (Some(s), Some(c)) => format!(
+                "{at} the largest crowning this worm and dresser carry is crowning_um = {} µm",
+                fmt_value((s * c * 1e3).trunc() / 1e3)
+            ),
+            (Some(s), None) => format!(
+                "{at} at most {} % of these points (every f scaled alike) has one",
+                fmt_value((1e3 * s).trunc() / 10.0)
+            ),
+        };
+        DressError::NotProducible {
+            key: key.into(),
+            detail: format!("the axis corrections have no root for these targets ({e}); {hint}"),
+        }
     }
 }
 

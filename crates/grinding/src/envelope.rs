@@ -48,8 +48,11 @@ pub struct FlankGrid {
     pub n_z: usize,
 }
 
+/// Least span of a [`FlankGrid`] in w and in z (mm).
+pub const MIN_ROLL_SPAN_MM: f64 = 1e-6;
+
 impl FlankGrid {
-    /// A validated grid.
+    /// A validated grid: each span at least [`MIN_ROLL_SPAN_MM`].
     pub fn new(
         w_range_mm: (f64, f64),
         z_range_mm: (f64, f64),
@@ -60,7 +63,7 @@ impl FlankGrid {
         check_range(
             "w_end_mm",
             w_range_mm.1,
-            w_range_mm.0 + 1e-6,
+            w_range_mm.0 + MIN_ROLL_SPAN_MM,
             1e6,
             "w_end > w_start",
         )?;
@@ -74,7 +77,7 @@ impl FlankGrid {
         check_range(
             "z_end_mm",
             z_range_mm.1,
-            z_range_mm.0 + 1e-6,
+            z_range_mm.0 + MIN_ROLL_SPAN_MM,
             1e6,
             "z_end > z_start",
         )?;

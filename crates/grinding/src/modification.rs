@@ -21,6 +21,12 @@ pub trait FlankModification {
     }
 }
 
+/// Most coefficients a [`Poly`] of a line modification may have (degree 15).
+pub const MAX_POLY_COEFFS: usize = 16;
+
+/// Largest magnitude of a coefficient of a line modification's [`Poly`], in mm·mm⁻ᵏ (1e15 µm).
+pub const MAX_POLY_COEFF_MM: f64 = 1e12;
+
 /// A polynomial in one variable, coefficients lowest power first.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Poly(pub Vec<f64>);
@@ -77,7 +83,7 @@ impl Poly {
     }
 
     fn check(&self, field: &'static str) -> Result<()> {
-        if self.0.len() > 16 {
+        if self.0.len() > MAX_POLY_COEFFS {
             return Err(GrindError::BadData {
                 field,
                 got: self.0.len(),
@@ -88,8 +94,8 @@ impl Poly {
             check_range(
                 field,
                 v,
-                -1e12,
-                1e12,
+                -MAX_POLY_COEFF_MM,
+                MAX_POLY_COEFF_MM,
                 "finite coefficients of magnitude ≤ 1e12 mm·mm⁻ᵏ (1e15 µm·mm⁻ᵏ at the CLI)",
             )?;
         }

@@ -430,8 +430,7 @@ impl RollLimits {
         face_width_mm: f64,
         gear_cone_rad: f64,
     ) -> Result<RollLimits, GrindError> {
-        let r_tip = body.reference_radius_mm() + body.m_n_mm * (1.0 + body.x_shift)
-            - 0.5 * face_width_mm * gear_cone_rad.tan().abs();
+        let r_tip = narrow_tip_radius_mm(body, face_width_mm, gear_cone_rad);
         let rb = pair.gear.r_b_mm;
         let lim = body.flank_limits(flank)?;
         // The body's roll distances are on the cylinder's base circle; the grid is on the
@@ -451,6 +450,22 @@ impl RollLimits {
         })
     }
 
+    /// The largest face width b (mm) at which the default roll end of [`RollLimits::conical`]
+    /// (the tip circle at the narrow end, z = ±b/2) still lies beyond the roll distance `w_mm`
+    /// on the pair's gear flank: b < 2·(r + m_n·(1 + x) − √(w² + r_bF²))/|tan ϑ2|. `None` on
+    /// a cylinder (ϑ2 = 0: the face width does not move the tip) or when not even b = 0 does.
+    pub fn conical_max_face_width_mm(
+        body: &InvoluteGear,
+        pair: &ConicalPair,
+        gear_cone_rad: f64,
+        w_mm: f64,
+    ) -> Option<f64> {
+        let t = gear_cone_rad.tan().abs();
+        let rb = pair.gear.r_b_mm;
+        let room = narrow_tip_radius_mm(body, 0.0, gear_cone_rad) - w_mm.hypot(rb);
+        (t > 0.0 && room > 0.0).then(|| 2.0 * room / t)
+    }
+
     /// The default roll range of the flank `f2` (mm): two modules either side of the
     /// reference circle, not below 10 % of its roll distance, inside the usable range (the
     /// end capped by `default_hi_mm`).
@@ -461,6 +476,13 @@ impl RollLimits {
         let end = (f2.w_ref_mm + 2.0 * m_n_mm).min(self.default_hi_mm);
         (start, end)
     }
+}
+
+/// Tip radius at the narrow end (z = ±b/2) of a beveloid gear of face width b: the tip cone
+/// parallel to the reference cone, r_a,min = r + m_n·(1 + x) − (b/2)·|tan ϑ2|.
+fn narrow_tip_radius_mm(body: &InvoluteGear, face_width_mm: f64, gear_cone_rad: f64) -> f64 {
+    body.reference_radius_mm() + body.m_n_mm * (1.0 + body.x_shift)
+        - 0.5 * face_width_mm * gear_cone_rad.tan().abs()
 }
 
 #[cfg(test)]

@@ -308,6 +308,10 @@ pub struct Table {
     /// First row of each segment (ascending, starts with 0 when there are rows): every
     /// model state restarts there (new run, or a gap inside a run).
     pub segments: Vec<usize>,
+    /// The time step (s) beyond which a step inside a run is a gap (`gap_factor` × the
+    /// median step within runs), when the data has steps: the model file's
+    /// `restart_after_s`, so that the engine restarts its states where the fit did.
+    pub gap_after_s: Option<f64>,
     /// Source line of each kept row.
     pub lines: Vec<u64>,
     /// File of each kept row's line (index into `files`).
@@ -1236,7 +1240,7 @@ pub(crate) fn read_named_runs(
 ///
 /// # Errors
 /// The same file named twice (`--data g.csv g.csv`: its rows would be one run twice over).
-fn file_run_names(names: &[&str]) -> Result<Vec<String>> {
+pub(crate) fn file_run_names(names: &[&str]) -> Result<Vec<String>> {
     use std::path::{Component, Path};
     // Each name's candidates, shortest first: the stem, then the parents before it, then
     // the same with the file name instead of the stem.
@@ -1318,6 +1322,15 @@ pub fn read_csv_file(
     }
     let head = header_line(path)?;
     Reader::new(sel, opts, &[], Source::File(path)).read_after_header(&head, name)
+}
+
+/// The first control character of the first line of `text` that no text log holds (C0
+/// other than tab and carriage return, DEL, C1: the bytes of a binary file read as text,
+/// Windows-1252's five undefined bytes among them); `None` for a text line.
+fn control_in_first_line(text: &str) -> Option<char> {
+    let line = text.split('\n').next().unwrap_or_default();
+    line.chars()
+        .find(|&c| (c < ' ' && c != '\t' && c != '\r') || ('\u{7f}'..='\u{9f}').contains(&c))
 }
 
 /// Where [`Reader::file`] finds the records.
@@ -1742,6 +1755,7 @@ fn finish_read(r: Reader<'_>, names: &[&str], opts: ReadOptions) -> Result<Table
         let mid = steps.len() / 2;
         *steps.select_nth_unstable_by(mid, f64::total_cmp).1
     };
+    t.gap_after_s = Some(opts.gap_factor * median).filter(|g| g.is_finite() && *g > 0.0);
     t.segments.clear();
     for (i, &starts) in run_start.iter().enumerate() {
         if starts {
@@ -1800,6 +1814,37 @@ impl Reader<'_> {
                 "--data",
                 name,
                 "a log with a header line and rows (the file is empty or blank)",
+            ));
+        }
+        if let Some(c) = control_in_first_line(text) {
+            // UTF-16 read as bytes: a NUL at every other character (odd places for little
+            // endian, even for big endian), text between.
+            let cs: Vec<char> = text
+                .split('\n')
+                .next()
+                .unwrap_or_default()
+                .chars()
+                .take(256)
+                .collect();
+            let alternate = |nul_at: usize| {
+                cs.len() >= 4
+                    && cs
+                        .iter()
+                        .enumerate()
+                        .all(|(i, &c)| (i % 2 == nul_at) == (c == '\0'))
+            };
+            let why = if alternate(0) || alternate(1) {
+                "(UTF-16 text without a byte-order mark? save it as UTF-8, or UTF-16 with one)"
+            } else {
+                "(a binary file?)"
+            };
+            return Err(invalid(
+                "--data",
+                name,
+                &format!(
+                    "a text log (CSV or TSV, or a workbook .xlsx/.xls/.ods): its first line holds the control character U+{:04X} {why}",
+                    u32::from(c)
+                ),
             ));
         }
         // Excel's `sep=;` first line: its delimiter, and the line read as a blank one (line

@@ -58,18 +58,12 @@ pub fn read_log_text(path: &Path) -> Result<LogText> {
         })
 }
 
-/// Reads the CSV logs at `paths` (each decoded by [`decode`]) into one [`Table`] as
-/// [`crate::data::read_runs`] reads their texts, with a note first for each file that was
-/// not UTF-8.
+/// Refuses a file named twice, also under two names (`g.csv ./g.csv`): its rows would be one
+/// run twice over. A path that cannot be resolved is left to the reader to name.
 ///
 /// # Errors
-/// A file cannot be read, or [`crate::data::read_runs`]'s.
-pub fn read_log_files(
-    paths: &[std::path::PathBuf],
-    sel: &crate::data::Selection,
-    opts: crate::data::ReadOptions,
-) -> Result<crate::data::Table> {
-    // The same file twice under two names (`g.csv ./g.csv`) would be one run twice over.
+/// The second name of a file already given.
+pub(crate) fn each_file_once(paths: &[std::path::PathBuf]) -> Result<()> {
     let mut seen: Vec<std::path::PathBuf> = Vec::with_capacity(paths.len());
     for p in paths {
         if let Ok(canonical) = std::fs::canonicalize(p) {
@@ -83,6 +77,21 @@ pub fn read_log_files(
             seen.push(canonical);
         }
     }
+    Ok(())
+}
+
+/// Reads the CSV logs at `paths` (each decoded by [`decode`]) into one [`Table`] as
+/// [`crate::data::read_runs`] reads their texts, with a note first for each file that was
+/// not UTF-8.
+///
+/// # Errors
+/// A file cannot be read, or [`crate::data::read_runs`]'s.
+pub fn read_log_files(
+    paths: &[std::path::PathBuf],
+    sel: &crate::data::Selection,
+    opts: crate::data::ReadOptions,
+) -> Result<crate::data::Table> {
+    each_file_once(paths)?;
     let texts: Vec<(LogText, String)> = paths
         .iter()
         .map(|p| Ok((read_log_text(p)?, p.display().to_string())))

@@ -266,6 +266,9 @@ pub struct Origin<'a> {
     pub rows: usize,
     /// Tool and version that fitted it.
     pub created_by: &'a str,
+    /// The data's gap step ([`crate::data::Table::gap_after_s`]), the model file's
+    /// `restart_after_s`.
+    pub restart_after_s: Option<f64>,
 }
 
 impl Identification {
@@ -313,6 +316,7 @@ impl Identification {
             format: MODEL_FORMAT.into(),
             name: origin.name.to_string(),
             description: format!("identified from {} ({} rows)", origin.data, origin.rows),
+            restart_after_s: origin.restart_after_s,
             axes,
             provenance: Some(Provenance {
                 data: origin.data.to_string(),

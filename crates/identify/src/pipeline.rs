@@ -475,6 +475,7 @@ fn identify_models(table: &Table, opts: &IdentifyOptions) -> Result<Identificati
         return Err(invalid("targets", "none", "at least one target column"));
     }
     let train = train_mask(table, &opts.split)?;
+    check_magnitudes(table)?;
     let (reduced, mut notes) = drop_degenerate_inputs(table, &train);
     notes.extend(constant_targets_note(table, &train));
     notes.extend(split_runs_note(table));
@@ -762,6 +763,32 @@ fn engine_floor(
             ))
         })
         .collect()
+}
+
+/// Largest magnitude of an input or target value the fit takes: its squares and sums over
+/// any table stay finite (a target of 1e301 gave infinite errors and a model file of
+/// coefficients near 1e300).
+pub const MAX_MAGNITUDE: f64 = 1e100;
+
+/// Refuses a column holding a value beyond [`MAX_MAGNITUDE`], naming it and the value.
+fn check_magnitudes(table: &Table) -> Result<()> {
+    let columns = table
+        .input_names
+        .iter()
+        .zip(&table.inputs)
+        .chain(table.target_names.iter().zip(&table.targets));
+    for (name, x) in columns {
+        if let Some(v) = x.iter().find(|v| v.abs() > MAX_MAGNITUDE) {
+            return Err(invalid(
+                &format!("column {name}"),
+                format!("{v:e}"),
+                &format!(
+                    "values of magnitude ≤ {MAX_MAGNITUDE:e} (in its unit: µm for a target, °C for a temperature)"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A note naming the targets whose measured training values are all equal (a stuck or

@@ -787,6 +787,7 @@ mod tests {
             data: "exact",
             rows: 60,
             created_by: "test",
+            restart_after_s: None,
         };
         let file = id.to_model_file(&origin, &[], None).unwrap();
         let fit = FitReport {

@@ -44,6 +44,8 @@ impl Table {
             run_names: self.run_names.clone(),
             files: self.files.clone(),
             issues: self.issues.clone(),
+            // The gaps of the data read: resampling fills no gap (segments are kept).
+            gap_after_s: self.gap_after_s,
             ..Table::default()
         };
         for (s, e) in self.segment_ranges() {

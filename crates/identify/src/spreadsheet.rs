@@ -346,6 +346,7 @@ pub fn read_paths(
     opts: ReadOptions,
     choice: &SheetChoice,
 ) -> Result<Table> {
+    crate::encoding::each_file_once(paths)?;
     let books = paths.iter().filter(|p| is_workbook(p)).count();
     if books == 0 {
         if !choice.sheets.is_empty() || choice.all {
@@ -405,6 +406,7 @@ pub fn read_paths_with_targets(
     if targets.is_empty() {
         return read_paths(paths, sel, opts, choice);
     }
+    crate::encoding::each_file_once(paths)?;
     let list = |ps: &[PathBuf]| {
         ps.iter()
             .map(|p| p.display().to_string())
@@ -539,10 +541,22 @@ fn read_sheets(
     let delim = if dc { ';' } else { ',' };
     let count: usize = books.iter().map(|b| b.1.len()).sum();
     let mut sources = Vec::with_capacity(count);
-    for (path, sheets) in books {
-        let stem = Path::new(path)
-            .file_stem()
-            .map_or(path.clone(), |s| s.to_string_lossy().into_owned());
+    // Each workbook's run name: its stem, or where stems collide (`a/days.xlsx b/days.xlsx`)
+    // as much of its path as tells it apart, as for CSV files.
+    let paths: Vec<&str> = books.iter().map(|b| b.0.as_str()).collect();
+    let stems = if books.len() > 1 {
+        crate::data::file_run_names(&paths)?
+    } else {
+        paths
+            .iter()
+            .map(|p| {
+                Path::new(p)
+                    .file_stem()
+                    .map_or(p.to_string(), |s| s.to_string_lossy().into_owned())
+            })
+            .collect()
+    };
+    for ((path, sheets), stem) in books.iter().zip(&stems) {
         for s in sheets {
             let width = s.cells.iter().map(Vec::len).max().unwrap_or(0);
             let mut text = String::new();

@@ -96,6 +96,7 @@ pub fn workpiece_shrink(
         format: gearcomp_core::model::MODEL_FORMAT.into(),
         name: "check".into(),
         description: String::new(),
+        restart_after_s: None,
         axes: vec![AxisModel {
             axis: "X".into(),
             target: String::new(),

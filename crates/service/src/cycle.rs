@@ -718,6 +718,16 @@ impl Cycle {
         self.safe_point = safe_point;
     }
 
+    /// The rate of the bumpless transfer per axis of `config`, µm per cycle: the axis's
+    /// `max_step_um`, else `cycle.bumpless_step_um`.
+    fn bumpless_rates(&self, config: &EngineConfig) -> Vec<f64> {
+        config
+            .axes
+            .iter()
+            .map(|a| a.max_step_um.unwrap_or(self.bumpless_step_um))
+            .collect()
+    }
+
     /// Resumes from the state a previous run kept (call before `run`): the last applied
     /// offsets are published at once as valid (the first value the outputs write), the
     /// engine's state is restored when its configuration is unchanged, and the engine's
@@ -743,6 +753,13 @@ impl Cycle {
             self.pulses.carry[i] = if carry.is_finite() { carry } else { 0.0 };
             self.pulses.acked[i] = r.pulses_acked.get(i).copied().unwrap_or(0);
         }
+        // From the applied offsets the outputs move only at the transfer's rate, as after a
+        // model change: a changed configuration (a smaller max_offset_um, an axis without
+        // max_step_um, another law) would otherwise step to its first value at once; with
+        // the state restored the engine goes on from the applied offsets and the transfer
+        // ends in its first cycle.
+        let rates = self.bumpless_rates(&self.config);
+        self.bumpless.start(&self.applied_um[..n], &rates);
         self.seq += 1;
         self.offsets.send_replace(self.offset_out(f64::NAN, None));
         if let Ok(mut live) = self.live.lock() {
@@ -910,11 +927,7 @@ impl Cycle {
                 self.publish_alarm_counts();
             }
             InputMsg::SwapEngine(engine, config) => {
-                let rates: Vec<f64> = config
-                    .axes
-                    .iter()
-                    .map(|a| a.max_step_um.unwrap_or(self.bumpless_step_um))
-                    .collect();
+                let rates = self.bumpless_rates(&config);
                 let n = self.engine.axis_names().len();
                 self.bumpless.start(&self.applied_um[..n], &rates);
                 self.engine = *engine;
@@ -1507,6 +1520,40 @@ mod tests {
             assert_eq!(scan(&mut r4, f64::NAN, true).0, 0);
         }
         assert!(!r4.2.borrow().valid[0]);
+    }
+
+    /// A restart with another engine configuration moves from the applied offset at the
+    /// transfer's rate, as a model change does: an axis without max_step_um ramps at
+    /// cycle.bumpless_step_um to its law (it stepped from −5 to −15 µm at once), and a
+    /// smaller max_offset_um is reached at the axis's rate (it was clamped at once, −5 to
+    /// −2 µm). Closed forms: target −3.75·(24 − 20) = −15 µm, clamp ±2 µm; rate 0.5 µm.
+    #[test]
+    fn restart_with_another_configuration_never_steps() {
+        let mut r1 = rig(0.0);
+        for _ in 0..10 {
+            scan(&mut r1, 24.0, true);
+        }
+        let state = r1.0.resume_state();
+        assert_eq!(state.applied_um, vec![-5.0]);
+        let no_step = RATE_ENGINE.replace("max_step_um = 0.5\nsafe_points_only = true\n", "");
+        let small_max = RATE_ENGINE.replace("max_offset_um = 100.0", "max_offset_um = 2.0");
+        assert!(no_step != RATE_ENGINE && small_max != RATE_ENGINE);
+        for (engine, target) in [(no_step.as_str(), -15.0), (small_max.as_str(), -2.0)] {
+            let mut r2 = rig_with(engine, 100.0);
+            assert_eq!(r2.0.resume(&state), Resumed::Offsets);
+            assert_eq!(r2.2.borrow().offsets_um[0], -5.0);
+            let mut last = -5.0f64;
+            let mut ys = Vec::new();
+            for _ in 0..40 {
+                let y = scan(&mut r2, 24.0, true).1;
+                assert!((y - last).abs() <= 0.5 + 1e-12, "{last} → {y} ({engine})");
+                last = y;
+                ys.push(y);
+            }
+            let cycles = ((target - -5.0f64).abs() / 0.5).ceil() as usize;
+            assert_eq!(ys[cycles - 1], target, "{ys:?}");
+            assert!(ys[cycles..].iter().all(|&y| y == target), "{ys:?}");
+        }
     }
 
     /// As RATE_ENGINE, applied as infeed pulses of 0.7 µm at any time.

@@ -147,16 +147,7 @@ pub fn check_range(field: &str, v: f64, lo: f64, hi: f64, expected: &str) -> Res
     }
 }
 
-/// A number as a message shows it: as written for ordinary magnitudes (`0.25`, `-1`,
-/// `3601`), in exponent form beyond them (`1e300`, `1e-300`, not 300 digits).
-pub fn number(v: f64) -> String {
-    let a = v.abs();
-    if v.is_finite() && a != 0.0 && !(1e-6..1e15).contains(&a) {
-        format!("{v:e}")
-    } else {
-        v.to_string()
-    }
-}
+pub use gearcomp_core::shorten::number;
 
 #[cfg(test)]
 mod tests {

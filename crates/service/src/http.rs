@@ -106,8 +106,49 @@ pub fn router(state: Shared) -> Router {
         .route("/api/history", get(history))
         .route("/api/model", get(get_model).put(put_model))
         .route("/api/audit", get(audit_log))
+        .fallback(unknown_path)
+        .method_not_allowed_fallback(wrong_method)
         .with_state(state)
 }
+
+/// A path the API does not have: 404 with the API's JSON error, naming it and the paths.
+async fn unknown_path(uri: axum::http::Uri) -> ApiError {
+    err(
+        StatusCode::NOT_FOUND,
+        format!(
+            "no such path {}: expected one of {}",
+            crate::error::shown(uri.path()),
+            API_PATHS.join(", ")
+        ),
+    )
+}
+
+/// A method a path does not take: 405 with the API's JSON error.
+async fn wrong_method(method: axum::http::Method, uri: axum::http::Uri) -> ApiError {
+    err(
+        StatusCode::METHOD_NOT_ALLOWED,
+        format!(
+            "{method} is not a method of {}: expected one of {}",
+            crate::error::shown(uri.path()),
+            API_PATHS.join(", ")
+        ),
+    )
+}
+
+/// The paths of the API and the dashboard, for the 404 message.
+const API_PATHS: [&str; 11] = [
+    "/ (dashboard)",
+    "/dashboard.js",
+    "GET /api/status",
+    "GET /api/channels",
+    "GET /api/offsets",
+    "GET /api/alarms",
+    "POST /api/alarms/{id}/ack",
+    "POST /api/stop/ack",
+    "GET /api/history",
+    "GET|PUT /api/model",
+    "GET /api/audit",
+];
 
 /// Every refusal and failure of the API: a status and a message, answered as
 /// `{"error": "<message>"}`.
@@ -171,6 +212,86 @@ impl FromRequestParts<Shared> for Operator {
     async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
         let peer = parts.extensions.get::<Peer>();
         authorize(st, &parts.headers, None, peer, Role::Operator).map(Operator)
+    }
+}
+
+/// The query string of an API request; a parameter that does not parse is refused as the
+/// API's other errors are (JSON, 400), naming the parameter, why and what it takes (axum's
+/// own rejection was plain text without the range: "limit: invalid digit found in string").
+pub struct ApiQuery<T>(pub T);
+
+impl<T: serde::de::DeserializeOwned> FromRequestParts<Shared> for ApiQuery<T> {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
+        match Query::<T>::from_request_parts(parts, st).await {
+            Ok(Query(q)) => Ok(ApiQuery(q)),
+            Err(e) => Err(err(StatusCode::BAD_REQUEST, query_message(&e.body_text()))),
+        }
+    }
+}
+
+/// The query parameters of the API and what each takes.
+const QUERY_PARAMETERS: [(&str, &str); 9] = [
+    ("from_s", "a service time in s"),
+    ("to_s", "a service time in s"),
+    ("last_s", "a wall-clock span in s"),
+    (
+        "limit",
+        "a whole number of rows 0…4294967295 (at most 100000 are returned)",
+    ),
+    ("max_points", "a whole number 1…2000"),
+    ("channel", "a channel name"),
+    ("kind", "raw or average"),
+    ("active", "true or false"),
+    ("unacknowledged", "true or false"),
+];
+
+/// The message for a query string that did not parse (`text` as axum gives it).
+fn query_message(text: &str) -> String {
+    let detail = text
+        .strip_prefix("Failed to deserialize query string: ")
+        .unwrap_or(text);
+    let named = |f: &str| QUERY_PARAMETERS.iter().find(|(k, _)| *k == f);
+    let param = match detail.split_once(": ") {
+        Some((f, why)) => named(f).map(|p| (p, why)),
+        None => None,
+    }
+    .or_else(|| {
+        QUERY_PARAMETERS
+            .iter()
+            .find(|(k, _)| detail.contains(&format!("`{k}`")))
+            .map(|p| (p, detail))
+    });
+    match param {
+        Some(((name, expected), why)) => {
+            format!("invalid query parameter {name} ({why}): expected {expected}, given once")
+        }
+        None => format!("invalid query string ({detail})"),
+    }
+}
+
+/// The alarm id of a request path (`/api/alarms/{id}/ack`); one that is not a number is
+/// refused naming it and what it takes (axum's rejection was plain text).
+pub struct AlarmId(pub i64);
+
+impl FromRequestParts<Shared> for AlarmId {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, st: &Shared) -> ApiResult<Self> {
+        match UrlPath::<String>::from_request_parts(parts, st).await {
+            Ok(UrlPath(text)) => text.parse::<i64>().map(AlarmId).map_err(|_| {
+                err(
+                    StatusCode::BAD_REQUEST,
+                    format!(
+                        "invalid alarm id = {}: expected the alarm's whole number, as GET \
+                         /api/alarms lists it",
+                        crate::error::shown(&text)
+                    ),
+                )
+            }),
+            Err(e) => Err(err(StatusCode::BAD_REQUEST, e.body_text())),
+        }
     }
 }
 
@@ -432,6 +553,10 @@ struct RangeQuery {
     max_points: Option<u32>,
 }
 
+/// Longest span `last_s` may ask for, s (100 years: a longer one spans no more of any
+/// record, and one near f64::MAX left no time resolution for `max_points`' spans).
+pub const MAX_LAST_S: f64 = 3.2e9;
+
 /// Most points `max_points` may ask for.
 pub const MAX_POINTS: u32 = 2000;
 
@@ -441,12 +566,24 @@ fn range(st: &AppState, q: &RangeQuery) -> ApiResult<Range> {
         to_s: q.to_s.unwrap_or(f64::MAX),
         limit: q.limit.unwrap_or(1000).min(100_000),
     };
-    if let Some(last_s) = q.last_s {
-        // The last `last_s` seconds of wall-clock time, up to now.
-        if !(last_s.is_finite() && last_s > 0.0) {
+    for (key, v) in [("from_s", q.from_s), ("to_s", q.to_s)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
             return Err(err(
                 StatusCode::BAD_REQUEST,
-                format!("invalid last_s = {last_s}: expected a wall-clock span > 0 s"),
+                format!("invalid {key} = {v}: expected a finite service time in s"),
+            ));
+        }
+    }
+    if let Some(last_s) = q.last_s {
+        // The last `last_s` seconds of wall-clock time, up to now.
+        if !(last_s.is_finite() && last_s > 0.0 && last_s <= MAX_LAST_S) {
+            return Err(err(
+                StatusCode::BAD_REQUEST,
+                format!(
+                    "invalid last_s = {}: expected a wall-clock span 0 < last_s ≤ \
+                     {MAX_LAST_S} s (100 years)",
+                    crate::error::number(last_s)
+                ),
             ));
         }
         if q.from_s.is_some() || q.to_s.is_some() {
@@ -463,7 +600,8 @@ fn range(st: &AppState, q: &RangeQuery) -> ApiResult<Range> {
             StatusCode::BAD_REQUEST,
             format!(
                 "invalid range from_s = {} to_s = {}: expected from_s ≤ to_s",
-                r.from_s, r.to_s
+                crate::error::number(r.from_s),
+                crate::error::number(r.to_s)
             ),
         ));
     }
@@ -526,7 +664,11 @@ fn thinned<T>(
     Ok(out)
 }
 
-async fn offsets(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
+async fn offsets(
+    State(st): State<Shared>,
+    _: Viewer,
+    ApiQuery(q): ApiQuery<RangeQuery>,
+) -> ApiResult {
     let r = range(&st, &q)?;
     let axes = live(&st).axes.len() as u32;
     let rows = match q.max_points {
@@ -547,7 +689,11 @@ async fn offsets(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery
     Ok(Json(json!({ "current": live(&st).axes, "history": rows })).into_response())
 }
 
-async fn history(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
+async fn history(
+    State(st): State<Shared>,
+    _: Viewer,
+    ApiQuery(q): ApiQuery<RangeQuery>,
+) -> ApiResult {
     let r = range(&st, &q)?;
     let kind = match q.kind.as_deref().unwrap_or("average") {
         "raw" => SeriesKind::Raw,
@@ -593,7 +739,11 @@ async fn history(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery
     Ok(Json(json!({ "channel": name, "points": points })).into_response())
 }
 
-async fn alarms(State(st): State<Shared>, _: Viewer, Query(q): Query<RangeQuery>) -> ApiResult {
+async fn alarms(
+    State(st): State<Shared>,
+    _: Viewer,
+    ApiQuery(q): ApiQuery<RangeQuery>,
+) -> ApiResult {
     // `active=true`: alarms not cleared; `unacknowledged=true`: not cleared or not yet
     // acknowledged (what an operator still has to look at).
     let active = q.active.unwrap_or(false);
@@ -642,7 +792,7 @@ fn audit(st: &AppState, who: &Caller, action: &'static str, detail: String) -> A
 async fn ack_alarm(
     State(st): State<Shared>,
     Operator(who): Operator,
-    UrlPath(id): UrlPath<i64>,
+    AlarmId(id): AlarmId,
 ) -> ApiResult {
     if !db(&st, move |c| c.alarm_exists(id)).await? {
         return Err(err(

@@ -353,8 +353,11 @@ fn plan_input(cfg: &ServiceConfig, channels: &[String], axes: &[String]) -> Resu
             let simulator = Simulator::new(bundle(p).machine, *seed)?;
             let map = crate::sources::sim::channel_map(&simulator, channels)?;
             // The simulator scans every dt_s; a shorter tick would only re-sample held
-            // readings between scans.
-            let period_s = cfg.cycle.period_s.max(simulator.spec().dt_s);
+            // readings between scans, and a tick of exactly dt_s fired just before a scan
+            // that came a little late (thread scheduling), cutting it in two: two cycles
+            // for one scan (15 for 13 at real time), a held reading averaged twice and
+            // the offset moving twice per scan. Twice dt_s: only a missing scan ticks.
+            let period_s = cfg.cycle.period_s.max(2.0 * simulator.spec().dt_s);
             (*s, Some((simulator, map)), period_s)
         }
         #[cfg(feature = "mqtt")]

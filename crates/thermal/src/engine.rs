@@ -644,24 +644,52 @@ enum TransformState {
     Rate(FirstOrderLag, f64),
 }
 
+impl TransformState {
+    /// Starts afresh in place (no allocation: the cycle calls it).
+    fn reset(&mut self) {
+        match self {
+            TransformState::Value => {}
+            TransformState::Lag(l) | TransformState::Rate(l, _) => l.reset(),
+            TransformState::Delay(d) => d.reset(),
+        }
+    }
+
+    /// A fresh state of `kind`: a lag or rate filter starts at its next value, a delay
+    /// line with no history.
+    fn new(kind: Transform) -> Self {
+        match kind {
+            Transform::Value => TransformState::Value,
+            Transform::FirstOrderLag { tau_s } => TransformState::Lag(FirstOrderLag::new(tau_s)),
+            Transform::Delay { delay_s } => TransformState::Delay(DelayLine::new(delay_s)),
+            Transform::Rate { tau_s } => TransformState::Rate(FirstOrderLag::new(tau_s), tau_s),
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 struct Regressor {
     channel: usize,
     coefficient: f64,
     transform: TransformState,
     x: f64,
+    /// Time of the value last fed to the transform (−∞ before the first).
+    last_t_s: f64,
 }
 
 #[derive(Debug, Clone)]
 struct LinearEval {
     intercept: f64,
     regressors: Vec<Regressor>,
+    /// The model file's `restart_after_s` (∞ when absent): a longer step between two
+    /// values of a regressor's channel restarts its transform.
+    restart_after_s: f64,
 }
 
 impl LinearEval {
     fn save(&self, out: &mut Vec<f64>) {
         for r in &self.regressors {
             out.push(r.x);
+            out.push(r.last_t_s);
             match &r.transform {
                 TransformState::Value => {}
                 TransformState::Lag(l) | TransformState::Rate(l, _) => l.save(out),
@@ -673,46 +701,53 @@ impl LinearEval {
     fn restore(&mut self, c: &mut StateCursor) -> Option<()> {
         for r in &mut self.regressors {
             r.x = c.next()?;
+            r.last_t_s = c.next()?;
             match &mut r.transform {
                 TransformState::Value => {}
                 TransformState::Lag(l) | TransformState::Rate(l, _) => l.restore(c)?,
-                TransformState::Delay(d) => d.restore(c)?,
+                TransformState::Delay(d) => d.restore(&mut || c.next())?,
             }
         }
         Some(())
     }
 
-    fn build(m: &LinearModel, field: &str, names: &[String]) -> Result<Self> {
+    fn build(
+        m: &LinearModel,
+        restart_after_s: Option<f64>,
+        field: &str,
+        names: &[String],
+    ) -> Result<Self> {
         let mut regressors = Vec::with_capacity(m.terms.len());
         for (i, t) in m.terms.iter().enumerate() {
             let channel = resolve(&format!("{field}.terms[{i}].channel"), &t.channel, names)?;
-            let transform = match t.transform {
-                Transform::Value => TransformState::Value,
-                Transform::FirstOrderLag { tau_s } => {
-                    TransformState::Lag(FirstOrderLag::new(tau_s))
-                }
-                Transform::Delay { delay_s } => TransformState::Delay(DelayLine::new(delay_s)),
-                Transform::Rate { tau_s } => TransformState::Rate(FirstOrderLag::new(tau_s), tau_s),
-            };
             regressors.push(Regressor {
                 channel,
                 coefficient: t.coefficient,
-                transform,
+                transform: TransformState::new(t.transform),
                 x: f64::NAN,
+                last_t_s: f64::NEG_INFINITY,
             });
         }
         Ok(Self {
             intercept: m.intercept,
             regressors,
+            restart_after_s: restart_after_s.unwrap_or(f64::INFINITY),
         })
     }
 
-    /// Runs the transforms of the regressors whose channel has a new averaged value.
+    /// Runs the transforms of the regressors whose channel has a new averaged value; a
+    /// transform whose last value is more than `restart_after_s` old starts afresh (as the
+    /// fit restarted it at the gaps of its data).
     fn update(&mut self, t_s: f64, channels: &[ChannelState], fresh: u64) {
+        let restart_after_s = self.restart_after_s;
         for r in &mut self.regressors {
             if fresh & (1u64 << r.channel) == 0 {
                 continue;
             }
+            if t_s - r.last_t_s > restart_after_s {
+                r.transform.reset();
+            }
+            r.last_t_s = t_s;
             let u = channels[r.channel].value;
             r.x = match &mut r.transform {
                 TransformState::Value => u,
@@ -846,7 +881,12 @@ struct WorkpieceEval {
 }
 
 impl WorkpieceEval {
-    fn build(w: &WorkpieceShrink, field: &str, names: &[String]) -> Result<Self> {
+    fn build(
+        w: &WorkpieceShrink,
+        restart_after_s: Option<f64>,
+        field: &str,
+        names: &[String],
+    ) -> Result<Self> {
         let g = &w.gear;
         let reference = match w.reference {
             ReferenceRadius::Pitch => ShrinkReference::Pitch,
@@ -879,7 +919,12 @@ impl WorkpieceEval {
             )
         })?;
         Ok(Self {
-            temperature: LinearEval::build(&w.temperature, &format!("{field}.temperature"), names)?,
+            temperature: LinearEval::build(
+                &w.temperature,
+                restart_after_s,
+                &format!("{field}.temperature"),
+                names,
+            )?,
             design_temp_c: w.design_temp_c,
             shrink: ShrinkEval::new(&template, w.method),
         })
@@ -1152,6 +1197,7 @@ impl ModelEval {
     fn build(
         a: &AxisModel,
         envelope: Option<&Envelope>,
+        restart_after_s: Option<f64>,
         field: &str,
         names: &[String],
         channels: &[ChannelConfig],
@@ -1166,10 +1212,16 @@ impl ModelEval {
                 )?),
                 None => None,
             },
-            machine: LinearEval::build(&a.machine, &format!("{field}.machine"), names)?,
+            machine: LinearEval::build(
+                &a.machine,
+                restart_after_s,
+                &format!("{field}.machine"),
+                names,
+            )?,
             workpiece: match &a.workpiece {
                 Some(w) => Some(WorkpieceEval::build(
                     w,
+                    restart_after_s,
                     &format!("{field}.workpiece"),
                     names,
                 )?),
@@ -1627,6 +1679,7 @@ fn build_term(t: &TermConfig, p: &str, names: &[String], cfg: &EngineConfig) -> 
                 Term::Model(Box::new(ModelEval::build(
                     am,
                     model.envelopes.iter().find(|e| &e.axis == axis),
+                    model.restart_after_s,
                     &format!("{p}.model[{file}].{axis}"),
                     names,
                     &cfg.channels,

@@ -69,7 +69,7 @@ pub(crate) fn check_range(field: &str, v: f64, lo: f64, hi: f64, expected: &str)
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {
-        Err(invalid(field, v, expected))
+        Err(invalid(field, gearcomp_core::shorten::number(v), expected))
     }
 }
 

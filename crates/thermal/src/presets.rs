@@ -349,6 +349,7 @@ pub fn hobbing_model(t0_c: f64) -> ModelFile {
         format: MODEL_FORMAT.into(),
         name: "dry hobbing machine X (preset)".into(),
         description: "simulator preset model: hob head, lagged column, bed, table".into(),
+        restart_after_s: None,
         axes: vec![AxisModel {
             axis: "X".into(),
             target: "x_drift_um".into(),

@@ -151,8 +151,24 @@ pub(super) fn worm_body(a: &SetupArgs) -> Result<InvoluteGear> {
     })
 }
 
-/// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`.
-pub(super) fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) -> Result<FlankGrid> {
+/// Smallest --face-width-mm (mm): well above the grid's least span of 1e-6 mm.
+const MIN_FACE_WIDTH_MM: f64 = 0.001;
+
+/// The (w, z) grid of the gear flank `f2` inside its usable roll range `lim`; on a conical
+/// gear `narrow_b_max` gives, for a roll start w, the largest face width whose narrow end
+/// keeps the default roll end beyond w ([`RollLimits::conical_max_face_width_mm`]).
+pub(super) fn flank_grid(
+    a: &SetupArgs,
+    f2: &InvoluteFlank,
+    lim: &RollLimits,
+    narrow_b_max: Option<&dyn Fn(f64) -> Option<f64>>,
+) -> Result<FlankGrid> {
+    if !(a.face_width_mm.is_finite() && (MIN_FACE_WIDTH_MM..=2000.0).contains(&a.face_width_mm)) {
+        anyhow::bail!(
+            "--face-width-mm = {} is out of range: expected {MIN_FACE_WIDTH_MM} ..= 2000 mm",
+            fmt_value(a.face_width_mm)
+        );
+    }
     let expected = format!(
         "expected {:.4} ≤ --roll-start-mm < --roll-end-mm ≤ {:.4} mm (from {} to {})",
         lim.lo_mm, lim.hi_mm, lim.lo, lim.hi
@@ -170,15 +186,70 @@ pub(super) fn flank_grid(a: &SetupArgs, f2: &InvoluteFlank, lim: &RollLimits) ->
     let (start0, end0) = lim.default_range_mm(f2, a.module_mm);
     let w_start = a.roll_start_mm.unwrap_or(start0);
     let w_end = a.roll_end_mm.unwrap_or(end0);
-    if !(a.face_width_mm.is_finite() && a.face_width_mm > 0.0 && a.face_width_mm <= 2000.0) {
-        anyhow::bail!(
-            "--face-width-mm = {} is out of range: expected 0 < b ≤ 2000 mm",
-            a.face_width_mm
-        );
+    // The grid's least span (FlankGrid::new); a default end or start may leave less.
+    let reaches = w_end.partial_cmp(&(w_start + MIN_ROLL_SPAN_MM));
+    if !matches!(
+        reaches,
+        Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)
+    ) {
+        return Err(empty_roll_range(
+            a,
+            lim,
+            (w_start, w_end),
+            &expected,
+            narrow_b_max,
+        ));
     }
     let half = 0.5 * a.face_width_mm;
     FlankGrid::new((w_start, w_end), (-half, half), a.grid_w, a.grid_z)
         .context("flank grid (--roll-start-mm/--roll-end-mm/--grid-w/--grid-z)")
+}
+
+/// Why the roll range `(w_start, w_end)` is empty: both ends given in the wrong order, or a
+/// default end (on a cone: the narrow end's tip, with the largest face width that keeps a
+/// range) or start; `expected` is the usable range in words.
+fn empty_roll_range(
+    a: &SetupArgs,
+    lim: &RollLimits,
+    (w_start, w_end): (f64, f64),
+    expected: &str,
+    narrow_b_max: Option<&dyn Fn(f64) -> Option<f64>>,
+) -> anyhow::Error {
+    if let (Some(ws), Some(we)) = (a.roll_start_mm, a.roll_end_mm) {
+        return anyhow::anyhow!(
+            "--roll-start-mm = {ws} mm must be below --roll-end-mm = {we} mm (by at least \
+             {MIN_ROLL_SPAN_MM} mm)"
+        );
+    }
+    let range = format!(
+        "the roll range from {} to {} mm{} is empty",
+        fmt_value(w_start),
+        fmt_value(w_end),
+        match (a.roll_start_mm, a.roll_end_mm) {
+            (Some(_), _) => " (--roll-start-mm to the default end)",
+            (_, Some(_)) => " (the default start to --roll-end-mm)",
+            _ => " (the default)",
+        }
+    );
+    match narrow_b_max {
+        Some(b_max) if a.roll_end_mm.is_none() && w_end == lim.default_hi_mm => {
+            let fix = match b_max(w_start + 2.0 * MIN_ROLL_SPAN_MM) {
+                Some(b) => format!(
+                    "give --face-width-mm below {} mm or a smaller --gear-cone-deg",
+                    fmt_value((b * 1e4).floor() / 1e4)
+                ),
+                None => "no face width keeps it: give a smaller --gear-cone-deg".into(),
+            };
+            anyhow::anyhow!(
+                "{range}: at --gear-cone-deg {} the tip circle of the narrow end (z = ±b/2 \
+                 with --face-width-mm {}) ends it; {fix}, or --roll-start-mm/--roll-end-mm \
+                 ({expected})",
+                fmt_value(a.gear_cone_deg),
+                fmt_value(a.face_width_mm)
+            )
+        }
+        _ => anyhow::anyhow!("{range}: give --roll-start-mm/--roll-end-mm ({expected})"),
+    }
 }
 
 /// Worm root and tip radii: the options, else the dressed worm's, else r1 ∓ 1.25·m_n.
@@ -271,7 +342,7 @@ pub(super) fn setup(a: &SetupArgs, dressed: Option<&DressWorm>) -> Result<Setup>
     let radii = worm_radii(a, r1, dressed)?;
     let lim = roll_limits(&gear, flank, &pair, radii)?;
     let f2 = gear.flank(flank);
-    let grid = flank_grid(a, &f2, &lim)?;
+    let grid = flank_grid(a, &f2, &lim, None)?;
     Ok(Setup {
         pair,
         gear,
@@ -301,7 +372,8 @@ pub(super) fn setup_conical(a: &SetupArgs, c: Cones) -> Result<ConeSetup> {
         .context("conical worm/gear mesh (chains (29)–(31))")?;
     let lim = RollLimits::conical(&gear, flank, &pair, a.face_width_mm, c.gear_rad)
         .map_err(|e| gear_error(&e))?;
-    let grid = flank_grid(a, &pair.gear, &lim)?;
+    let b_max = |w: f64| RollLimits::conical_max_face_width_mm(&gear, &pair, c.gear_rad, w);
+    let grid = flank_grid(a, &pair.gear, &lim, Some(&b_max))?;
     Ok(ConeSetup { pair, gear, grid })
 }
 

@@ -47,7 +47,7 @@ use gearcomp_grinding::contact::WormGearPair;
 use gearcomp_grinding::diagonal::{diagonal_ratio, rho1_estimate_rad, LineMap};
 use gearcomp_grinding::dressed::{DressedProfile, DressedWorm};
 use gearcomp_grinding::envelope::EnvelopeGrinder;
-use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank};
+use gearcomp_grinding::envelope::{EnvelopeMode, FlankGrid, GroundFlank, MIN_ROLL_SPAN_MM};
 use gearcomp_grinding::equalise_request::EqualiseConfig;
 use gearcomp_grinding::flank::{Flank, Hand, InvoluteFlank, InvoluteGear};
 use gearcomp_grinding::iso1328::{
@@ -56,7 +56,9 @@ use gearcomp_grinding::iso1328::{
 };
 use gearcomp_grinding::kinematics::FeedCoupling;
 use gearcomp_grinding::mesh::GrindingMesh;
-use gearcomp_grinding::modification::{FlankModification, LineModification, Poly};
+use gearcomp_grinding::modification::{
+    FlankModification, LineModification, Poly, MAX_POLY_COEFFS, MAX_POLY_COEFF_MM,
+};
 use gearcomp_grinding::report::{
     iso_rows, DressedReport, EqualiseReport, FlankComparison, FlankK, GrindReport, LineModReport,
     MapReport, SolveReport, TracesReport,

@@ -12,8 +12,31 @@ pub fn run(args: Args) -> Result<()> {
     }
 }
 
-pub(super) fn poly_um(coeffs: &[f64]) -> Poly {
-    Poly(coeffs.iter().map(|&c| um_to_mm(c)).collect())
+/// The coefficients of `opt` (µm·mm⁻ᵏ, as written) as a polynomial in mm, range-checked
+/// against the grinding library's limits in the option's own unit.
+pub(super) fn poly_um(opt: &str, coeffs: &[f64]) -> Result<Poly> {
+    if coeffs.len() > MAX_POLY_COEFFS {
+        anyhow::bail!(
+            "{opt}: {} coefficients given: expected at most {MAX_POLY_COEFFS} (degree {})",
+            coeffs.len(),
+            MAX_POLY_COEFFS - 1
+        );
+    }
+    let max_um = mm_to_um(MAX_POLY_COEFF_MM);
+    if let Some((k, v)) = coeffs
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && v.abs() <= max_um))
+    {
+        anyhow::bail!(
+            "{opt} = {} (coefficient {}) is out of range: expected finite coefficients of \
+             magnitude ≤ {} µm·mm⁻ᵏ",
+            fmt_value(*v),
+            k + 1,
+            fmt_value(max_um)
+        );
+    }
+    Ok(Poly(coeffs.iter().map(|&c| um_to_mm(c)).collect()))
 }
 
 /// What `grind_and_report` takes beyond the mesh and the worm.
@@ -248,9 +271,9 @@ fn simulate_line<M: GrindingMesh>(
     let worm_mod = LineModification::new(
         rho1,
         pair.worm_ref_mm(),
-        poly_um(&a.worm_c),
-        poly_um(&a.worm_l),
-        poly_um(&a.worm_q),
+        poly_um("--worm-c", &a.worm_c)?,
+        poly_um("--worm-l", &a.worm_l)?,
+        poly_um("--worm-q", &a.worm_q)?,
     )
     .context("worm modification")?;
     let (k, lm) = diagonal_choice(a, pair, rho1)?;
@@ -403,9 +426,9 @@ fn solve_targets<M: GrindingMesh>(a: &SolveArgs, pair: &M) -> Result<(f64, LineM
     let wanted = LineModification::new(
         deg_to_rad(a.gear_rho_deg),
         pair.gear_ref_mm(),
-        poly_um(&a.gear_c),
-        poly_um(&a.gear_l),
-        poly_um(&a.gear_q),
+        poly_um("--gear-c", &a.gear_c)?,
+        poly_um("--gear-l", &a.gear_l)?,
+        poly_um("--gear-q", &a.gear_q)?,
     )
     .context("wanted gear modification")?;
     Ok((rho1, wanted))

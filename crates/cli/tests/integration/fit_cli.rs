@@ -1992,3 +1992,180 @@ fn fit_refuses_an_empty_log_and_an_unknown_model_file_extension() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A binary file given as a log (an executable, random bytes, a UTF-16 export without its
+/// byte-order mark) is refused as not a text log, naming the file and the control character
+/// of its first line, instead of listing its bytes as "columns". Random byte files (a fixed
+/// seed and a fresh one) whose first line holds a control character: every message is
+/// short, names the file and holds no control character itself.
+#[test]
+fn fit_refuses_a_binary_file_as_not_a_text_log() {
+    use proptest::prelude::*;
+    let d = tmp("binary");
+    let refuse = |bytes: &[u8], name: &str| -> String {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let out = bin().args(["fit", "--data"]).arg(&p).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(&format!("invalid --data = {}", p.display()))
+                && err.contains("expected a text log (CSV or TSV"),
+            "{err}"
+        );
+        assert!(!err.contains("columns:"), "{err}");
+        err
+    };
+    let mut elf = b"\x7fELF\x02\x01\x01\x00\x00\x00\x00\x00".to_vec();
+    elf.extend_from_slice(&[0u8; 40]);
+    elf.extend_from_slice(b"\ntime_s,a\n0,1\n");
+    let err = refuse(&elf, "prog");
+    assert!(err.contains("U+007F (a binary file?)"), "{err}");
+    let utf16: Vec<u8> = "time_s,t1_c,y_um\n0,20,1\n"
+        .encode_utf16()
+        .flat_map(u16::to_le_bytes)
+        .collect();
+    let err = refuse(&utf16, "export.txt");
+    assert!(
+        err.contains("U+0000 (UTF-16 text without a byte-order mark?"),
+        "{err}"
+    );
+    let bytes = proptest::collection::vec(any::<u8>(), 1..600).prop_filter(
+        "a control character before the first line end",
+        |b| {
+            let line = b.split(|&c| c == b'\n').next().unwrap_or_default();
+            // Control characters that are not white space either (a file of one vertical
+            // tab is blank, and refused as such).
+            line.iter()
+                .any(|&c| c <= 0x08 || (0x0e..=0x1f).contains(&c) || c == 0x7f)
+                && !b.starts_with(&[0xef, 0xbb, 0xbf])
+                && !b.starts_with(&[0xff, 0xfe])
+                && !b.starts_with(&[0xfe, 0xff])
+        },
+    );
+    for (k, mut runner) in crate::common::prop_runners(16, 0xb1_4a7e)
+        .into_iter()
+        .enumerate()
+    {
+        runner
+            .run(&bytes, |b| {
+                let err = refuse(&b, &format!("random{k}.csv"));
+                prop_assert!(err.chars().count() < 400, "{err}");
+                prop_assert!(!err.trim_end().chars().any(|c| c.is_control()), "{err:?}");
+                Ok(())
+            })
+            .unwrap();
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Workbooks of the same name in different folders (`a/days.xlsx b/days.xlsx`) are runs
+/// named by their folders, as CSV files are; the same workbook under two names is refused.
+#[test]
+fn fit_names_same_named_workbooks_apart_and_refuses_one_twice() {
+    let d = tmp("samebook");
+    for k in ["a", "b"] {
+        std::fs::create_dir_all(d.join(k)).unwrap();
+        std::fs::copy(fixture("day 1.ods"), d.join(k).join("day.ods")).unwrap();
+    }
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "fit",
+            "--json",
+            "--target",
+            "d_um",
+            "--model",
+            "static",
+            "--classes",
+            "2",
+            "--no-test",
+            "--data",
+            "a/day.ods",
+            "b/day.ods",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["runs"], serde_json::json!(["a/day", "b/day"]));
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "fit",
+            "--target",
+            "d_um",
+            "--data",
+            "a/day.ods",
+            "./b/../a/day.ods",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--data") && err.contains("each file once"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A column of values so large that their squares overflow (a target near 1e301) is
+/// refused naming the column, the value and the limit, and no model file is written (it
+/// exited 0 with coefficients near 1e300 and an infinite training error).
+#[test]
+fn fit_refuses_values_whose_squares_overflow() {
+    let d = tmp("overflow");
+    let text = run_csv(0, true);
+    let scaled = |f: f64| {
+        let mut big = String::new();
+        for (i, l) in text.lines().enumerate() {
+            if i == 0 {
+                big += l;
+            } else {
+                let (head, y) = l.rsplit_once(',').unwrap();
+                let y: f64 = y.parse().unwrap();
+                big += &format!("{head},{:e}", y * f);
+            }
+            big.push('\n');
+        }
+        big
+    };
+    let p = d.join("big.csv");
+    let out_file = d.join("m.toml");
+    let fit = |f: f64| {
+        std::fs::write(&p, scaled(f)).unwrap();
+        bin()
+            .args(["fit", "--target", "y_um", "--out"])
+            .arg(&out_file)
+            .arg("--data")
+            .arg(&p)
+            .output()
+            .unwrap()
+    };
+    let out = fit(1e300);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("invalid column y_um = ")
+            && err.contains("expected values of magnitude ≤ 1e100"),
+        "{err}"
+    );
+    assert!(!out_file.exists());
+    // 1e90 times the same values (within the limit) is fitted, every figure finite.
+    let ok = fit(1e90);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let model = std::fs::read_to_string(&out_file).unwrap();
+    for bad in ["= inf", "inf]", "inf,", "= nan", "nan]", "nan,"] {
+        assert!(!model.contains(bad), "{bad} in {model}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -264,3 +264,163 @@ fn dress_ranges_print_rounded() {
         "{err}"
     );
 }
+
+/// The modification polynomials (--worm-c/-l/-q, --gear-c/-l/-q) are checked in the options'
+/// own unit, µm·mm⁻ᵏ, naming the option and the coefficient: the library's limit is 1e12 mm,
+/// which `--worm-c=1e300` reported in mm without the option before. 16 coefficients pass,
+/// a 17th is refused.
+#[test]
+fn grind_polynomial_options_named_in_their_unit() {
+    let range = "is out of range: expected finite coefficients of magnitude ≤ 1e15 µm·mm⁻ᵏ";
+    for (args, want) in [
+        (
+            &["grind", "simulate", "--worm-c=1e300"][..],
+            "--worm-c = 1e300 (coefficient 1)",
+        ),
+        (
+            &["grind", "simulate", "--worm-l=0,-2e15"][..],
+            "--worm-l = -2e15 (coefficient 2)",
+        ),
+        (
+            &["grind", "simulate", "--worm-q=nan"][..],
+            "--worm-q = NaN (coefficient 1)",
+        ),
+        (
+            &["grind", "solve", "--gear-rho-deg=30", "--gear-c=1e16"][..],
+            "--gear-c = 1e16 (coefficient 1)",
+        ),
+    ] {
+        let err = refused(args);
+        assert!(err.contains(&format!("{want} {range}")), "{err}");
+        assert!(!err.contains("mm·mm⁻ᵏ (") && !err.contains("F_C"), "{err}");
+        no_internals(&err);
+    }
+    let err = refused(&[
+        "grind",
+        "simulate",
+        &format!("--worm-c={}", ["0"; 17].join(",")),
+    ]);
+    assert!(
+        err.contains("--worm-c: 17 coefficients given: expected at most 16 (degree 15)"),
+        "{err}"
+    );
+    accepted(&[
+        "grind",
+        "simulate",
+        &format!("--worm-c={}", ["0"; 16].join(",")),
+    ]);
+}
+
+/// The face width's stated range is the one enforced (1e-9 mm passed `0 < b` and then
+/// failed in the flank grid with an internal field), and a cone whose narrow end leaves no
+/// default roll range says so, naming --gear-cone-deg and the largest --face-width-mm that
+/// keeps one: that width is accepted, 1 % more is refused.
+#[test]
+fn grind_face_width_and_narrow_end_limits_are_the_enforced_ones() {
+    for b in ["1e-9", "0", "-1", "2000.5", "nan"] {
+        let err = refused(&["grind", "simulate", &format!("--face-width-mm={b}")]);
+        assert!(
+            err.contains("is out of range: expected 0.001 ..= 2000 mm")
+                && err.contains("--face-width-mm = "),
+            "{err}"
+        );
+        no_internals(&err);
+    }
+    accepted(&["grind", "simulate", "--face-width-mm=0.001"]);
+    let err = refused(&["grind", "simulate", "--gear-cone-deg", "30"]);
+    assert!(
+        err.contains("at --gear-cone-deg 30 the tip circle of the narrow end")
+            && err.contains("--face-width-mm 30")
+            && err.contains("give --face-width-mm below "),
+        "{err}"
+    );
+    assert!(!err.contains("w_end"), "{err}");
+    let b: f64 = err
+        .split("give --face-width-mm below ")
+        .nth(1)
+        .and_then(|r| r.split(" mm").next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(b > 0.0 && b < 30.0, "{b}");
+    let at = |b: f64| {
+        gearcomp(&[
+            "grind",
+            "simulate",
+            "--gear-cone-deg",
+            "30",
+            "--face-width-mm",
+            &b.to_string(),
+        ])
+    };
+    let ok = at(b);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let out = at(1.01 * b);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("give --face-width-mm below "), "{err}");
+    // Both ends given in the wrong order: named as such.
+    let err = refused(&[
+        "grind",
+        "simulate",
+        "--roll-start-mm",
+        "20",
+        "--roll-end-mm",
+        "20",
+    ]);
+    assert!(
+        err.contains("--roll-start-mm = 20 mm must be below --roll-end-mm = 20 mm"),
+        "{err}"
+    );
+}
+
+/// `grind simulate --dress` with a crowning the worm and dresser cannot carry names the
+/// key written and the largest crowning they carry, which is then accepted; a crowning
+/// beyond the 3-point targets' ±1000 µm is refused with that range.
+#[test]
+fn grind_dressed_crowning_names_the_key_and_the_largest_it_carries() {
+    let base = std::fs::read_to_string(Z5).unwrap();
+    let cfg = |c: &str| {
+        write_config(
+            "input-errors",
+            &format!("crown{c}"),
+            "c.toml",
+            &format!("{base}\n[dressing]\ncrowning_um = {c}\n"),
+        )
+    };
+    for c in ["10", "-5"] {
+        let p = cfg(c);
+        let err = refused(&["grind", "simulate", "--dress", p.to_str().unwrap()]);
+        let lead = "the largest crowning this worm and dresser carry is crowning_um = ";
+        assert!(
+            err.contains("not producible ([dressing] crowning_um)") && err.contains(lead),
+            "{err}"
+        );
+        let most: f64 = err
+            .split(lead)
+            .nth(1)
+            .and_then(|r| r.split(" µm").next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        let want: f64 = c.parse().unwrap();
+        assert!(
+            most * want > 0.0 && most.abs() < want.abs(),
+            "{most} for {c}"
+        );
+        let p = cfg(&most.to_string());
+        accepted(&["grind", "simulate", "--dress", p.to_str().unwrap()]);
+    }
+    let p = cfg("1e6");
+    let err = refused(&["grind", "simulate", "--dress", p.to_str().unwrap()]);
+    assert!(
+        err.contains(
+            "[dressing] crowning_um = 1000000 µm is out of range: expected -1000 ..= 1000 µm"
+        ),
+        "{err}"
+    );
+}

@@ -523,6 +523,25 @@ fn conical_roll_limits_are_on_the_beveloid_flank() {
                         prop_assert!(w0 < w1, "default range {w0} … {w1}");
                         checked.set(checked.get() + 1);
                     }
+                    // The largest face width whose narrow-end tip stays beyond the default
+                    // start w0: the tip radius written here, and the default end of
+                    // `conical` just inside and just outside it.
+                    let (w0, _) = lim.default_range_mm(&pair.gear, m);
+                    let t = cone.tan().abs();
+                    let got = RollLimits::conical_max_face_width_mm(&gear, &pair, cone, w0);
+                    let room = r_a - (w0 * w0 + rb * rb).sqrt();
+                    match got {
+                        Some(b_max) => {
+                            let want = 2.0 * room / t;
+                            prop_assert!((b_max - want).abs() <= 1e-9 * want, "{b_max} vs {want}");
+                            for (f, beyond) in [(0.999, true), (1.001, false)] {
+                                let l = RollLimits::conical(&gear, flank, &pair, f * b_max, cone)
+                                    .unwrap();
+                                prop_assert_eq!(l.default_hi_mm > w0, beyond, "b = {}", f * b_max);
+                            }
+                        }
+                        None => prop_assert!(t == 0.0 || room <= 0.0, "{t} {room}"),
+                    }
                     Ok(())
                 },
             )

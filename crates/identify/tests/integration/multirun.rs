@@ -164,11 +164,7 @@ fn fl_thermal_pseudo_runs_default_is_never_much_worse_than_plain_least_squares()
 #[test]
 #[allow(clippy::needless_range_loop)]
 fn every_family_runs_in_the_engine_as_fitted() {
-    use gearcomp_identify::predict;
     use gearcomp_identify::select::Family;
-    use gearcomp_thermal::config::{TimeFilterConfig, Trigger};
-    use gearcomp_thermal::presets::HOBBING_MODEL_KEY;
-    use gearcomp_thermal::{Engine, Inputs, Reading};
     let text = hobbing_runs();
     let sel = Selection {
         targets: vec!["drift_um".into()],
@@ -184,72 +180,154 @@ fn every_family_runs_in_the_engine_as_fitted() {
         Vec::new(),
         vec![Family::Stacked, Family::Ridge, Family::Tf1],
     ]) {
-        let id = identify(
-            &t,
-            &IdentifyOptions {
-                families: fams.clone(),
-                split: Split::TestRuns(vec!["4".into()]),
-                ..IdentifyOptions::default()
-            },
-        )
-        .unwrap();
+        let id = identify_families_testing_run_4(&t, &fams);
         let m = &id.targets[0];
         let name = m.family.clone();
         stacked |= name.starts_with(Family::Stacked.name());
-        // Through the model-file text, as the engine would read it.
-        let file = gearcomp_core::model::ModelFile {
-            format: gearcomp_core::model::MODEL_FORMAT.into(),
-            name: "fit".into(),
-            description: String::new(),
-            axes: vec![gearcomp_core::model::AxisModel {
-                axis: "X".into(),
-                target: m.target.clone(),
-                machine: m.model.clone(),
-                workpiece: None,
-            }],
-            provenance: None,
-            envelopes: Vec::new(),
-        };
-        let file = gearcomp_core::model::ModelFile::from_toml_str(&file.to_toml_string().unwrap())
-            .unwrap();
-        let mut cfg = hobbing().config;
-        cfg.sampling.samples_per_average = 1;
-        cfg.sampling.time_filter = TimeFilterConfig::None {};
-        cfg.sampling.trigger = Trigger::Clock { period_s: 60.0 };
-        cfg.insert_model(HOBBING_MODEL_KEY, file.clone());
-        let predicted = predict(&t, &file.axes[0].machine).unwrap();
-        let mut compared = 0;
-        for (s, e) in t.segment_ranges() {
-            let mut eng = Engine::new(&cfg).unwrap();
-            for i in s..e {
-                let readings: Vec<Reading> = t
-                    .inputs
-                    .iter()
-                    .map(|x| Reading {
-                        raw: x[i],
-                        stamp_s: t.time_s[i],
-                    })
-                    .collect();
-                let out = eng.step(&Inputs {
-                    time_s: t.time_s[i],
-                    readings: &readings,
-                    trigger: false,
-                    safe_point: true,
-                    positions_mm: &[0.0],
-                });
-                let law = out.axes()[0].law_um;
-                if law.is_finite() {
-                    let p = predicted[i];
-                    assert!(
-                        (law - p).abs() <= 1e-9 * (1.0 + p.abs()),
-                        "{name}: row {i}: engine {law} vs fit {p}"
-                    );
-                    compared += 1;
-                }
-            }
-        }
-        assert!(compared > t.time_s.len() * 9 / 10, "{name}: {compared}");
+        engine_runs_as_fitted(&t, m, &name, t.segment_ranges());
     }
     // The stack is kept on the last set: its combined terms run in the engine too.
     assert!(stacked, "no run kept the stacked families");
+}
+
+/// `identify` with `families` (empty: the default), run 4 held out for test.
+fn identify_families_testing_run_4(
+    t: &Table,
+    families: &[gearcomp_identify::select::Family],
+) -> gearcomp_identify::Identification {
+    identify(
+        t,
+        &IdentifyOptions {
+            families: families.to_vec(),
+            split: Split::TestRuns(vec!["4".into()]),
+            ..IdentifyOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+/// The model of `m`, through the model-file text (with the table's `restart_after_s`),
+/// run in the compensation engine from a fresh engine at each of `ranges` (row ranges in
+/// which time increases): its law value per cycle equals `predict` to 1e-9.
+fn engine_runs_as_fitted(
+    t: &Table,
+    m: &gearcomp_identify::TargetModel,
+    name: &str,
+    ranges: Vec<(usize, usize)>,
+) {
+    use gearcomp_identify::predict;
+    use gearcomp_thermal::config::{TimeFilterConfig, Trigger};
+    use gearcomp_thermal::presets::HOBBING_MODEL_KEY;
+    use gearcomp_thermal::{Engine, Inputs, Reading};
+    let file = gearcomp_core::model::ModelFile {
+        format: gearcomp_core::model::MODEL_FORMAT.into(),
+        name: "fit".into(),
+        description: String::new(),
+        restart_after_s: t.gap_after_s,
+        axes: vec![gearcomp_core::model::AxisModel {
+            axis: "X".into(),
+            target: m.target.clone(),
+            machine: m.model.clone(),
+            workpiece: None,
+        }],
+        provenance: None,
+        envelopes: Vec::new(),
+    };
+    let file =
+        gearcomp_core::model::ModelFile::from_toml_str(&file.to_toml_string().unwrap()).unwrap();
+    let mut cfg = hobbing().config;
+    cfg.sampling.samples_per_average = 1;
+    cfg.sampling.time_filter = TimeFilterConfig::None {};
+    cfg.sampling.trigger = Trigger::Clock { period_s: 60.0 };
+    cfg.insert_model(HOBBING_MODEL_KEY, file.clone());
+    let predicted = predict(t, &file.axes[0].machine).unwrap();
+    let mut compared = 0;
+    for (s, e) in ranges {
+        let mut eng = Engine::new(&cfg).unwrap();
+        for i in s..e {
+            let readings: Vec<Reading> = t
+                .inputs
+                .iter()
+                .map(|x| Reading {
+                    raw: x[i],
+                    stamp_s: t.time_s[i],
+                })
+                .collect();
+            let out = eng.step(&Inputs {
+                time_s: t.time_s[i],
+                readings: &readings,
+                trigger: false,
+                safe_point: true,
+                positions_mm: &[0.0],
+            });
+            let law = out.axes()[0].law_um;
+            if law.is_finite() {
+                let p = predicted[i];
+                assert!(
+                    (law - p).abs() <= 1e-9 * (1.0 + p.abs()),
+                    "{name}: row {i}: engine {law} vs fit {p}"
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > t.time_s.len() * 9 / 10, "{name}: {compared}");
+}
+
+/// Gaps inside the runs (16 min of rows left out at one or two places per run, against a
+/// 1 min step): the fit restarts every lag, rate and delay state there, and so does one
+/// engine run over the whole run by itself (the model file's `restart_after_s`, 3 × the
+/// median step): the law equals the fit's prediction on every row. Before, the engine
+/// carried its states over the gap and missed the fit by up to 4.4 µm.
+#[test]
+fn the_engine_restarts_its_states_at_the_gaps_the_fit_restarted_them() {
+    use gearcomp_identify::select::Family;
+    let text = hobbing_runs();
+    let mut gapped = String::new();
+    for (i, l) in text.lines().enumerate() {
+        // Rows 200–215 and, in odd runs, 350–365 of each 480-row run.
+        let k = i.saturating_sub(1) % 480;
+        let run = i.saturating_sub(1) / 480;
+        if i > 0 && ((200..216).contains(&k) || (run % 2 == 1 && (350..366).contains(&k))) {
+            continue;
+        }
+        gapped += l;
+        gapped.push('\n');
+    }
+    let sel = Selection {
+        targets: vec!["drift_um".into()],
+        run: Some("run".into()),
+        ..Selection::default()
+    };
+    let t = read_csv(
+        &gapped,
+        "hobbing runs with gaps",
+        &sel,
+        ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(t.run_names.len(), 5);
+    assert_eq!(t.segments.len(), 5 + 5 + 2, "{:?}", t.segments);
+    assert_eq!(t.gap_after_s, Some(180.0));
+    // One range per run: time restarts in each, so each needs its own engine.
+    let runs = t.runs.clone().unwrap();
+    let mut ranges = Vec::new();
+    let mut s = 0;
+    for i in 1..=runs.len() {
+        if i == runs.len() || runs[i] != runs[i - 1] {
+            ranges.push((s, i));
+            s = i;
+        }
+    }
+    for fams in [
+        vec![Family::LeadLag],
+        vec![Family::Tf1],
+        vec![Family::Tf2],
+        vec![Family::Delay],
+        Vec::new(),
+    ] {
+        let id = identify_families_testing_run_4(&t, &fams);
+        let m = &id.targets[0];
+        engine_runs_as_fitted(&t, m, &m.family, ranges.clone());
+    }
 }

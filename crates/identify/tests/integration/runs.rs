@@ -284,6 +284,7 @@ fn model_file_of_an_identification() {
         data: "two.csv",
         rows: t.time_s.len(),
         created_by: "test",
+        restart_after_s: t.gap_after_s,
     };
     let f = id.to_model_file(&origin, &["X".into()], None).unwrap();
     assert_eq!(f.axes.len(), 1);

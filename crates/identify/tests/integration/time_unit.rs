@@ -399,9 +399,11 @@ proptest! {
             for _ in 0..len {
                 let a = if hold && uni() < 0.2 { String::new() } else { format!("{}", 20.0 + uni()) };
                 body.push((r, format!("{t},{a},{},{}", 21.0 + uni(), uni())));
+                // The last time written: the next run starts below it (it was the next
+                // step's time less 1 s, which let a run start after the last row).
+                last_end = t;
                 t += 10.0 + (uni() * 50.0).round();
             }
-            last_end = t - 1.0;
         }
         let plain = format!("time_s,a_c,b_c,z_um\n{}\n", body.iter().map(|b| b.1.clone()).collect::<Vec<_>>().join("\n"));
         let named = format!(

@@ -107,6 +107,41 @@ async fn roles_history_alarms_and_model_change() {
             "{bad}: {v}"
         );
     }
+    // Query parameters that do not parse, a non-finite time, a span beyond any record and
+    // a path the API does not have: JSON errors naming the parameter (or path), why and
+    // what it takes (plain text without the range before; `last_s=1e308` answered 200
+    // with an empty history).
+    for (path, code, want) in [
+        (
+            "/api/offsets?limit=-1",
+            400,
+            "invalid query parameter limit (invalid digit found in string): expected a whole number of rows",
+        ),
+        ("/api/alarms?active=maybe", 400, "invalid query parameter active ("),
+        (
+            "/api/offsets?limit=1&limit=2",
+            400,
+            "invalid query parameter limit (duplicate field",
+        ),
+        (
+            "/api/offsets?from_s=NaN",
+            400,
+            "invalid from_s = NaN: expected a finite service time in s",
+        ),
+        (
+            "/api/offsets?last_s=1e308&max_points=10",
+            400,
+            "invalid last_s = 1e308: expected a wall-clock span 0 < last_s ≤ 3200000000 s",
+        ),
+        ("/api/nope", 404, "no such path /api/nope: expected one of"),
+    ] {
+        let (got, v) = api.get(path, Some(ro)).await;
+        assert_eq!(got, code, "{path}: {v}");
+        assert!(
+            v["error"].as_str().is_some_and(|e| e.contains(want)),
+            "{path}: {v}"
+        );
+    }
     let offs = api
         .get(
             &format!("/api/offsets?last_s={last_s}&max_points=20"),
@@ -254,6 +289,21 @@ async fn roles_history_alarms_and_model_change() {
     };
     assert_eq!(ack(ro).await.unwrap().status().as_u16(), 403);
     assert_eq!(ack(op).await.unwrap().status().as_u16(), 200);
+    let not_a_number = api
+        .client
+        .post(format!("{}/api/alarms/abc/ack", api.base))
+        .bearer_auth(op)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(not_a_number.status().as_u16(), 400);
+    let v: serde_json::Value = not_a_number.json().await.unwrap();
+    assert!(
+        v["error"].as_str().is_some_and(
+            |e| e.contains("invalid alarm id = abc: expected the alarm's whole number")
+        ),
+        "{v}"
+    );
     // Operator actions are committed with the next batch (≤ commit_interval_s).
     api.wait_for("/api/alarms", ro, 5.0, |v| {
         v.as_array()

@@ -181,3 +181,70 @@ coefficient = 1.0
         "{err}"
     );
 }
+
+/// `restart_after_s`: a value more than that after the channel's previous one restarts the
+/// lag, rate and delay states (closed forms: a lag restarted at u₁ is u₁, its rate 0, a
+/// delay with no history the current value), and a step of exactly that carries them on.
+/// Without the key the states carry on over any gap. Stepping 2 s at u = 10, then u = 30
+/// after a gap.
+#[test]
+fn restart_after_s_restarts_the_states_after_a_longer_gap() {
+    let model = |restart: &str, transform: &str| {
+        format!(
+            "format = \"gearcomp-thermal-model/1\"\nname = \"gap\"\n{restart}\n[[axes]]\naxis = \"X\"\n\
+             [axes.machine]\nintercept = 0.0\n[[axes.machine.terms]]\nchannel = \"u\"\n\
+             coefficient = 1.0\ntransform = {transform}\n"
+        )
+    };
+    let (tau, d) = (600.0, 300.0);
+    let lag = format!("{{ kind = \"first_order_lag\", tau_s = {tau} }}");
+    let rate = format!("{{ kind = \"rate\", tau_s = {tau} }}");
+    let delay = format!("{{ kind = \"delay\", delay_s = {d} }}");
+    // (transform, after a restart, carried on over a gap g: the closed form at u = 30)
+    type Carried = Box<dyn Fn(f64) -> f64>;
+    let cases: [(&str, f64, Carried); 3] = [
+        (
+            &lag,
+            30.0,
+            Box::new(move |g| 30.0 - 20.0 * (-g / tau).exp()),
+        ),
+        (&rate, 0.0, Box::new(move |g| 20.0 * (-g / tau).exp() / tau)),
+        (
+            &delay,
+            30.0,
+            Box::new(move |g| {
+                if g >= d {
+                    10.0 + 20.0 * (g - d) / g
+                } else {
+                    10.0
+                }
+            }),
+        ),
+    ];
+    for (transform, restarted, carried) in &cases {
+        for (restart, gap, restarts) in [
+            ("restart_after_s = 120.0", 121.0, true),
+            ("restart_after_s = 120.0", 120.0, false),
+            ("", 5000.0, false),
+        ] {
+            let mut e = engine_with(&model(restart, transform), &["u"]);
+            let mut t = 0.0;
+            // Every 2 s: above the delay line's spacing 300/256 s, so every point is kept.
+            for _ in 0..2000 {
+                t += 2.0;
+                step(&mut e, t, &[10.0]);
+            }
+            let got = step(&mut e, t + gap, &[30.0]);
+            let want = if restarts { *restarted } else { carried(gap) };
+            assert!(
+                (got - want).abs() <= 1e-9 * (1.0 + want.abs()),
+                "{transform} {restart:?} gap {gap}: {got} vs {want}"
+            );
+        }
+    }
+    let bad = model("restart_after_s = -1.0", &lag);
+    let err = ModelFile::from_toml_str(&bad)
+        .and_then(|m| m.validate().map(|_| m))
+        .unwrap_err();
+    assert!(err.to_string().contains("restart_after_s"), "{err}");
+}
