@@ -173,13 +173,7 @@ mod tests {
     /// the rule written out here; coarser sampling keeps every point (plain interpolation).
     #[test]
     fn delay_is_interpolated_between_the_points_the_engine_keeps() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_uniform(0x9e37_79b9_7f4a_7c15);
         for case in 0..40 {
             let delay_s = 60.0 + 7000.0 * next();
             // Steps from far below delay/256 to above it, with jitter.
