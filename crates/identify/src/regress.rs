@@ -444,12 +444,13 @@ pub(crate) fn stack(parts: &[&DMatrix<f64>], cols: usize) -> DMatrix<f64> {
     out
 }
 
-/// The R factor of a Householder QR (an empty matrix for no rows).
+/// The R factor of a Householder QR (an empty matrix for no rows): blocked for wide
+/// matrices ([`gearcomp_linalg::r_factor`]).
 pub(crate) fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
     if a.nrows() == 0 {
         return DMatrix::zeros(0, a.ncols());
     }
-    a.qr().r()
+    gearcomp_linalg::r_factor(a)
 }
 
 /// The R factor of the augmented block [1 X Y] over `rows`: intercept, `features`, `targets`.

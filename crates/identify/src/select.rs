@@ -67,13 +67,101 @@ struct Fold {
     val: usize,
 }
 
-/// The QR of chosen columns [1 cols] on the training rows of a fold (or of all of them).
-struct Base {
-    fold: Option<usize>,
+/// Columns of a fold's R factor (or of the one of every training row) reflected by the
+/// Householder QR of the columns [1 cols] a forward selection has chosen so far: the rows
+/// `q..` below the chosen columns' R are what each candidate is scored on
+/// ([`Sweep::add_sse`]), and a chosen unit is reduced in place ([`Sweep::absorb`]), so that
+/// every column is reflected once per step rather than once per candidate.
+struct Sweep {
+    /// Qᵀ·R[:, of] (every row of R).
+    z: DMatrix<f64>,
+    /// Column of R each column of `z` holds; the target's last.
+    of: Vec<usize>,
+    /// Column of `z` of each column of R (`usize::MAX`: not held).
+    at: Vec<usize>,
+    /// Columns reduced so far (the intercept and the chosen ones): rows `q..` are the rest.
+    q: usize,
+    /// Training rows of the fold.
     n: usize,
-    qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
-    /// |diagonal of R| of the chosen columns.
+    /// |diagonal of R| of the chosen columns, in the order they were reduced.
     diag: Vec<f64>,
+}
+
+impl Sweep {
+    /// Columns of `z` of feature columns `cols`; None when one is not held.
+    fn index(&self, cols: &[usize]) -> Option<Vec<usize>> {
+        cols.iter()
+            .map(|&c| self.at.get(c + 1).copied().filter(|&k| k != usize::MAX))
+            .collect()
+    }
+
+    /// Least-squares residual SSE on the sweep's rows of [chosen columns, `cols`] for its
+    /// target: the rows below the chosen columns' R of `cols` and the target are factorised
+    /// (the same R factor as [`Engine::train_sse`] of every column, up to row signs);
+    /// `None` when rank deficient or when the rows are too few.
+    fn add_sse(&self, cols: &[usize]) -> Option<f64> {
+        let q = self.q;
+        let u = cols.len();
+        if q != self.diag.len() || self.z.nrows() < q + u + 1 || self.n < q + u + 1 {
+            return None;
+        }
+        let mut idx = self.index(cols)?;
+        idx.push(self.of.len() - 1);
+        let rest = self
+            .z
+            .rows(q, self.z.nrows() - q)
+            .select_columns(&idx)
+            .qr()
+            .r();
+        let max_p = self
+            .diag
+            .iter()
+            .copied()
+            .chain((0..u).map(|j| rest[(j, j)].abs()))
+            .fold(0.0, f64::max);
+        let ok = |d: f64| exceeds(d, 1e-11 * max_p);
+        if !self.diag.iter().all(|&d| ok(d)) || !(0..u).all(|j| ok(rest[(j, j)].abs())) {
+            return None;
+        }
+        Some(rest[(u, u)].powi(2))
+    }
+
+    /// Reduces feature columns `cols` (a chosen unit): the Householder QR of their rest
+    /// rows, applied to the rest rows of every column held. A sweep that cannot hold them
+    /// (too few rows, a column not held) scores nothing afterwards.
+    fn absorb(&mut self, cols: &[usize]) {
+        let q = self.q;
+        let rows = self.z.nrows().saturating_sub(q);
+        match self.index(cols) {
+            Some(idx) if rows >= idx.len() && q == self.diag.len() => {
+                let qr = self.z.rows(q, rows).select_columns(&idx).qr();
+                let r = qr.r();
+                self.diag.extend((0..idx.len()).map(|j| r[(j, j)].abs()));
+                qr.q_tr_mul(&mut self.z.rows_mut(q, rows));
+            }
+            _ => self.diag.clear(),
+        }
+        self.q += cols.len();
+    }
+}
+
+/// Rows of an R factor (upper triangular, `nrows` rows) that carry feature columns `sel`:
+/// below row max(sel) every one of them is zero, so a least-squares fit on them needs only
+/// these rows and the rest of the target column enters as the sum of its squares
+/// ([`tail_sq`]); at least `least` rows where there are as many.
+fn top_rows(sel: &[usize], least: usize, nrows: usize) -> usize {
+    sel.iter()
+        .map(|&c| c + 1)
+        .max()
+        .unwrap_or(0)
+        .max(least)
+        .min(nrows)
+}
+
+/// Σ r[i, col]² over the rows `from ..` of `r`: the part of a target column no feature column
+/// above row `from` reaches, added as it is to the residual of the fit on the rows above.
+fn tail_sq(r: &DMatrix<f64>, col: usize, from: usize) -> f64 {
+    (from..r.nrows()).map(|i| r[(i, col)].powi(2)).sum()
 }
 
 /// Per-block and per-fold R factors of [1 F Y].
@@ -280,62 +368,65 @@ impl Engine {
         if r.nrows() < p + 2 || n < p + 2 {
             return None;
         }
-        let q = r.select_columns(&self.columns(cols, target)).qr().r();
+        let sel = self.columns(cols, target);
+        let top = top_rows(&sel[..=p], p + 2, r.nrows());
+        let q = r.rows(0, top).select_columns(&sel).qr().r();
         let max_p = (0..=p).map(|j| q[(j, j)].abs()).fold(0.0, f64::max);
         if (0..=p).any(|j| !exceeds(q[(j, j)].abs(), 1e-11 * max_p)) {
             return None;
         }
-        Some(q[(p + 1, p + 1)].powi(2))
+        Some(q[(p + 1, p + 1)].powi(2) + tail_sq(r, sel[p + 1], top))
     }
 
-    /// The QR of the columns [1 cols] already chosen, on the training rows of `fold`
-    /// (`None`: every training row), to test candidates added to them ([`Engine::add_sse`]).
-    fn base(&self, fold: Option<usize>, cols: &[usize]) -> Base {
+    /// The sweep of the columns [1 `chosen`] on the training rows of `fold` (`None`: every
+    /// training row), holding feature columns `others` and `target` to score candidates
+    /// made of them ([`Sweep::add_sse`]).
+    fn sweep(
+        &self,
+        fold: Option<usize>,
+        chosen: &[usize],
+        others: &[usize],
+        target: usize,
+    ) -> Sweep {
         let (r, n) = match fold {
             Some(f) => (&self.folds[f].train_r, self.folds[f].n_train),
             None => (&self.all_r, self.block_n.iter().sum()),
         };
-        let mut sel = Vec::with_capacity(cols.len() + 1);
-        sel.push(0usize);
-        sel.extend(cols.iter().map(|c| c + 1));
-        let qr = r.select_columns(&sel).qr();
-        let rr = qr.r();
-        let diag = (0..rr.nrows().min(sel.len()))
-            .map(|j| rr[(j, j)].abs())
-            .collect();
-        Base { fold, n, qr, diag }
-    }
-
-    /// Least-squares residual SSE on the base's rows of [base columns, `cols`] for `target`,
-    /// from the base's QR: the new columns and y are reflected by Qᵀ of the base and only the
-    /// rows below it are factorised (the same R factor as [`Engine::train_sse`], several
-    /// times cheaper in a forward step); `None` when rank deficient.
-    fn add_sse(&self, base: &Base, cols: &[usize], target: usize) -> Option<f64> {
-        let r = match base.fold {
-            Some(f) => &self.folds[f].train_r,
-            None => &self.all_r,
+        let mut of: Vec<usize> = chosen.iter().chain(others).map(|c| c + 1).collect();
+        of.sort_unstable();
+        of.dedup();
+        of.insert(0, 0);
+        of.push(1 + self.n_feat + target);
+        let mut at = vec![usize::MAX; r.ncols()];
+        for (k, &c) in of.iter().enumerate() {
+            at[c] = k;
+        }
+        let mut sweep = Sweep {
+            z: r.select_columns(&of),
+            of,
+            at,
+            q: 0,
+            n,
+            diag: Vec::new(),
         };
-        let q = base.diag.len();
-        let u = cols.len();
-        if r.nrows() < q + u + 1 || base.n < q + u + 1 {
-            return None;
+        // The intercept, then the chosen columns: the same factor as their QR at once.
+        let rows = sweep.z.nrows();
+        if rows == 0 {
+            sweep.q = 1 + chosen.len();
+            return sweep;
         }
-        let mut sel: Vec<usize> = cols.iter().map(|c| c + 1).collect();
-        sel.push(1 + self.n_feat + target);
-        let mut z = r.select_columns(&sel);
-        base.qr.q_tr_mul(&mut z);
-        let rest = z.rows(q, z.nrows() - q).into_owned().qr().r();
-        let max_p = base
-            .diag
-            .iter()
-            .copied()
-            .chain((0..u).map(|j| rest[(j, j)].abs()))
-            .fold(0.0, f64::max);
-        let ok = |d: f64| exceeds(d, 1e-11 * max_p);
-        if !base.diag.iter().all(|&d| ok(d)) || !(0..u).all(|j| ok(rest[(j, j)].abs())) {
-            return None;
+        let mut sel = vec![0usize];
+        sel.extend(chosen.iter().map(|&c| sweep.at[c + 1]));
+        if rows < sel.len() {
+            sweep.q = sel.len();
+            return sweep;
         }
-        Some(rest[(u, u)].powi(2))
+        let qr = sweep.z.select_columns(&sel).qr();
+        let rr = qr.r();
+        sweep.diag = (0..sel.len()).map(|j| rr[(j, j)].abs()).collect();
+        qr.q_tr_mul(&mut sweep.z);
+        sweep.q = sel.len();
+        sweep
     }
 
     /// Held-out SSE of fold `fold` for the sub-model fitted on that fold's training rows.
@@ -343,7 +434,13 @@ impl Engine {
         let p = cols.len();
         let sel = self.columns(cols, target);
         let f = &self.folds[fold];
-        let coef = solve_reduced(&f.train_r.select_columns(&sel), f.n_train, p, fitter)?;
+        let top = top_rows(&sel[..=p], p + 2, f.train_r.nrows());
+        let coef = solve_reduced(
+            &f.train_r.rows(0, top).select_columns(&sel),
+            f.n_train,
+            p,
+            fitter,
+        )?;
         // Residual on the held-out block: ‖R_val·w‖ with w = (−b, +1 for y).
         let v = self.block_r[f.val].select_columns(&sel);
         let mut w = DVector::zeros(p + 2);
@@ -377,40 +474,7 @@ impl Engine {
     }
 }
 
-/// `f(0), …, f(n − 1)` computed over the available cores (scoped threads), in order.
-fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |w| w.get())
-        .min(n);
-    if workers <= 1 {
-        return (0..n).map(f).collect();
-    }
-    let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..workers)
-            .map(|w| {
-                let f = &f;
-                sc.spawn(move || {
-                    (w..n)
-                        .step_by(workers)
-                        .map(|i| (i, f(i)))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        for h in handles {
-            match h.join() {
-                Ok(v) => {
-                    for (i, x) in v {
-                        out[i] = Some(x);
-                    }
-                }
-                Err(p) => std::panic::resume_unwind(p),
-            }
-        }
-    });
-    out.into_iter().flatten().collect()
-}
+use crate::par::par_map_n as par_map;
 
 /// Coefficients (intercept first) of a sub-model from the R factor of its columns
 /// [1 X y] over `n` rows: OLS, ridge (α·n, standardised, unpenalised intercept) or PCR.
@@ -585,6 +649,10 @@ fn leave_one_run_out(scheme: &Scheme) -> bool {
             .all(|(tr, va)| tr.len() + 1 == nb && !tr.contains(va))
 }
 
+/// One family's best for one target, `None` with whether its fold models failed to
+/// reproduce its validation figure.
+type FamilyRun = (Option<Best>, bool);
+
 /// A forward-selection result: units, per-fold SSE, pooled RMSE, each fold's columns.
 type Prefix = (Vec<Vec<usize>>, Vec<f64>, f64, Vec<Vec<usize>>);
 
@@ -604,53 +672,81 @@ fn greedy(
     let mut chosen: Vec<Vec<usize>> = Vec::new();
     let mut path: Vec<usize> = Vec::new();
     let mut states = Vec::new();
-    let sse_of = |trial: &[Vec<usize>]| -> Option<f64> {
-        if sensors_of_units(ctx.feats, trial).len() > ctx.cap {
-            return None;
-        }
-        let cols: Vec<usize> = trial.iter().flatten().copied().collect();
-        ctx.eng
-            .train_sse(fold, &cols, target)
-            .filter(|v| v.is_finite())
-    };
+    let within_cap = |trial: &[Vec<usize>]| sensors_of_units(ctx.feats, trial).len() <= ctx.cap;
+    let flat = |units: &[Vec<usize>]| -> Vec<usize> { units.iter().flatten().copied().collect() };
+    // The sweep of the chosen units, holding every candidate's columns; carried from one
+    // step to the next while the pass below changes nothing (one unit reduced per step).
+    let mut sweep: Option<Sweep> = None;
     loop {
-        let mut step: Option<(f64, Vec<usize>, usize)> = None;
-        let chosen_cols: Vec<usize> = chosen.iter().flatten().copied().collect();
-        let base = ctx.eng.base(fold, &chosen_cols);
+        let mut trial = chosen.clone();
+        let mut options: Vec<(Vec<usize>, usize)> = Vec::new();
         for &cand in candidates.iter().filter(|c| !path.contains(c)) {
             for unit in units(cand) {
-                let mut trial = chosen.clone();
-                trial.push(unit.clone());
-                if sensors_of_units(ctx.feats, &trial).len() > ctx.cap {
-                    continue;
+                trial.push(unit);
+                let ok = within_cap(&trial);
+                if let Some(u) = trial.pop().filter(|_| ok) {
+                    options.push((u, cand));
                 }
-                let v = ctx.eng.add_sse(&base, &unit, target);
-                if let Some(v) = v.filter(|v| v.is_finite()) {
-                    if step.as_ref().is_none_or(|s| v < s.0) {
-                        step = Some((v, unit, cand));
+            }
+        }
+        let sw = sweep.get_or_insert_with(|| {
+            let held: Vec<usize> = options
+                .iter()
+                .flat_map(|(u, _)| u.iter().copied())
+                .collect();
+            ctx.eng.sweep(fold, &flat(&chosen), &held, target)
+        });
+        let mut step: Option<(f64, usize)> = None;
+        for (k, (unit, _)) in options.iter().enumerate() {
+            if let Some(v) = sw.add_sse(unit).filter(|v| v.is_finite()) {
+                if step.is_none_or(|s| v < s.0) {
+                    step = Some((v, k));
+                }
+            }
+        }
+        let Some((mut best, k)) = step else {
+            break;
+        };
+        let (unit, cand) = options.swap_remove(k);
+        sw.absorb(&unit);
+        chosen.push(unit);
+        path.push(cand);
+        // Each earlier sensor's unit chosen again given the others: the alternatives are
+        // scored over the sweep of every other chosen unit.
+        let mut changed = false;
+        for j in 0..chosen.len().saturating_sub(1) {
+            let alts: Vec<Vec<usize>> = units(path[j])
+                .into_iter()
+                .filter(|alt| *alt != chosen[j])
+                .filter(|alt| {
+                    let mut t = chosen.clone();
+                    t[j] = alt.clone();
+                    within_cap(&t)
+                })
+                .collect();
+            if alts.is_empty() {
+                continue;
+            }
+            let others: Vec<usize> = chosen
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| i != j)
+                .flat_map(|(_, u)| u.iter().copied())
+                .collect();
+            let held: Vec<usize> = alts.iter().flatten().copied().collect();
+            let sw_j = ctx.eng.sweep(fold, &others, &held, target);
+            for alt in alts {
+                if let Some(v) = sw_j.add_sse(&alt).filter(|v| v.is_finite()) {
+                    if v < best {
+                        best = v;
+                        chosen[j] = alt;
+                        changed = true;
                     }
                 }
             }
         }
-        let Some((mut best, unit, cand)) = step else {
-            break;
-        };
-        chosen.push(unit);
-        path.push(cand);
-        for j in 0..chosen.len().saturating_sub(1) {
-            for alt in units(path[j]) {
-                if alt == chosen[j] {
-                    continue;
-                }
-                let mut trial = chosen.clone();
-                trial[j] = alt;
-                if let Some(v) = sse_of(&trial) {
-                    if v < best {
-                        best = v;
-                        chosen = trial;
-                    }
-                }
-            }
+        if changed {
+            sweep = None;
         }
         states.push(chosen.clone());
         let now = sensors_of_units(ctx.feats, &chosen).len();
@@ -1036,7 +1132,6 @@ pub fn identify_auto(
     let segs = table.segment_ranges();
     // Candidate regressors.
     let mut feats: Vec<Feat> = Vec::new();
-    let mut cols: Vec<Vec<f64>> = Vec::new();
     let mut value = vec![0; c];
     let mut lag = vec![Vec::new(); c];
     let mut delay = vec![Vec::new(); c];
@@ -1049,42 +1144,34 @@ pub fn identify_auto(
             minus: None,
             kind: Transform::Value,
         });
-        cols.push(table.inputs[s].clone());
         if need_lag {
             for &tau_s in &opts.taus_s {
-                let kind = Transform::FirstOrderLag { tau_s };
                 lag[s].push(feats.len());
                 feats.push(Feat {
                     sensor: s,
                     minus: None,
-                    kind,
+                    kind: Transform::FirstOrderLag { tau_s },
                 });
-                cols.push(transform_segments(
-                    &table.time_s,
-                    &table.inputs[s],
-                    kind,
-                    &segs,
-                )?);
             }
         }
         if want(Family::Delay) {
             for &delay_s in &opts.delays_s {
-                let kind = Transform::Delay { delay_s };
                 delay[s].push(feats.len());
                 feats.push(Feat {
                     sensor: s,
                     minus: None,
-                    kind,
+                    kind: Transform::Delay { delay_s },
                 });
-                cols.push(transform_segments(
-                    &table.time_s,
-                    &table.inputs[s],
-                    kind,
-                    &segs,
-                )?);
             }
         }
     }
+    // Their columns, over the cores (each a filter over every segment of one sensor).
+    let cols: Vec<Vec<f64>> = par_map(feats.len(), |k| match feats[k].kind {
+        Transform::Value => Ok(table.inputs[feats[k].sensor].clone()),
+        kind => transform_segments(&table.time_s, &table.inputs[feats[k].sensor], kind, &segs),
+    })
+    .into_iter()
+    .collect::<Result<_>>()?;
     // Differences live in their own, smaller engine (values + pairs): the QR cost grows
     // with the square of the column count.
     let mut diff = Vec::new();
@@ -1223,9 +1310,43 @@ pub fn identify_auto(
         }
         Some((w, sse, sensors))
     };
-    let one_target = |j: usize| -> Result<TargetModel> {
-        let all: Vec<usize> = (0..c).collect();
-        let static_path = forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all);
+    // Each family's best for one target (ranked by its validation figure with its
+    // optimism, `None` with whether its fold models failed to reproduce it): independent
+    // of every other family and target, so all of them share the cores.
+    let family_run = |j: usize, fam: Family, static_path: &Forward| -> FamilyRun {
+        let cx = match (&ctx_d, fam) {
+            (Some(d), Family::Differences) => d,
+            _ => &ctx,
+        };
+        let trials = Mutex::new(Vec::new());
+        let tcx = cx.with_trials(&trials);
+        let got = if fam == Family::Classes {
+            classes_best(table, &scheme, &tcx, j, opts)
+        } else {
+            family_best(&tcx, fam, j, opts, static_path)
+        };
+        // The figure the families are ranked by: held-out error plus the optimism of
+        // the family's own knobs ([`optimism`]), with leave-one-run-out. Not with
+        // rolling origin: on FL_THERMAL (3 blocks, the last at a speed never seen
+        // before) it moved ch3 from lead-lag (test 4.926 µm) to class representatives
+        // (8.895 µm, worse than plain LS 7.476).
+        let got = got.map(|mut b| {
+            if !loro {
+                return b;
+            }
+            let t = trials.lock().map(|t| t.clone()).unwrap_or_default();
+            b.opt = optimism(&b.sse, &t);
+            b.cv = eng.pooled(&b.rank_sse());
+            b
+        });
+        // A family whose figure its fold models do not reproduce is not ranked.
+        match got {
+            Some(b) if reproduced(&b, fam == Family::Differences, j).is_none() => (None, true),
+            g => (g, false),
+        }
+    };
+    let one_target = |j: usize, runs: Vec<FamilyRun>| -> Result<TargetModel> {
+        let mut runs = runs.into_iter();
         let mut comparison = Vec::new();
         // Plain least squares on every input: the floor, eligible within the cap.
         let all_cols: Vec<usize> = (0..c).map(|s| ctx.value[s]).collect();
@@ -1287,32 +1408,7 @@ pub fn identify_auto(
                 }
                 _ => &ctx,
             };
-            let trials = Mutex::new(Vec::new());
-            let tcx = cx.with_trials(&trials);
-            let got = if fam == Family::Classes {
-                classes_best(table, &scheme, &tcx, j, opts)
-            } else {
-                family_best(&tcx, fam, j, opts, &static_path)
-            };
-            // The figure the families are ranked by: held-out error plus the optimism of
-            // the family's own knobs ([`optimism`]), with leave-one-run-out. Not with
-            // rolling origin: on FL_THERMAL (3 blocks, the last at a speed never seen
-            // before) it moved ch3 from lead-lag (test 4.926 µm) to class representatives
-            // (8.895 µm, worse than plain LS 7.476).
-            let got = got.map(|mut b| {
-                if !loro {
-                    return b;
-                }
-                let t = trials.lock().map(|t| t.clone()).unwrap_or_default();
-                b.opt = optimism(&b.sse, &t);
-                b.cv = eng.pooled(&b.rank_sse());
-                b
-            });
-            // A family whose figure its fold models do not reproduce is not ranked.
-            let (got, unreproduced) = match got {
-                Some(b) if reproduced(&b, fam == Family::Differences, j).is_none() => (None, true),
-                g => (g, false),
-            };
+            let (got, unreproduced) = runs.next().unwrap_or((None, false));
             match got {
                 None if unreproduced => comparison.push(FamilyScore {
                     family: fam.name().into(),
@@ -1517,39 +1613,37 @@ pub fn identify_auto(
         }
         finish(table, &train, j, &feats, &cols, &eng, b, comparison)
     };
-    // Targets are independent: share them over the cores (results in target order).
+    // Targets and families are independent: the static path of every target, then every
+    // (target, family) run, then each target's ranking share the cores, one task at a time
+    // (the families' costs differ by far, so a fixed split of them would leave a core idle).
     let nt = table.targets.len();
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(nt)
-        .max(1);
-    let mut results: Vec<Option<Result<TargetModel>>> = (0..nt).map(|_| None).collect();
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..workers)
-            .map(|w| {
-                let f = &one_target;
-                sc.spawn(move || {
-                    (w..nt)
-                        .step_by(workers)
-                        .map(|j| (j, f(j)))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        for h in handles {
-            match h.join() {
-                Ok(v) => {
-                    for (j, r) in v {
-                        results[j] = Some(r);
-                    }
-                }
-                Err(p) => std::panic::resume_unwind(p),
-            }
-        }
+    let all: Vec<usize> = (0..c).collect();
+    let static_paths = par_map(nt, |j| {
+        forward(&ctx, j, &|s| vec![vec![ctx.value[s]]], &all)
+    });
+    let run_fams: Vec<Family> = families
+        .iter()
+        .copied()
+        .filter(|&f| f != Family::Differences || ctx_d.is_some())
+        .collect();
+    let nf = run_fams.len();
+    let mut runs = par_map(nt * nf, |k| {
+        family_run(k / nf, run_fams[k % nf], &static_paths[k / nf])
+    })
+    .into_iter();
+    let per_target: Vec<Mutex<Vec<FamilyRun>>> = (0..nt)
+        .map(|_| Mutex::new(runs.by_ref().take(nf).collect()))
+        .collect();
+    let results = par_map(nt, |j| {
+        let runs = per_target[j]
+            .lock()
+            .map(|mut r| std::mem::take(&mut *r))
+            .unwrap_or_default();
+        one_target(j, runs)
     });
     let mut out = Vec::with_capacity(nt);
     for r in results {
-        out.push(r.ok_or_else(|| invalid("targets", "a worker", "a result per target"))??);
+        out.push(r?);
     }
     let method = format!(
         "every family compared ({}{}); validation: {}; at most {} sensor(s)",
@@ -2314,6 +2408,111 @@ mod tests {
                 (got - want).abs() <= 1e-9 * want,
                 "case {case} all: {got} vs {want}"
             );
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Every SSE the selection ranks by, for random column subsets (as forward selection
+        /// draws them: a chosen base and a unit added to it) and every target: on the
+        /// training rows from [`Engine::train_sse`] and from [`Sweep::add_sse`] over the
+        /// chosen columns' sweep (also with part of the unit absorbed first), on each fold's held-out block from [`Engine::val_sse`] (least squares),
+        /// against least squares solved afresh by a QR of the fold's own rows with only those
+        /// columns (the reference); and the ridge coefficients of the top rows of a fold's R
+        /// factor (which [`Engine::val_sse`] solves from) equal those of all its rows.
+        #[test]
+        fn subset_sse_matches_least_squares_on_the_subsets_columns(
+            seed in proptest::prelude::any::<u64>(),
+        ) {
+            let mut uni = crate::test_uniform(seed);
+            let nb = 2 + (uni() * 4.0) as usize;
+            let nf = 2 + (uni() * 10.0) as usize;
+            let nt = 1 + (uni() * 3.0) as usize;
+            let block: Vec<Option<usize>> = (0..nb)
+                .flat_map(|b| vec![Some(b); nf + 4 + (uni() * 30.0) as usize])
+                .collect();
+            let n = block.len();
+            let features: Vec<Vec<f64>> = (0..nf)
+                .map(|_| (0..n).map(|_| uni() * 10.0 - 5.0).collect())
+                .collect();
+            let targets: Vec<Vec<f64>> = (0..nt)
+                .map(|_| {
+                    let w: Vec<f64> = (0..nf).map(|_| uni() * 2.0 - 1.0).collect();
+                    (0..n)
+                        .map(|i| 3.0 + (0..nf).map(|j| w[j] * features[j][i]).sum::<f64>() + uni())
+                        .collect()
+                })
+                .collect();
+            let folds: Vec<(Vec<usize>, usize)> = if uni() < 0.5 {
+                (0..nb).map(|f| ((0..nb).filter(|&g| g != f).collect(), f)).collect()
+            } else {
+                (0..nb - 1).map(|f| ((0..=f).collect(), f + 1)).collect()
+            };
+            let scheme = Scheme { block: block.clone(), folds: folds.clone(), description: String::new() };
+            let eng = Engine::new(&features, &targets, &scheme);
+            // Random distinct columns in random order: base, then the unit added.
+            let mut order: Vec<usize> = (0..nf).collect();
+            for i in (1..nf).rev() {
+                order.swap(i, (uni() * (i + 1) as f64) as usize % (i + 1));
+            }
+            let nbase = (uni() * nf as f64) as usize % nf;
+            let nunit = 1 + (uni() * (nf - nbase) as f64) as usize % (nf - nbase);
+            let base_cols = order[..nbase].to_vec();
+            let unit = order[nbase..nbase + nunit].to_vec();
+            let all_cols: Vec<usize> = base_cols.iter().chain(&unit).copied().collect();
+            let lsq = |rows: &[usize], eval: &[usize], cols: &[usize], t: usize| -> f64 {
+                let a = DMatrix::from_fn(rows.len(), cols.len() + 1, |i, j| {
+                    if j == 0 { 1.0 } else { features[cols[j - 1]][rows[i]] }
+                });
+                let y = DVector::from_iterator(rows.len(), rows.iter().map(|&i| targets[t][i]));
+                let qr = a.qr();
+                let w = qr.r().solve_upper_triangular(&(qr.q().transpose() * &y)).unwrap();
+                eval.iter()
+                    .map(|&i| {
+                        let p = w[0] + cols.iter().enumerate().map(|(k, &c)| w[k + 1] * features[c][i]).sum::<f64>();
+                        (targets[t][i] - p).powi(2)
+                    })
+                    .sum()
+            };
+            let close = |got: f64, want: f64| (got - want).abs() <= 1e-9 * want.max(1e-12);
+            for t in 0..nt {
+                let all: Vec<usize> = (0..n).collect();
+                let want = lsq(&all, &all, &all_cols, t);
+                let got = eng.train_sse(None, &all_cols, t).unwrap();
+                proptest::prop_assert!(close(got, want), "all rows: {} vs {}", got, want);
+                let got = eng.sweep(None, &base_cols, &unit, t).add_sse(&unit).unwrap();
+                proptest::prop_assert!(close(got, want), "all rows, added: {} vs {}", got, want);
+                // The unit reduced in two parts: the first column absorbed, then the rest
+                // added (what a forward step after the first does).
+                if unit.len() > 1 {
+                    let mut sw = eng.sweep(None, &base_cols, &unit, t);
+                    sw.absorb(&unit[..1]);
+                    let got = sw.add_sse(&unit[1..]).unwrap();
+                    proptest::prop_assert!(close(got, want), "absorbed: {} vs {}", got, want);
+                }
+                for (f, (tr, va)) in folds.iter().enumerate() {
+                    let rows: Vec<usize> = (0..n).filter(|&i| block[i].is_some_and(|b| tr.contains(&b))).collect();
+                    let val: Vec<usize> = (0..n).filter(|&i| block[i] == Some(*va)).collect();
+                    let want = lsq(&rows, &rows, &all_cols, t);
+                    let got = eng.train_sse(Some(f), &all_cols, t).unwrap();
+                    proptest::prop_assert!(close(got, want), "fold {}: {} vs {}", f, got, want);
+                    let got = eng.sweep(Some(f), &base_cols, &unit, t).add_sse(&unit).unwrap();
+                    proptest::prop_assert!(close(got, want), "fold {} added: {} vs {}", f, got, want);
+                    let want = lsq(&rows, &val, &all_cols, t);
+                    let got = eng.val_sse(f, &all_cols, t, Fitter::Ols).unwrap();
+                    proptest::prop_assert!(close(got, want), "fold {} held out: {} vs {}", f, got, want);
+                    let sel = eng.columns(&all_cols, t);
+                    let p = all_cols.len();
+                    let r = &eng.folds[f].train_r;
+                    let top = top_rows(&sel[..=p], p + 2, r.nrows());
+                    let n_tr = eng.folds[f].n_train;
+                    let a = solve_reduced(&r.rows(0, top).select_columns(&sel), n_tr, p, Fitter::Ridge(0.3)).unwrap();
+                    let b = solve_reduced(&r.select_columns(&sel), n_tr, p, Fitter::Ridge(0.3)).unwrap();
+                    for (x, y) in a.iter().zip(&b) {
+                        proptest::prop_assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "ridge {} vs {}", x, y);
+                    }
+                }
+            }
         }
     }
 

@@ -1,5 +1,6 @@
 //! The dense decompositions gearcomp's crates share, on nalgebra matrices.
 //!
+//! - [`r_factor`]: the R factor of a Householder QR, blocked (faer) for wide matrices.
 //! - [`Svd`]: the thin singular value decomposition A = U·Σ·Vᵀ (singular values in
 //!   decreasing order), its least-squares solve with a cut on small singular values
 //!   ([`Svd::solve`]), and [`singular_values`].
@@ -96,6 +97,30 @@ impl Svd {
 /// The singular values of `a`, decreasing.
 pub fn singular_values(a: &DMatrix<f64>) -> Result<DVector<f64>, LinalgError> {
     Svd::new(a).map(|s| s.singular_values)
+}
+
+/// Columns from which [`r_factor`] uses faer's blocked Householder QR; nalgebra's unblocked
+/// one is faster for narrower matrices (on this project's 2-core machine, release build:
+/// 1440 × 24 0.48 against 0.91 ms, 1440 × 48 1.7 against 2.4 ms, 1440 × 96 6.5 against
+/// 6.0 ms, 3000 × 214 85 against 42 ms).
+pub const BLOCKED_QR_MIN_COLS: usize = 96;
+
+/// The R factor of a Householder QR of `a` (m × n): min(m, n) × n, upper triangular, with
+/// RᵀR = AᵀA (its rows' signs are the factorisation's own). From
+/// [`BLOCKED_QR_MIN_COLS`] columns on the factorisation is faer's blocked one, below them
+/// nalgebra's. An empty matrix has an empty factor.
+pub fn r_factor(a: DMatrix<f64>) -> DMatrix<f64> {
+    let (m, n) = a.shape();
+    if m == 0 || n == 0 {
+        return DMatrix::zeros(m.min(n), n);
+    }
+    if n < BLOCKED_QR_MIN_COLS {
+        return a.qr().r();
+    }
+    let fa = faer::MatRef::from_column_major_slice(a.as_slice(), m, n);
+    let qr = fa.qr();
+    let r = qr.thin_R();
+    DMatrix::from_fn(m.min(n), n, |i, j| if j >= i { r[(i, j)] } else { 0.0 })
 }
 
 #[cfg(test)]
@@ -270,6 +295,99 @@ mod tests {
             prop_assert!(check_definition(&design(seed)).is_ok(), "{:?}", check_definition(&design(seed)));
             prop_assert!(check_solve(&design(seed), seed).is_ok(), "{:?}", check_solve(&design(seed), seed));
             prop_assert!(check_definition(&general(seed)).is_ok(), "{:?}", check_definition(&general(seed)));
+        }
+    }
+
+    /// [`r_factor`] against its definition and against an unblocked Householder QR written
+    /// out here (the reference): R upper triangular of min(m, n) rows, RᵀR = AᵀA, and each
+    /// row the reference's up to its sign, for matrices on both sides of the blocked
+    /// threshold (tall, square, wide, with a column of ones and a repeated column).
+    fn check_r_factor(seed: u64) -> Result<(), String> {
+        let mut u = uniform(seed);
+        let n =
+            [1, 5, 40, BLOCKED_QR_MIN_COLS - 1, BLOCKED_QR_MIN_COLS, 130][(u() * 6.0) as usize % 6];
+        let m = match (u() * 3.0) as usize {
+            0 => n + (u() * 300.0) as usize,
+            1 => n,
+            _ => 1 + (u() * n as f64) as usize,
+        };
+        let mut a = DMatrix::from_fn(m, n, |_, _| u() * 2.0 - 1.0);
+        a.column_mut(0).fill(1.0);
+        if n > 3 {
+            let c = a.column(1).clone_owned();
+            a.set_column(n - 1, &c);
+        }
+        let r = r_factor(a.clone());
+        let k = m.min(n);
+        if r.shape() != (k, n) {
+            return Err(format!("{m}×{n}: R is {:?}", r.shape()));
+        }
+        let scale = a.norm_squared().max(1.0);
+        for i in 0..k {
+            for j in 0..i {
+                if r[(i, j)] != 0.0 {
+                    return Err(format!("{m}×{n}: R[{i},{j}] = {}", r[(i, j)]));
+                }
+            }
+        }
+        let gap = (r.transpose() * &r - a.transpose() * &a).amax();
+        if gap > 1e-12 * scale {
+            return Err(format!("{m}×{n}: |RᵀR − AᵀA| = {gap:e}"));
+        }
+        // The reference: Householder reflections column by column.
+        let mut w = a.clone();
+        for j in 0..k {
+            let x = w.view((j, j), (m - j, 1)).clone_owned();
+            let alpha = -x[0].signum() * x.norm();
+            let mut v = x;
+            v[0] -= alpha;
+            let vn = v.norm_squared();
+            if vn > 0.0 {
+                for c in j..n {
+                    let d = v.dot(&w.view((j, c), (m - j, 1)));
+                    for i in 0..m - j {
+                        w[(j + i, c)] -= 2.0 * d / vn * v[i];
+                    }
+                }
+            }
+        }
+        // Rows of full rank (above the repeated column) agree up to sign.
+        let full = if n > 3 { (n - 1).min(k) } else { k };
+        for i in 0..full {
+            let s = if (r[(i, i)] >= 0.0) == (w[(i, i)] >= 0.0) {
+                1.0
+            } else {
+                -1.0
+            };
+            for j in i..n {
+                let d = (r[(i, j)] - s * w[(i, j)]).abs();
+                if d > 1e-9 * scale.sqrt() {
+                    return Err(format!(
+                        "{m}×{n}: R[{i},{j}] = {} against {}",
+                        r[(i, j)],
+                        w[(i, j)]
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn r_factor_is_the_householder_r() {
+        for seed in 0..60 {
+            check_r_factor(seed).unwrap();
+        }
+        assert_eq!(r_factor(DMatrix::zeros(0, 4)).shape(), (0, 4));
+        assert_eq!(r_factor(DMatrix::zeros(3, 0)).shape(), (0, 0));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+        #[test]
+        fn fresh_r_factors_are_the_householder_r(seed in 0u64..u64::MAX) {
+            let got = check_r_factor(seed);
+            prop_assert!(got.is_ok(), "{:?}", got);
         }
     }
 }
