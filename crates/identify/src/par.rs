@@ -1,5 +1,5 @@
 //! Work on every core: the cores of this process (looked up once) and an ordered parallel
-//! map over scoped threads.
+//! map over scoped threads, each thread taking the next task when it is done with one.
 
 use std::sync::OnceLock;
 
@@ -15,27 +15,10 @@ pub(crate) fn join<R>(h: std::thread::ScopedJoinHandle<'_, R>) -> R {
     h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))
 }
 
-/// `f` over `items` on up to as many threads as there are cores, in contiguous chunks;
-/// the results in the order of `items`.
+/// `f` over `items` on up to as many threads as there are cores ([`par_map_n`]); the
+/// results in the order of `items`.
 pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let threads = cores().min(items.len());
-    if threads <= 1 {
-        return items.iter().map(f).collect();
-    }
-    let chunk = items.len().div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|s| {
-        let mut chunks = items.chunks(chunk);
-        let first = chunks.next().unwrap_or_default();
-        let rest: Vec<_> = chunks
-            .map(|c| s.spawn(move || c.iter().map(f).collect::<Vec<R>>()))
-            .collect();
-        let mut out: Vec<R> = first.iter().map(f).collect();
-        for h in rest {
-            out.extend(join(h));
-        }
-        out
-    })
+    par_map_n(items.len(), |i| f(&items[i]))
 }
 
 /// `f(0), …, f(n − 1)` on up to as many threads as there are cores, each thread taking the

@@ -38,6 +38,7 @@ use crate::fit::{
     IdentifyOptions, TargetModel,
 };
 pub use crate::fit::{Family, FamilyScore};
+use crate::par::par_map_n as par_map;
 use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
 use gearcomp_core::model::{LinearModel, Term, Transform};
@@ -73,10 +74,9 @@ struct Fold {
 /// ([`Sweep::add_sse`]), and a chosen unit is reduced in place ([`Sweep::absorb`]), so that
 /// every column is reflected once per step rather than once per candidate.
 struct Sweep {
-    /// Qᵀ·R[:, of] (every row of R).
+    /// Qᵀ·R[:, held] (every row of R): the intercept, the chosen and candidate columns in
+    /// increasing order, the target last.
     z: DMatrix<f64>,
-    /// Column of R each column of `z` holds; the target's last.
-    of: Vec<usize>,
     /// Column of `z` of each column of R (`usize::MAX`: not held).
     at: Vec<usize>,
     /// Columns reduced so far (the intercept and the chosen ones): rows `q..` are the rest.
@@ -106,7 +106,7 @@ impl Sweep {
             return None;
         }
         let mut idx = self.index(cols)?;
-        idx.push(self.of.len() - 1);
+        idx.push(self.z.ncols() - 1);
         let rest = self
             .z
             .rows(q, self.z.nrows() - q)
@@ -401,31 +401,23 @@ impl Engine {
         for (k, &c) in of.iter().enumerate() {
             at[c] = k;
         }
+        // The intercept, then the chosen columns: the same factor as their QR at once.
+        let mut sel = vec![0usize];
+        sel.extend(chosen.iter().map(|&c| at[c + 1]));
         let mut sweep = Sweep {
             z: r.select_columns(&of),
-            of,
             at,
-            q: 0,
+            q: sel.len(),
             n,
             diag: Vec::new(),
         };
-        // The intercept, then the chosen columns: the same factor as their QR at once.
-        let rows = sweep.z.nrows();
-        if rows == 0 {
-            sweep.q = 1 + chosen.len();
-            return sweep;
+        // Fewer rows than chosen columns: no diagonal, nothing is scored.
+        if sweep.z.nrows() >= sel.len() {
+            let qr = sweep.z.select_columns(&sel).qr();
+            let rr = qr.r();
+            sweep.diag = (0..sel.len()).map(|j| rr[(j, j)].abs()).collect();
+            qr.q_tr_mul(&mut sweep.z);
         }
-        let mut sel = vec![0usize];
-        sel.extend(chosen.iter().map(|&c| sweep.at[c + 1]));
-        if rows < sel.len() {
-            sweep.q = sel.len();
-            return sweep;
-        }
-        let qr = sweep.z.select_columns(&sel).qr();
-        let rr = qr.r();
-        sweep.diag = (0..sel.len()).map(|j| rr[(j, j)].abs()).collect();
-        qr.q_tr_mul(&mut sweep.z);
-        sweep.q = sel.len();
         sweep
     }
 
@@ -473,8 +465,6 @@ impl Engine {
             .collect()
     }
 }
-
-use crate::par::par_map_n as par_map;
 
 /// Coefficients (intercept first) of a sub-model from the R factor of its columns
 /// [1 X y] over `n` rows: OLS, ridge (α·n, standardised, unpenalised intercept) or PCR.
@@ -1345,8 +1335,8 @@ pub fn identify_auto(
             g => (g, false),
         }
     };
-    let one_target = |j: usize, runs: Vec<FamilyRun>| -> Result<TargetModel> {
-        let mut runs = runs.into_iter();
+    let one_target = |j: usize, runs: &[FamilyRun]| -> Result<TargetModel> {
+        let mut runs = runs.iter().cloned();
         let mut comparison = Vec::new();
         // Plain least squares on every input: the floor, eligible within the cap.
         let all_cols: Vec<usize> = (0..c).map(|s| ctx.value[s]).collect();
@@ -1627,20 +1617,10 @@ pub fn identify_auto(
         .filter(|&f| f != Family::Differences || ctx_d.is_some())
         .collect();
     let nf = run_fams.len();
-    let mut runs = par_map(nt * nf, |k| {
+    let runs = par_map(nt * nf, |k| {
         family_run(k / nf, run_fams[k % nf], &static_paths[k / nf])
-    })
-    .into_iter();
-    let per_target: Vec<Mutex<Vec<FamilyRun>>> = (0..nt)
-        .map(|_| Mutex::new(runs.by_ref().take(nf).collect()))
-        .collect();
-    let results = par_map(nt, |j| {
-        let runs = per_target[j]
-            .lock()
-            .map(|mut r| std::mem::take(&mut *r))
-            .unwrap_or_default();
-        one_target(j, runs)
     });
+    let results = par_map(nt, |j| one_target(j, &runs[j * nf..(j + 1) * nf]));
     let mut out = Vec::with_capacity(nt);
     for r in results {
         out.push(r?);
@@ -2318,6 +2298,42 @@ mod tests {
         assert!(beats_reference(&[0.0, 1e-30, 0.0], &reference));
     }
 
+    /// The reference of the engine tests: least squares of `y` on [1, `features[cols]`] solved
+    /// afresh by a QR of the rows `rows` alone (never the normal equations), its residual SSE
+    /// on the rows `eval`.
+    fn lsq_sse(
+        features: &[Vec<f64>],
+        y: &[f64],
+        rows: &[usize],
+        eval: &[usize],
+        cols: &[usize],
+    ) -> f64 {
+        let a = DMatrix::from_fn(rows.len(), cols.len() + 1, |i, j| {
+            if j == 0 {
+                1.0
+            } else {
+                features[cols[j - 1]][rows[i]]
+            }
+        });
+        let yv = DVector::from_iterator(rows.len(), rows.iter().map(|&i| y[i]));
+        let qr = a.qr();
+        let w = qr
+            .r()
+            .solve_upper_triangular(&(qr.q().transpose() * &yv))
+            .unwrap();
+        eval.iter()
+            .map(|&i| {
+                let p = w[0]
+                    + cols
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &c)| w[k + 1] * features[c][i])
+                        .sum::<f64>();
+                (y[i] - p).powi(2)
+            })
+            .sum()
+    }
+
     /// The engine's per-fold training and held-out SSE (fold factors from prefix and suffix
     /// chains for leave-one-run-out and rolling origin, stacked blocks otherwise) against
     /// least squares solved afresh by a QR of each fold's own rows (the reference), over
@@ -2364,24 +2380,7 @@ mod tests {
             let eng = Engine::new(&features, &targets, &scheme);
             let cols: Vec<usize> = (0..nf).collect();
             let lsq = |rows: &[usize], eval: &[usize]| -> f64 {
-                let a = DMatrix::from_fn(rows.len(), nf + 1, |i, j| {
-                    if j == 0 {
-                        1.0
-                    } else {
-                        features[j - 1][rows[i]]
-                    }
-                });
-                let y = DVector::from_iterator(rows.len(), rows.iter().map(|&i| targets[0][i]));
-                // Normal equations are not used: QR of the fold's own rows.
-                let qr = a.qr();
-                let qty = qr.q().transpose() * &y;
-                let w = qr.r().solve_upper_triangular(&qty).unwrap();
-                eval.iter()
-                    .map(|&i| {
-                        let p = w[0] + (0..nf).map(|j| w[j + 1] * features[j][i]).sum::<f64>();
-                        (targets[0][i] - p).powi(2)
-                    })
-                    .sum()
+                lsq_sse(&features, &targets[0], rows, eval, &cols)
             };
             for (f, (tr, va)) in folds.iter().enumerate() {
                 let rows: Vec<usize> = (0..n)
@@ -2416,10 +2415,11 @@ mod tests {
         /// Every SSE the selection ranks by, for random column subsets (as forward selection
         /// draws them: a chosen base and a unit added to it) and every target: on the
         /// training rows from [`Engine::train_sse`] and from [`Sweep::add_sse`] over the
-        /// chosen columns' sweep (also with part of the unit absorbed first), on each fold's held-out block from [`Engine::val_sse`] (least squares),
-        /// against least squares solved afresh by a QR of the fold's own rows with only those
-        /// columns (the reference); and the ridge coefficients of the top rows of a fold's R
-        /// factor (which [`Engine::val_sse`] solves from) equal those of all its rows.
+        /// chosen columns' sweep (also with part of the unit absorbed first), on each fold's
+        /// held-out block from [`Engine::val_sse`] (least squares), against [`lsq_sse`] on
+        /// the fold's own rows with only those columns (the reference). Besides, a
+        /// consistency check without a reference: the ridge coefficients from the top rows
+        /// of a fold's R factor (which [`Engine::val_sse`] solves from) equal those from all.
         #[test]
         fn subset_sse_matches_least_squares_on_the_subsets_columns(
             seed in proptest::prelude::any::<u64>(),
@@ -2461,18 +2461,7 @@ mod tests {
             let unit = order[nbase..nbase + nunit].to_vec();
             let all_cols: Vec<usize> = base_cols.iter().chain(&unit).copied().collect();
             let lsq = |rows: &[usize], eval: &[usize], cols: &[usize], t: usize| -> f64 {
-                let a = DMatrix::from_fn(rows.len(), cols.len() + 1, |i, j| {
-                    if j == 0 { 1.0 } else { features[cols[j - 1]][rows[i]] }
-                });
-                let y = DVector::from_iterator(rows.len(), rows.iter().map(|&i| targets[t][i]));
-                let qr = a.qr();
-                let w = qr.r().solve_upper_triangular(&(qr.q().transpose() * &y)).unwrap();
-                eval.iter()
-                    .map(|&i| {
-                        let p = w[0] + cols.iter().enumerate().map(|(k, &c)| w[k + 1] * features[c][i]).sum::<f64>();
-                        (targets[t][i] - p).powi(2)
-                    })
-                    .sum()
+                lsq_sse(&features, &targets[t], rows, eval, cols)
             };
             let close = |got: f64, want: f64| (got - want).abs() <= 1e-9 * want.max(1e-12);
             for t in 0..nt {

@@ -99,10 +99,13 @@ pub fn singular_values(a: &DMatrix<f64>) -> Result<DVector<f64>, LinalgError> {
     Svd::new(a).map(|s| s.singular_values)
 }
 
-/// Columns from which [`r_factor`] uses faer's blocked Householder QR; nalgebra's unblocked
-/// one is faster for narrower matrices (on this project's 2-core machine, release build:
-/// 1440 × 24 0.48 against 0.91 ms, 1440 × 48 1.7 against 2.4 ms, 1440 × 96 6.5 against
-/// 6.0 ms, 3000 × 214 85 against 42 ms).
+/// Columns from which [`r_factor`] uses faer's blocked Householder QR. `cargo run --release
+/// -p gearcomp-linalg --example qr_threshold` (medians of alternating runs, two runs on this
+/// project's 2-core machine), nalgebra against faer: 1440 × 24 0.60–0.62 against
+/// 0.74–0.77 ms (nalgebra faster), 1440 × 48 1.5–2.3 against 1.4–2.2 ms (even),
+/// 1440 × 96 7.0–8.6 against 4.6–5.7 ms, 1440 × 214 31–37 against 13–15 ms. The switch
+/// sits where faer is clearly ahead; the fixed kinds' designs (≈ 20 columns) stay on
+/// nalgebra.
 pub const BLOCKED_QR_MIN_COLS: usize = 96;
 
 /// The R factor of a Householder QR of `a` (m × n): min(m, n) × n, upper triangular, with
