@@ -38,6 +38,27 @@ use crate::fit::{
     IdentifyOptions, TargetModel,
 };
 pub use crate::fit::{Family, FamilyScore};
+
+/// The comparison row of plain least squares on every input.
+const LS_ALL: &str = "least squares, all inputs";
+
+/// Plain least squares on all `inputs`, over the sensor cap (reference only), that
+/// validates better than the model kept: its row says so and what cap would allow it,
+/// so a capped choice never hides a better uncapped one.
+fn flag_capped_reference(comparison: &mut [FamilyScore], inputs: usize) {
+    let Some(kept) = comparison.iter().find(|s| s.kept).map(|s| s.cv_rmse) else {
+        return;
+    };
+    if let Some(r) = comparison.first_mut() {
+        if r.family == LS_ALL && !r.eligible && r.cv_rmse.is_finite() && r.cv_rmse < kept {
+            r.detail = format!(
+                "{}; validates better than the model kept ({:.3} vs {:.3} µm): a sensor cap of \
+                 {inputs} allows it",
+                r.detail, r.cv_rmse, kept
+            );
+        }
+    }
+}
 use crate::par::par_map_n as par_map;
 use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
 use crate::transform::transform_segments;
@@ -1342,7 +1363,7 @@ pub fn identify_auto(
         let all_cols: Vec<usize> = (0..c).map(|s| ctx.value[s]).collect();
         if let Some(sse) = eng.fold_sse(&all_cols, j, Fitter::Ols) {
             comparison.push(FamilyScore {
-                family: "least squares, all inputs".into(),
+                family: LS_ALL.into(),
                 sensors: c,
                 cv_rmse: eng.pooled(&sse),
                 fold_rmse: eng.fold_rmse(&sse),
@@ -1572,6 +1593,7 @@ pub fn identify_auto(
                     }
                 }
                 let refs: Vec<(f64, &LinearModel)> = parts.iter().map(|(w, m)| (*w, m)).collect();
+                flag_capped_reference(&mut comparison, c);
                 let model = combine_models(&refs);
                 model.validate(&format!("model of {}", table.target_names[j]))?;
                 let fit = fit_of(table, &train, j, &model)?;
@@ -1591,6 +1613,7 @@ pub fn identify_auto(
         if let Some(k) = kept {
             comparison[k].kept = true;
         }
+        flag_capped_reference(&mut comparison, c);
         let b = best.ok_or_else(|| IdentifyError::NothingValidated {
             target: table.target_names[j].clone(),
             training_rows: train.iter().filter(|&&m| m).count(),

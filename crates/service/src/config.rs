@@ -321,6 +321,11 @@ pub struct HttpSection {
     /// between the requests of a kept-alive connection; otherwise it is closed.
     #[serde(default = "default_header_read_timeout")]
     pub header_read_timeout_s: f64,
+    /// A request's body (`PUT /api/model`) must arrive whole within this time after its
+    /// headers (0.1…600 s); otherwise the request gets 408 and the connection is closed,
+    /// so a body sent a byte at a time cannot hold a connection.
+    #[serde(default = "default_body_read_timeout")]
+    pub body_read_timeout_s: f64,
 }
 
 /// HTTPS certificate and key (PEM files, relative to the configuration file).
@@ -363,6 +368,9 @@ fn default_max_connections() -> u32 {
 fn default_header_read_timeout() -> f64 {
     10.0
 }
+fn default_body_read_timeout() -> f64 {
+    30.0
+}
 
 fn default_bind() -> IpAddr {
     IpAddr::from([127, 0, 0, 1])
@@ -380,6 +388,7 @@ impl Default for HttpSection {
             allow_plaintext: false,
             max_connections: default_max_connections(),
             header_read_timeout_s: default_header_read_timeout(),
+            body_read_timeout_s: default_body_read_timeout(),
         }
     }
 }
@@ -497,9 +506,10 @@ pub struct MqttInput {
     /// Client id (default `gearcomp-<machine>`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub client_id: Option<String>,
-    /// Keep-alive, s (5…3600).
+    /// Keep-alive, s: a whole number of seconds 5…3600 (MQTT 3.1.1 §3.1.2.10 carries it
+    /// in whole seconds), written as `30` or `30.0` like every other `_s` key.
     #[serde(default = "mqtt_keep_alive")]
-    pub keep_alive_s: u64,
+    pub keep_alive_s: f64,
     /// Publish the applied offset.
     #[serde(default = "yes")]
     pub publish_offset: bool,
@@ -628,8 +638,8 @@ fn mqtt_prefix() -> String {
     "gearcomp".into()
 }
 #[cfg(feature = "mqtt")]
-fn mqtt_keep_alive() -> u64 {
-    30
+fn mqtt_keep_alive() -> f64 {
+    30.0
 }
 #[cfg(feature = "mqtt")]
 fn yes() -> bool {
@@ -1143,11 +1153,19 @@ impl ServiceConfig {
                 }
                 check_range(
                     "input.keep_alive_s",
-                    m.keep_alive_s as f64,
+                    m.keep_alive_s,
                     5.0,
                     3600.0,
-                    "5…3600 s",
+                    "a whole number of seconds 5…3600",
                 )?;
+                if m.keep_alive_s.fract() != 0.0 {
+                    return Err(invalid(
+                        "input.keep_alive_s",
+                        crate::error::number(m.keep_alive_s),
+                        "a whole number of seconds 5…3600 (MQTT sends the keep-alive in \
+                         whole seconds)",
+                    ));
+                }
                 m.reconnect.validate("input.reconnect")?;
                 check_range(
                     "input.max_payload_bytes",
@@ -1306,6 +1324,13 @@ impl ServiceConfig {
         check_range(
             "http.header_read_timeout_s",
             h.header_read_timeout_s,
+            0.1,
+            600.0,
+            "0.1…600 s",
+        )?;
+        check_range(
+            "http.body_read_timeout_s",
+            h.body_read_timeout_s,
             0.1,
             600.0,
             "0.1…600 s",
@@ -1573,7 +1598,7 @@ mod tests {
         #[cfg(feature = "mqtt")]
         ("mqtt", "topic_prefix", "topic_prefix", "topic_prefix = {}", "\"p\""),
         #[cfg(feature = "mqtt")]
-        ("mqtt", "keep_alive_s", "keep_alive_s", "keep_alive_s = {}", "30"),
+        ("mqtt", "keep_alive_s", "keep_alive_s", "keep_alive_s = {}", "30.0"),
         #[cfg(feature = "mqtt")]
         ("mqtt", "publish_offset", "publish_offset", "publish_offset = {}", "true"),
         #[cfg(feature = "mqtt")]
@@ -1667,6 +1692,37 @@ mod tests {
             "configuration m.toml: invalid input.speedup: invalid type: string \"1.0\", \
              expected f64 (the [input] table at line 4)"
         );
+    }
+
+    /// The MQTT keep-alive is written like every other `_s` key (`30` or `30.0`); a
+    /// fraction or a value outside 5…3600 s is refused naming the key, the value and the
+    /// form, never as a type error of the parser.
+    #[cfg(feature = "mqtt")]
+    #[test]
+    fn mqtt_keep_alive_takes_whole_seconds_written_either_way() {
+        let text =
+            |v: &str| format!("[input]\nkind = \"mqtt\"\nhost = \"h\"\nkeep_alive_s = {v}\n");
+        for (v, want) in [("30", 30.0), ("30.0", 30.0), ("5", 5.0), ("3600.0", 3600.0)] {
+            let c = ServiceConfig::from_toml_str(&text(v), "m.toml").unwrap();
+            match c.input {
+                InputSection::Mqtt(m) => assert_eq!(m.keep_alive_s, want, "{v}"),
+                other => panic!("{other:?}"),
+            }
+        }
+        for (v, shown) in [
+            ("1.5", "1.5"),
+            ("30.5", "30.5"),
+            ("4", "4"),
+            ("3601", "3601"),
+        ] {
+            let e = ServiceConfig::from_toml_str(&text(v), "m.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with(&format!("invalid input.keep_alive_s = {shown}: expected a whole number of seconds 5…3600")),
+                "{v}: {e}"
+            );
+        }
     }
 
     /// Every line of an error and the whole of it stay readable: a refused 5000-character

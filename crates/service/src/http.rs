@@ -68,6 +68,8 @@ pub struct AppState {
     pub clock: Clock,
     /// Start instant.
     pub started: Instant,
+    /// A request body must arrive whole within this time (`http.body_read_timeout_s`).
+    pub body_read_timeout: Duration,
 }
 
 type Shared = Arc<AppState>;
@@ -843,17 +845,20 @@ async fn put_model(
     Operator(who): Operator,
     body: axum::body::Body,
 ) -> ApiResult {
-    let body: Bytes = axum::body::to_bytes(body, MAX_MODEL_BYTES)
-        .await
-        .map_err(|_| {
-            err(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                format!(
-                    "body over {MAX_MODEL_BYTES} bytes (or cut off); expected an engine \
+    let limit = st.body_read_timeout;
+    let Ok(body) = tokio::time::timeout(limit, axum::body::to_bytes(body, MAX_MODEL_BYTES)).await
+    else {
+        return Ok(body_too_slow(limit));
+    };
+    let body: Bytes = body.map_err(|_| {
+        err(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            format!(
+                "body over {MAX_MODEL_BYTES} bytes (or cut off); expected an engine \
                      configuration (TOML) of at most {MAX_MODEL_BYTES} bytes"
-                ),
-            )
-        })?;
+            ),
+        )
+    })?;
     let text = std::str::from_utf8(&body)
         .map_err(|e| {
             err(
@@ -923,6 +928,25 @@ async fn put_model(
     )?;
     audit(&st, &who, "change_model", format!("{} bytes", text.len()))?;
     Ok(Json(json!({ "model": "changed" })).into_response())
+}
+
+/// 408 for a body that did not arrive whole in time; the connection is closed with it
+/// (the rest of the body is never read).
+fn body_too_slow(limit: Duration) -> Response {
+    let mut r = err(
+        StatusCode::REQUEST_TIMEOUT,
+        format!(
+            "body not received whole within http.body_read_timeout_s = {} s; expected the \
+             whole body within that time",
+            crate::error::number(limit.as_secs_f64())
+        ),
+    )
+    .into_response();
+    r.headers_mut().insert(
+        axum::http::header::CONNECTION,
+        axum::http::HeaderValue::from_static("close"),
+    );
+    r
 }
 
 async fn audit_log(State(st): State<Shared>, _: Viewer) -> ApiResult {
@@ -1103,11 +1127,14 @@ pub fn tls_acceptor(t: &crate::config::HttpTls) -> crate::error::Result<tokio_ru
 /// open requests finish (at most 10 s).
 ///
 /// Unlike `axum::serve` this bounds what a client can hold: at most
-/// `limits.max_connections` connections (each one beyond is closed at once, so the
-/// server's descriptors and memory stay bounded), and a connection that does not deliver
-/// its request headers within `limits.header_read_timeout` is closed (hyper's HTTP/1
-/// header-read timer; for HTTPS the handshake has the same bound). An idle or half-open
-/// connection therefore holds its slot for at most that long.
+/// `limits.max_connections` connections, and a connection that does not deliver its
+/// request headers within `limits.header_read_timeout` is closed (hyper's HTTP/1
+/// header-read timer; for HTTPS the handshake has the same bound). When every slot is
+/// taken, a new connection takes the slot of the one that has waited longest without a
+/// request being served (idle, half-open, or still sending headers or its TLS handshake);
+/// only when every connection has a request in progress is the new one closed at once. So
+/// idle connections, however many, never keep a client out, and a request being served is
+/// never cut.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     app: Router,
@@ -1116,6 +1143,7 @@ pub async fn serve(
     mut stop: tokio::sync::oneshot::Receiver<()>,
 ) {
     let permits = Arc::new(tokio::sync::Semaphore::new(limits.max_connections));
+    let slots = Arc::new(Slots::default());
     let (closing_tx, closing_rx) = tokio::sync::watch::channel(false);
     loop {
         let tcp = tokio::select! {
@@ -1130,9 +1158,25 @@ pub async fn serve(
             },
             _ = &mut stop => break,
         };
-        let Ok(permit) = permits.clone().try_acquire_owned() else {
-            drop(tcp);
-            continue;
+        let permit = match permits.clone().try_acquire_owned() {
+            Ok(p) => p,
+            Err(_) => {
+                // Every slot taken: the longest-idle connection gives its slot up (its
+                // task ends at once); with none idle the new connection is closed.
+                if !slots.evict_oldest_idle() {
+                    drop(tcp);
+                    continue;
+                }
+                let wait =
+                    tokio::time::timeout(Duration::from_secs(1), permits.clone().acquire_owned());
+                match wait.await {
+                    Ok(Ok(p)) => p,
+                    _ => {
+                        drop(tcp);
+                        continue;
+                    }
+                }
+            }
         };
         let _ = tcp.set_nodelay(true);
         let app = app.clone();
@@ -1140,23 +1184,41 @@ pub async fn serve(
         let closing = closing_rx.clone();
         let header_timeout = limits.header_read_timeout;
         let clients = limits.clients.clone();
+        let (slot, _registered) = slots.open();
         tokio::spawn(async move {
             let _permit = permit;
-            match tls {
-                None => serve_connection(tcp, app, header_timeout, closing).await,
-                Some(acc) => {
-                    let hs = tokio::time::timeout(header_timeout, acc.accept(tcp));
-                    if let Ok(Ok(stream)) = hs.await {
-                        // Client-certificate login: every request of this connection
-                        // carries what the handshake established.
-                        let app = match &clients {
-                            Some(login) => app.layer(axum::Extension(Peer::of(
-                                login,
-                                stream.get_ref().1.peer_certificates(),
-                            ))),
-                            None => app,
-                        };
-                        serve_connection(stream, app, header_timeout, closing).await;
+            let _registered = _registered;
+            let busy = slot.clone();
+            let conn = async move {
+                match tls {
+                    None => serve_connection(tcp, app, header_timeout, closing, busy).await,
+                    Some(acc) => {
+                        let hs = tokio::time::timeout(header_timeout, acc.accept(tcp));
+                        if let Ok(Ok(stream)) = hs.await {
+                            // Client-certificate login: every request of this connection
+                            // carries what the handshake established.
+                            let app = match &clients {
+                                Some(login) => app.layer(axum::Extension(Peer::of(
+                                    login,
+                                    stream.get_ref().1.peer_certificates(),
+                                ))),
+                                None => app,
+                            };
+                            serve_connection(stream, app, header_timeout, closing, busy).await;
+                        }
+                    }
+                }
+            };
+            let mut conn = std::pin::pin!(conn);
+            loop {
+                tokio::select! {
+                    _ = conn.as_mut() => break,
+                    // Asked to give the slot up: only while no request is being served (one
+                    // may have started since the accept loop looked).
+                    _ = slot.evict.notified() => {
+                        if slot.busy.load(std::sync::atomic::Ordering::Acquire) == 0 {
+                            break;
+                        }
                     }
                 }
             }
@@ -1169,15 +1231,108 @@ pub async fn serve(
     let _ = tokio::time::timeout(Duration::from_secs(10), permits.acquire_many(all)).await;
 }
 
+/// One open connection: how many of its requests are being served, and the signal to
+/// give its slot up.
+#[derive(Default)]
+struct Slot {
+    busy: std::sync::atomic::AtomicUsize,
+    evict: tokio::sync::Notify,
+}
+
+/// The open connections, oldest first (by the order they were accepted in).
+#[derive(Default)]
+struct Slots {
+    open: Mutex<std::collections::BTreeMap<u64, Arc<Slot>>>,
+    next: std::sync::atomic::AtomicU64,
+}
+
+impl Slots {
+    /// Registers a new connection; it is removed when the returned guard drops.
+    fn open(self: &Arc<Self>) -> (Arc<Slot>, Registered) {
+        let id = self.next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let slot = Arc::new(Slot::default());
+        self.lock().insert(id, slot.clone());
+        (
+            slot,
+            Registered {
+                slots: self.clone(),
+                id,
+            },
+        )
+    }
+
+    /// Asks the oldest connection with no request being served to close; false if every
+    /// connection is serving one.
+    fn evict_oldest_idle(&self) -> bool {
+        let open = self.lock();
+        let idle = open
+            .values()
+            .find(|s| s.busy.load(std::sync::atomic::Ordering::Acquire) == 0);
+        match idle {
+            Some(s) => {
+                s.evict.notify_one();
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, std::collections::BTreeMap<u64, Arc<Slot>>> {
+        // The map stays consistent whatever a panicking holder did (inserts and removes).
+        self.open.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Removes its connection from [`Slots`] when the connection's task ends.
+struct Registered {
+    slots: Arc<Slots>,
+    id: u64,
+}
+
+impl Drop for Registered {
+    fn drop(&mut self) {
+        self.slots.lock().remove(&self.id);
+    }
+}
+
+/// Counts a request of a connection as being served while it lives.
+struct Serving(Arc<Slot>);
+
+impl Serving {
+    fn new(slot: &Arc<Slot>) -> Self {
+        slot.busy.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+        Self(slot.clone())
+    }
+}
+
+impl Drop for Serving {
+    fn drop(&mut self) {
+        self.0
+            .busy
+            .fetch_sub(1, std::sync::atomic::Ordering::AcqRel);
+    }
+}
+
 async fn serve_connection<I>(
     io: I,
     app: Router,
     header_read_timeout: Duration,
     mut closing: tokio::sync::watch::Receiver<bool>,
+    slot: Arc<Slot>,
 ) where
     I: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin + Send + 'static,
 {
     let svc = hyper_util::service::TowerToHyperService::new(app);
+    // Each request counts as served from its headers until its response is produced.
+    let svc = hyper::service::service_fn(move |req| {
+        let serving = Serving::new(&slot);
+        let answer = hyper::service::Service::call(&svc, req);
+        async move {
+            let r = answer.await;
+            drop(serving);
+            r
+        }
+    });
     let mut builder = hyper::server::conn::http1::Builder::new();
     builder
         .timer(hyper_util::rt::TokioTimer::new())

@@ -709,6 +709,7 @@ pub async fn start(cfg: ServiceConfig) -> Result<Running> {
         stats: stats.clone(),
         clock,
         started: Instant::now(),
+        body_read_timeout: Duration::from_secs_f64(cfg.http.body_read_timeout_s),
     });
     let (http_stop_tx, http_stop_rx) = tokio::sync::oneshot::channel::<()>();
     let HttpBound {

@@ -2169,3 +2169,96 @@ fn fit_refuses_values_whose_squares_overflow() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Plain least squares on more inputs than the sensor cap is only a reference; when it
+/// validates better than the model kept, its row says so and which cap allows it (and only
+/// then). Ten random-walk sensors; the target uses all ten, or only three. The condition is
+/// checked against the figures of the same report, over fixed seeds and a fresh one.
+#[test]
+fn a_better_reference_over_the_sensor_cap_is_named() {
+    let d = tmp("capref");
+    let fresh = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(7, |t| t.as_nanos() as u64);
+    for (case, seed) in [3u64, 11, fresh].into_iter().enumerate() {
+        let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let used = if case == 1 { 3 } else { 10 };
+        let coef: Vec<f64> = (0..10)
+            .map(|k| if k < used { 0.5 + next() } else { 0.0 })
+            .collect();
+        let mut s = [20.0f64; 10];
+        let mut text = String::from("time_s");
+        for k in 0..10 {
+            text += &format!(",t{k}_c");
+        }
+        text += ",y_um\n";
+        for i in 0..1200 {
+            for v in s.iter_mut() {
+                *v += next();
+            }
+            let y: f64 = coef.iter().zip(&s).map(|(c, v)| c * v).sum::<f64>() + 0.05 * next();
+            text += &format!("{}", i * 60);
+            for v in &s {
+                text += &format!(",{v}");
+            }
+            text += &format!(",{y}\n");
+        }
+        let path = d.join(format!("cap{case}.csv"));
+        std::fs::write(&path, &text).unwrap();
+        let fit = |cap: &str| {
+            fit_json_of(
+                &path,
+                &[
+                    "--target",
+                    "y_um",
+                    "--family",
+                    "static,ridge",
+                    "--max-sensors",
+                    cap,
+                ],
+            )
+        };
+        let v = fit("8");
+        let m = &v["targets"][0];
+        let kept = m["validation_rmse_um"].as_f64().unwrap();
+        let row = m["comparison"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["family"] == "least squares, all inputs")
+            .unwrap();
+        let detail = row["detail"].as_str().unwrap();
+        let ls = row["validation_rmse_um"].as_f64().unwrap();
+        assert!(
+            detail.starts_with("over the sensor cap of 8: reference only"),
+            "{detail}"
+        );
+        let named = detail.contains("validates better than the model kept")
+            && detail.ends_with("a sensor cap of 10 allows it");
+        assert_eq!(named, ls < kept, "seed {seed}: {ls} vs {kept}: {detail}");
+        if used == 10 {
+            // Two of ten terms missing cost far more than noise: always named.
+            assert!(named, "seed {seed}: {m}");
+        }
+        let v = fit("10");
+        let row = v["targets"][0]["comparison"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["family"] == "least squares, all inputs")
+            .unwrap()
+            .clone();
+        let detail = row["detail"].as_str().unwrap();
+        assert!(
+            !detail.contains("reference only") && !detail.contains("allows it"),
+            "seed {seed}: {row}"
+        );
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}

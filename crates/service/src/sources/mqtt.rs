@@ -458,7 +458,8 @@ pub async fn run(p: MqttParts) {
         .clone()
         .unwrap_or_else(|| format!("gearcomp-{machine}"));
     let mut opts = MqttOptions::new(client_id, cfg.host.clone(), cfg.port);
-    opts.set_keep_alive(Duration::from_secs(cfg.keep_alive_s));
+    // Validated: a whole number of seconds 5…3600.
+    opts.set_keep_alive(Duration::from_secs_f64(cfg.keep_alive_s));
     // Incoming: anything the broker forwards (see MQTT_PROTOCOL_MAX_PACKET); outgoing:
     // the library's default, far above an offset message.
     opts.set_max_packet_size(MQTT_PROTOCOL_MAX_PACKET, 10 * 1024);

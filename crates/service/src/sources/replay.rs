@@ -116,7 +116,22 @@ impl ReplayPlan {
     /// that has one (the axis position for position-dependent laws, mm).
     pub fn open_with_axes(cfg: &ReplayInput, channels: &[String], axes: &[String]) -> Result<Self> {
         let path = cfg.path.clone();
-        let mut rdr = open_reader(&path)?;
+        // At start the file is the configuration's: the error names the key.
+        if path.is_dir() {
+            return Err(crate::error::invalid(
+                "input.path",
+                format!("{:?}", path.display().to_string()),
+                "a CSV log file, not a folder",
+            ));
+        }
+        let mut rdr = open_reader(&path).map_err(|e| match e {
+            ServiceError::Io { path, source, .. } => ServiceError::Io {
+                action: "open input.path =",
+                path,
+                source,
+            },
+            other => other,
+        })?;
         let headers = rdr
             .headers()
             .map_err(|e| row_error(&path, 1, "(header)", &e.to_string(), "a CSV header"))?
@@ -537,6 +552,38 @@ mod tests {
         assert!(m.contains("at least one row"), "{m}");
         let m = e("time_s,A,B,safe_point\n0,1,2,maybe\n");
         assert!(m.contains("column safe_point"), "{m}");
+    }
+
+    /// A log that is not there (or a folder) is refused at start naming the key the user
+    /// wrote, the path and the system's reason.
+    #[test]
+    fn a_missing_log_names_input_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let open = |p: &Path| {
+            let cfg = ReplayInput {
+                path: p.to_path_buf(),
+                speedup: 1.0,
+                looping: false,
+                targets: vec![],
+            };
+            ReplayPlan::open(&cfg, &["A".to_string()])
+                .unwrap_err()
+                .to_string()
+        };
+        let p = dir.path().join("nowhere.csv");
+        let e = open(&p);
+        assert!(
+            e.starts_with(&format!("cannot open input.path = {}: ", p.display())),
+            "{e}"
+        );
+        let e = open(dir.path());
+        assert_eq!(
+            e,
+            format!(
+                "invalid input.path = {:?}: expected a CSV log file, not a folder",
+                dir.path().display().to_string()
+            )
+        );
     }
 
     #[test]

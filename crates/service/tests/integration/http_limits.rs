@@ -2,7 +2,8 @@
 //! 2,000 idle connections that never send a header, an unauthenticated 10 MB upload, and
 //! HTTPS (rustls) checked with a client that trusts only the test's CA. Asserted on what
 //! the server answers: the API still answers, idle connections are closed by the server,
-//! the upload gets 401 before its body is read, HTTPS serves and refuses the wrong CA, and
+//! the upload gets 401 before its body is read, a body trickled a byte at a time gets 408
+//! once `http.body_read_timeout_s` has passed, HTTPS serves and refuses the wrong CA, and
 //! a non-loopback bind without TLS is refused naming the key that allows it.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
@@ -53,6 +54,7 @@ async fn idle_connections_and_big_uploads_cannot_stop_the_api() {
     let run = start_with(
         dir.path(),
         "[http]\nport = 0\nmax_connections = 64\nheader_read_timeout_s = 1.0\n\
+         body_read_timeout_s = 1.0\n\
          [storage]\npath = \"idle.db\"\n[input]\nkind = \"simulator\"\nspeedup = 60.0\n",
     )
     .await;
@@ -171,7 +173,71 @@ async fn idle_connections_and_big_uploads_cannot_stop_the_api() {
     assert_eq!(r.status().as_u16(), 413);
     let v: serde_json::Value = r.json().await.unwrap();
     assert!(v["error"].as_str().unwrap().contains("1048576"), "{v}");
+
+    // An operator's body sent a byte at a time (slow-body attack): 10 bytes of a
+    // 1000-byte body, then one byte every 200 ms. The server answers 408 naming the key
+    // once `http.body_read_timeout_s` (1 s here) has passed since the headers, and closes
+    // the connection, however long the client keeps trickling.
+    let head = format!(
+        "PUT /api/model HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {op}\r\n\
+         Content-Type: text/plain\r\nContent-Length: 1000\r\n\r\n# model..\n"
+    );
+    let (elapsed, response) = tokio::task::spawn_blocking(move || trickle(addr, &head))
+        .await
+        .unwrap();
+    assert!(response.starts_with("HTTP/1.1 408"), "{response:?}");
+    let json = response.split("\r\n\r\n").nth(1).unwrap_or("");
+    let v: serde_json::Value = serde_json::from_str(json).unwrap();
+    assert_eq!(
+        v["error"],
+        "body not received whole within http.body_read_timeout_s = 1 s; expected the whole \
+         body within that time"
+    );
+    assert!(
+        elapsed >= Duration::from_millis(900) && elapsed < Duration::from_secs(8),
+        "answered after {elapsed:?}"
+    );
+    // The API still answers.
+    let r = client
+        .get(format!("{}/api/status", api.base))
+        .bearer_auth(&ro)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status().as_u16(), 200);
     run.stop().await.unwrap();
+}
+
+/// Sends `head`, then one body byte every 200 ms for up to 20 s, until the server has
+/// answered and closed the connection; returns the time from the head to the close and
+/// everything the server sent.
+fn trickle(addr: std::net::SocketAddr, head: &str) -> (Duration, String) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    let t0 = std::time::Instant::now();
+    let mut got = Vec::new();
+    let mut tmp = [0u8; 4096];
+    while t0.elapsed() < Duration::from_secs(20) {
+        match s.read(&mut tmp) {
+            Ok(0) => break,
+            Ok(n) => got.extend_from_slice(&tmp[..n]),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                // Still open: one more byte (a failed write means the server closed).
+                if s.write_all(b"#").is_err() && !got.is_empty() {
+                    break;
+                }
+            }
+            Err(_) => break,
+        }
+    }
+    (t0.elapsed(), String::from_utf8_lossy(&got).into_owned())
 }
 
 /// A self-signed certificate for 127.0.0.1 and localhost: (cert PEM, key PEM, DER).
@@ -357,5 +423,102 @@ async fn tokens_in_an_owner_only_file_issued_and_revoked_while_running() {
     assert!(wait_code(401).await, "revoked token still accepted");
     // The first tokens still work.
     assert_eq!(api.get("/api/status", Some(&g.operator)).await.0, 200);
+    run.stop().await.unwrap();
+}
+
+/// Every slot taken by connections that never send a byte, with a header timeout of a
+/// minute: a new client still gets its answer at once, because the connection that has
+/// waited longest without a request being served gives its slot up. A request being
+/// served (an operator's body half sent) keeps its connection and gets its answer.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idle_connections_give_their_slots_to_new_clients() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = start_with(
+        dir.path(),
+        "[http]\nport = 0\nmax_connections = 16\nheader_read_timeout_s = 60.0\n\
+         body_read_timeout_s = 60.0\n\
+         [storage]\npath = \"slots.db\"\n[input]\nkind = \"simulator\"\nspeedup = 60.0\n",
+    )
+    .await;
+    let g = run.generated.clone().unwrap();
+    let (op, ro) = (g.operator.clone(), g.read_only.clone());
+    let addr = run.addr;
+
+    // A request in progress: the headers and half of a 40-byte body that is no TOML.
+    let body = b"this is [[ not an engine configuration \n";
+    let head = format!(
+        "PUT /api/model HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {op}\r\n\
+         Content-Type: text/plain\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    );
+    let mut busy = TcpStream::connect(addr).unwrap();
+    busy.write_all(head.as_bytes()).unwrap();
+    busy.write_all(&body[..20]).unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+
+    // 200 connections that send nothing, far more than the 16 slots.
+    let idle = tokio::task::spawn_blocking(move || {
+        (0..200)
+            .filter_map(|_| TcpStream::connect_timeout(&addr, Duration::from_secs(2)).ok())
+            .collect::<Vec<_>>()
+    })
+    .await
+    .unwrap();
+    assert_eq!(idle.len(), 200);
+
+    // Each new client is answered on its first attempt, within a few seconds (before the
+    // change a slot came free only after the 60 s header timeout).
+    for _ in 0..5 {
+        let client = reqwest::Client::builder()
+            .timeout(Duration::from_secs(5))
+            .build()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        let r = client
+            .get(format!("http://{addr}/api/status"))
+            .bearer_auth(&ro)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status().as_u16(), 200);
+        assert!(t0.elapsed() < Duration::from_secs(3), "{:?}", t0.elapsed());
+    }
+
+    // The request in progress was never cut: the rest of its body gets the engine's
+    // refusal of it.
+    let answer = tokio::task::spawn_blocking(move || {
+        busy.set_read_timeout(Some(Duration::from_secs(10)))
+            .unwrap();
+        busy.write_all(&body[20..]).unwrap();
+        let mut got = Vec::new();
+        let mut tmp = [0u8; 4096];
+        while !got.windows(4).any(|w| w == b"\r\n\r\n") {
+            match busy.read(&mut tmp) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => got.extend_from_slice(&tmp[..n]),
+            }
+        }
+        String::from_utf8_lossy(&got).into_owned()
+    })
+    .await
+    .unwrap();
+    assert!(answer.starts_with("HTTP/1.1 400"), "{answer:?}");
+
+    // The idle connections were closed by the server, all but those still holding a slot.
+    let closed = tokio::task::spawn_blocking(move || {
+        idle.iter()
+            .filter(|s| {
+                s.set_nonblocking(true).unwrap();
+                let mut b = [0u8; 1];
+                !matches!((&**s).read(&mut b), Err(e) if e.kind() == std::io::ErrorKind::WouldBlock)
+            })
+            .count()
+    })
+    .await
+    .unwrap();
+    assert!(
+        closed >= 200 - 16,
+        "{closed} of 200 idle connections closed"
+    );
     run.stop().await.unwrap();
 }
