@@ -38,6 +38,12 @@ use crate::fit::{
     IdentifyOptions, TargetModel,
 };
 pub use crate::fit::{Family, FamilyScore};
+use crate::par::par_map_n as par_map;
+use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
+use crate::transform::transform_segments;
+use gearcomp_core::model::{LinearModel, Term, Transform};
+use nalgebra::{DMatrix, DVector};
+use std::sync::Mutex;
 
 /// The comparison row of plain least squares on every input.
 const LS_ALL: &str = "least squares, all inputs";
@@ -59,12 +65,6 @@ fn flag_capped_reference(comparison: &mut [FamilyScore], inputs: usize) {
         }
     }
 }
-use crate::par::par_map_n as par_map;
-use crate::regress::{self, augmented_r, exceeds, r_factor, stack, LinearFit};
-use crate::transform::transform_segments;
-use gearcomp_core::model::{LinearModel, Term, Transform};
-use nalgebra::{DMatrix, DVector};
-use std::sync::Mutex;
 
 /// A candidate regressor: a transform of one sensor, or the difference of two sensors.
 #[derive(Debug, Clone, Copy, PartialEq)]

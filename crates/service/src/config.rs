@@ -1151,14 +1151,9 @@ impl ServiceConfig {
                         "a non-empty topic without wildcards",
                     ));
                 }
-                check_range(
-                    "input.keep_alive_s",
-                    m.keep_alive_s,
-                    5.0,
-                    3600.0,
-                    "a whole number of seconds 5…3600",
-                )?;
-                if m.keep_alive_s.fract() != 0.0 {
+                // One check: a whole number in range (MQTT sends whole seconds).
+                let k = m.keep_alive_s;
+                if !(k.is_finite() && (5.0..=3600.0).contains(&k) && k.fract() == 0.0) {
                     return Err(invalid(
                         "input.keep_alive_s",
                         crate::error::number(m.keep_alive_s),

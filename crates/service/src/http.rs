@@ -1184,10 +1184,12 @@ pub async fn serve(
         let closing = closing_rx.clone();
         let header_timeout = limits.header_read_timeout;
         let clients = limits.clients.clone();
-        let (slot, _registered) = slots.open();
+        let (slot, registered) = slots.open();
         tokio::spawn(async move {
+            // Dropped when the task ends: the connection leaves the slots, then the slot is
+            // free.
             let _permit = permit;
-            let _registered = _registered;
+            let _registered = registered;
             let busy = slot.clone();
             let conn = async move {
                 match tls {
